@@ -1,0 +1,68 @@
+# Shared build helpers: warning flags, flight-code flags, test registration.
+
+# Warnings for MFNS's own code (third-party headers come in as SYSTEM includes).
+function(mfns_warnings target)
+  target_compile_options(${target} PRIVATE
+    -Wall -Wextra -Wpedantic -Wshadow -Wnon-virtual-dtor -Wcast-align
+    -Wunused -Woverloaded-virtual -Wnull-dereference -Wdouble-promotion -Wformat=2
+    -Wimplicit-fallthrough)
+  if(MFNS_WERROR)
+    target_compile_options(${target} PRIVATE -Werror)
+  endif()
+endfunction()
+
+# Code that runs on the flyer (common/ and firmware/ libraries): no exceptions, no RTTI.
+function(mfns_flight_code target)
+  mfns_warnings(${target})
+  target_compile_options(${target} PRIVATE -fno-exceptions -fno-rtti)
+endfunction()
+
+# mfns_flight_library(NAME SOURCES ... DEPS ...): a static library of flight code whose
+# include root is the repository root (#include "common/rotation/rotation.h").
+function(mfns_flight_library name)
+  cmake_parse_arguments(ARG "" "" "SOURCES;DEPS" ${ARGN})
+  add_library(${name} STATIC ${ARG_SOURCES})
+  target_include_directories(${name} PUBLIC ${PROJECT_SOURCE_DIR})
+  target_link_libraries(${name} PUBLIC Eigen3::Eigen ${ARG_DEPS})
+  mfns_flight_code(${name})
+endfunction()
+
+# mfns_host_library(NAME SOURCES ... DEPS ...): a host-only library (may allocate, may throw).
+function(mfns_host_library name)
+  cmake_parse_arguments(ARG "" "" "SOURCES;DEPS" ${ARGN})
+  add_library(${name} STATIC ${ARG_SOURCES})
+  target_include_directories(${name} PUBLIC ${PROJECT_SOURCE_DIR})
+  target_link_libraries(${name} PUBLIC Eigen3::Eigen ${ARG_DEPS})
+  mfns_warnings(${name})
+endfunction()
+
+# mfns_gtest(NAME SOURCES ... DEPS ... [LABELS ...]): a GoogleTest binary registered with CTest.
+# Tests are discovered when ctest runs (PRE_TEST), so cross builds need no emulator at build
+# time; under the aarch64 preset CTest runs them through CMAKE_CROSSCOMPILING_EMULATOR.
+function(mfns_gtest name)
+  cmake_parse_arguments(ARG "" "" "SOURCES;DEPS;LABELS" ${ARGN})
+  add_executable(${name} ${ARG_SOURCES})
+  target_link_libraries(${name} PRIVATE ${ARG_DEPS} GTest::gtest GTest::gmock GTest::gtest_main)
+  target_include_directories(${name} PRIVATE ${PROJECT_SOURCE_DIR})
+  mfns_warnings(${name})
+  set_target_properties(${name} PROPERTIES RUNTIME_OUTPUT_DIRECTORY ${CMAKE_BINARY_DIR}/tests)
+  gtest_discover_tests(${name}
+    DISCOVERY_MODE PRE_TEST
+    DISCOVERY_TIMEOUT 120
+    WORKING_DIRECTORY ${CMAKE_BINARY_DIR}
+    PROPERTIES LABELS "${ARG_LABELS}" ENVIRONMENT "MFNS_SOURCE_DIR=${PROJECT_SOURCE_DIR}")
+endfunction()
+
+# mfns_benchmark(NAME SOURCES ... DEPS ...): a Google Benchmark program in bin/ (not a test).
+# Benchmarks measure speed; their numbers go to docs/benchmarks.md with the command used.
+function(mfns_benchmark name)
+  cmake_parse_arguments(ARG "" "" "SOURCES;DEPS" ${ARGN})
+  if(NOT MFNS_BUILD_BENCHMARKS)
+    return()
+  endif()
+  find_package(benchmark REQUIRED)
+  add_executable(${name} ${ARG_SOURCES})
+  target_link_libraries(${name} PRIVATE ${ARG_DEPS} benchmark::benchmark)
+  target_include_directories(${name} PRIVATE ${PROJECT_SOURCE_DIR})
+  mfns_warnings(${name})
+endfunction()

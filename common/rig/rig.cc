@@ -1,0 +1,139 @@
+#include "common/rig/rig.h"
+
+#include <cmath>
+#include <cstring>
+
+#include "common/rotation/rotation.h"
+
+namespace mfns {
+namespace {
+
+// A fixed char array holds a NUL-terminated, non-empty, printable ASCII string.
+template <std::size_t N>
+bool IsGoodName(const std::array<char, N>& s) {
+  std::size_t len = 0;
+  while (len < N && s[len] != '\0') {
+    if (s[len] < 0x21 || s[len] > 0x7e) return false;
+    ++len;
+  }
+  return len > 0 && len < N;
+}
+
+bool AllFinite(const std::array<double, 5>& a) {
+  for (double v : a)
+    if (!std::isfinite(v)) return false;
+  return true;
+}
+
+bool AllNonNegative(const std::array<double, 5>& a) {
+  for (double v : a)
+    if (v < 0.0) return false;
+  return true;
+}
+
+RigStatus ValidateCamera(const RigCamera& c) {
+  if (!IsGoodName(c.name)) return RigStatus::kBadCameraName;
+  const CameraIntrinsics& k = c.intrinsics;
+  if (!AllFinite(k.kc) || !std::isfinite(k.alpha_x) || !std::isfinite(k.alpha_y) ||
+      !std::isfinite(k.skew) || !std::isfinite(k.u0) || !std::isfinite(k.v0) ||
+      !c.C_k_b.allFinite() || !c.r_b_bk.allFinite())
+    return RigStatus::kNonFinite;
+  if (k.width <= 0 || k.height <= 0 || k.width > limits::kMaxImageWidth ||
+      k.height > limits::kMaxImageHeight)
+    return RigStatus::kBadImageSize;
+  if (!(k.alpha_x > 0.0) || !(k.alpha_y > 0.0) || k.u0 < -0.5 || k.u0 > k.width - 0.5 ||
+      k.v0 < -0.5 || k.v0 > k.height - 0.5)
+    return RigStatus::kBadIntrinsics;
+  if (!IsRotation(c.C_k_b, 1e-6)) return RigStatus::kNotARotation;
+  return RigStatus::kOk;
+}
+
+RigStatus ValidateSigma(const RigCameraSigma& s) {
+  if (!AllFinite(s.intrinsics) || !AllFinite(s.distortion) || !s.euler.allFinite() ||
+      !s.r_b_bk.allFinite())
+    return RigStatus::kNonFinite;
+  if (!AllNonNegative(s.intrinsics) || !AllNonNegative(s.distortion) || (s.euler.array() < 0).any() ||
+      (s.r_b_bk.array() < 0).any())
+    return RigStatus::kBadSigma;
+  return RigStatus::kOk;
+}
+
+}  // namespace
+
+const char* ToString(RigStatus s) {
+  switch (s) {
+    case RigStatus::kOk: return "ok";
+    case RigStatus::kBadRigId: return "rig id empty, too long or not printable";
+    case RigStatus::kNoCameras: return "no cameras";
+    case RigStatus::kTooManyCameras: return "more cameras than limits::kMaxCameras";
+    case RigStatus::kTooManyBeacons: return "more beacons than limits::kMaxBeacons";
+    case RigStatus::kBadCameraName: return "camera name empty, too long, not printable or repeated";
+    case RigStatus::kBadImageSize: return "image size outside 1..limits::kMaxImageWidth/Height";
+    case RigStatus::kBadIntrinsics: return "focal length not positive or principal point outside the image";
+    case RigStatus::kNotARotation: return "C_k_b is not a rotation matrix";
+    case RigStatus::kNonFinite: return "NaN or infinite value";
+    case RigStatus::kBadSigma: return "negative sigma";
+  }
+  return "unknown rig status";
+}
+
+RigStatus ValidateRig(const Rig& rig, int* camera_index) {
+  if (camera_index != nullptr) *camera_index = -1;
+  if (!IsGoodName(rig.rig_id)) return RigStatus::kBadRigId;
+  if (rig.num_cameras <= 0) return RigStatus::kNoCameras;
+  if (rig.num_cameras > limits::kMaxCameras) return RigStatus::kTooManyCameras;
+  if (rig.num_beacons < 0 || rig.num_beacons > limits::kMaxBeacons) return RigStatus::kTooManyBeacons;
+  for (int i = 0; i < rig.num_cameras; ++i) {
+    const auto idx = static_cast<std::size_t>(i);
+    RigStatus s = ValidateCamera(rig.cameras[idx]);
+    if (s == RigStatus::kOk && rig.has_sigma) s = ValidateSigma(rig.sigma[idx]);
+    for (int j = 0; s == RigStatus::kOk && j < i; ++j) {
+      if (std::strcmp(rig.cameras[static_cast<std::size_t>(j)].name.data(),
+                      rig.cameras[idx].name.data()) == 0)
+        s = RigStatus::kBadCameraName;
+    }
+    if (s != RigStatus::kOk) {
+      if (camera_index != nullptr) *camera_index = i;
+      return s;
+    }
+  }
+  for (int i = 0; i < rig.num_beacons; ++i)
+    if (!rig.beacons_w[static_cast<std::size_t>(i)].allFinite()) return RigStatus::kNonFinite;
+  if (!std::isfinite(rig.beacon_sigma)) return RigStatus::kNonFinite;
+  if (rig.beacon_sigma < 0.0) return RigStatus::kBadSigma;
+  return RigStatus::kOk;
+}
+
+BodyPose Retract(const BodyPose& pose, const PoseDelta& delta) {
+  BodyPose out;
+  out.r_w_wb = pose.r_w_wb + delta.head<3>();
+  out.C_w_b = pose.C_w_b * ExpSO3(delta.tail<3>());
+  return out;
+}
+
+Eigen::Vector3d WorldToCamera(const RigCamera& cam, const BodyPose& pose, const Eigen::Vector3d& P_w) {
+  // C_b_w * P_w + r_b_bw with r_b_bw = -C_b_w * r_w_wb.
+  const Eigen::Vector3d p_b = pose.C_w_b.transpose() * (P_w - pose.r_w_wb);
+  return cam.C_k_b * (p_b - cam.r_b_bk);
+}
+
+ProjectStatus ProjectBeacon(const RigCamera& cam, const BodyPose& pose, const Eigen::Vector3d& P_w,
+                            Eigen::Vector2d* uv_px, Eigen::Matrix<double, 2, 6>* J_uv_pose,
+                            Eigen::Matrix<double, 2, 3>* J_uv_Pw) {
+  const Eigen::Matrix3d C_b_w = pose.C_w_b.transpose();
+  const Eigen::Vector3d p_b = C_b_w * (P_w - pose.r_w_wb);
+  const Eigen::Vector3d p_k = cam.C_k_b * (p_b - cam.r_b_bk);
+  Eigen::Matrix<double, 2, 3> J_uv_pk;
+  const ProjectStatus s = Project(cam.intrinsics, p_k, uv_px, &J_uv_pk);
+  if (s != ProjectStatus::kOk) return s;
+  const Eigen::Matrix<double, 2, 3> J_uv_pb = J_uv_pk * cam.C_k_b;
+  if (J_uv_pose != nullptr) {
+    // dp_b = -C_b_w dr_w + [p_b]x dtheta_b   (C_b_w <- Exp(-dtheta) C_b_w).
+    J_uv_pose->leftCols<3>() = -J_uv_pb * C_b_w;
+    J_uv_pose->rightCols<3>() = J_uv_pb * Skew(p_b);
+  }
+  if (J_uv_Pw != nullptr) *J_uv_Pw = J_uv_pb * C_b_w;
+  return ProjectStatus::kOk;
+}
+
+}  // namespace mfns

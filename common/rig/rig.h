@@ -1,0 +1,84 @@
+// Rig model: cameras rigidly mounted on the body, beacons in the world, and the observation of
+// paper eq. 2:  p_k = C_k_b * (C_b_w * P_w + r_b_bw - r_b_bk),  then the camera model.
+//
+// Units: metres and radians inside the program (file formats carry _mm / _deg). Frames:
+// w world, b body, k camera (DESIGN.md). Fixed-size storage, no heap: usable on the flyer.
+#pragma once
+
+#include <Eigen/Core>
+#include <array>
+
+#include "common/camera/camera.h"
+#include "common/limits.h"
+
+namespace mfns {
+
+struct RigCamera {
+  std::array<char, limits::kMaxCameraNameChars + 1> name{};  // NUL-terminated, e.g. "x"
+  CameraIntrinsics intrinsics;
+  Eigen::Matrix3d C_k_b = Eigen::Matrix3d::Identity();  // body -> camera k
+  Eigen::Vector3d r_b_bk = Eigen::Vector3d::Zero();     // body origin -> camera centre, in b, m
+};
+
+// Optional 1-sigma of a camera's calibration, in the rig file's quantities (SI units here).
+struct RigCameraSigma {
+  std::array<double, 5> intrinsics{};  // alpha_x, alpha_y, skew, u0, v0 (px)
+  std::array<double, 5> distortion{};  // kc1..kc5
+  Eigen::Vector3d euler = Eigen::Vector3d::Zero();   // phi, theta, psi of C_k_b (rad)
+  Eigen::Vector3d r_b_bk = Eigen::Vector3d::Zero();  // m
+};
+
+struct Rig {
+  std::array<char, limits::kMaxRigIdChars + 1> rig_id{};  // NUL-terminated compatibility string
+  int num_cameras = 0;
+  std::array<RigCamera, limits::kMaxCameras> cameras{};
+  bool has_sigma = false;
+  std::array<RigCameraSigma, limits::kMaxCameras> sigma{};
+  int num_beacons = 0;
+  std::array<Eigen::Vector3d, limits::kMaxBeacons> beacons_w{};  // world frame, m
+  double beacon_sigma = 0.0;  // 1-sigma of each beacon coordinate (m); 0 = unknown
+};
+
+// Why a rig is not usable; kOk when it is.
+enum class RigStatus : unsigned char {
+  kOk = 0,
+  kBadRigId,          // empty, unterminated or non-printable
+  kNoCameras,
+  kTooManyCameras,
+  kTooManyBeacons,
+  kBadCameraName,     // empty, unterminated, non-printable or duplicated
+  kBadImageSize,      // <= 0 or above limits::kMaxImageWidth/Height
+  kBadIntrinsics,     // alpha <= 0 or principal point outside the image
+  kNotARotation,      // C_k_b not orthonormal with det +1 (1e-6)
+  kNonFinite,         // NaN or Inf anywhere
+  kBadSigma,          // negative sigma
+};
+const char* ToString(RigStatus s);
+
+// Checks every field; on failure *camera_index (optional) names the offending camera or -1.
+RigStatus ValidateRig(const Rig& rig, int* camera_index = nullptr);
+
+// Body pose: attitude C_w_b (body -> world) and position r_w_wb (body origin in world, m).
+// Eq. 2 uses C_b_w = C_w_b^T and r_b_bw = -C_b_w * r_w_wb.
+struct BodyPose {
+  Eigen::Matrix3d C_w_b = Eigen::Matrix3d::Identity();
+  Eigen::Vector3d r_w_wb = Eigen::Vector3d::Zero();
+};
+
+// Pose perturbation used by every pose Jacobian and covariance in MFNS:
+// delta = [dr_w (3, m, world frame); dtheta_b (3, rad, body frame)],
+// r_w_wb <- r_w_wb + dr_w,  C_w_b <- C_w_b * Exp(dtheta_b).
+using PoseDelta = Eigen::Matrix<double, 6, 1>;
+BodyPose Retract(const BodyPose& pose, const PoseDelta& delta);
+
+// Eq. 2: the beacon P_w in camera k's frame (m).
+Eigen::Vector3d WorldToCamera(const RigCamera& cam, const BodyPose& pose, const Eigen::Vector3d& P_w);
+
+// Image of beacon P_w in camera k (eq. 2 + camera model), with optional Jacobians with respect
+// to the pose perturbation above and to the beacon position. Outputs are untouched unless kOk.
+ProjectStatus ProjectBeacon(const RigCamera& cam, const BodyPose& pose, const Eigen::Vector3d& P_w,
+                            Eigen::Vector2d* uv_px,
+                            Eigen::Matrix<double, 2, 6>* J_uv_pose = nullptr,
+                            Eigen::Matrix<double, 2, 3>* J_uv_Pw = nullptr);
+
+}  // namespace mfns
