@@ -2,13 +2,15 @@
 //
 // Little-endian, versioned, fixed maximum size (limits::kMaxBlobBytes) so the firmware decodes
 // it with no heap. The byte layout is specified in common/blob/README.md; in short:
-//   header (64 bytes): magic "MFNSPRM1", format version, header size, flags, rig id (32 bytes,
-//     NUL-padded), generation (u64), payload length (u32), payload CRC32, header CRC32
+//   header (64 bytes): magic "MFNSPRM1", u16 format version, u16 header size, u16 flags,
+//     u16 payload length, rig id (32 bytes, NUL-padded), u64 generation, u32 payload CRC32,
+//     u32 header CRC32 (the fields fill the 64 bytes exactly; README.md says why u16)
 //   payload: sections, each {u16 type, u16 version, u32 length, bytes}: cameras (intrinsics and
 //     image size), extrinsics (C_k_b, r_b_bk), beacons (map and its 1-sigma), sigma (optional).
 // The decoder never trusts a length or a count: every failure is a typed BlobStatus.
 #pragma once
 
+#include <array>
 #include <cstddef>
 #include <cstdint>
 #include <span>
@@ -43,6 +45,9 @@ enum class BlobStatus : unsigned char {
 };
 const char* ToString(BlobStatus s);
 
+// Number of BlobStatus values, to size a counter per failure mode (array indexed by status).
+inline constexpr int kNumBlobStatuses = static_cast<int>(BlobStatus::kBufferTooSmall) + 1;
+
 // What the header says, available once the header is valid.
 struct BlobInfo {
   std::uint16_t format_version = 0;
@@ -53,17 +58,20 @@ struct BlobInfo {
 };
 
 // Encodes rig (validated with ValidateRig first: an invalid rig gives kInvalidValue, too many
-// cameras/beacons their own status) into out. *written is the blob's size on kOk.
+// cameras/beacons their own status, a NaN/Inf kNonFiniteValue) into out. *written (optional)
+// is the blob's size on kOk; nothing is written to out unless it is large enough.
 BlobStatus EncodeParamBlob(const Rig& rig, std::uint64_t generation, std::span<std::uint8_t> out,
                            std::size_t* written);
 
 // Decodes a whole blob. expected_rig_id: nullptr accepts any rig id; otherwise a different id
 // gives kRigIdMismatch. *info is filled as soon as the header is valid (also on later errors);
-// *rig only on kOk. No heap, no exceptions, bounded loops.
+// *rig only on kOk. rig and info may be nullptr (check only). No heap, no exceptions, bounded
+// loops; in may be any bytes at all.
 BlobStatus DecodeParamBlob(std::span<const std::uint8_t> in, const char* expected_rig_id, Rig* rig,
                            BlobInfo* info);
 
-// Reads and checks only the header (magic, version, sizes, header CRC).
+// Reads and checks only the header (magic, version, header CRC, header fields, payload length
+// against limits::kMaxBlobBytes); in may hold just the header. *info (optional) as above.
 BlobStatus DecodeBlobHeader(std::span<const std::uint8_t> in, BlobInfo* info);
 
 // CRC-32/ISO-HDLC (zlib's crc32, polynomial 0xEDB88320 reflected), of data continuing crc.

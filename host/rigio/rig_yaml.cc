@@ -1,0 +1,263 @@
+#include "host/rigio/rig_yaml.h"
+
+#include <yaml-cpp/yaml.h>
+
+#include <charconv>
+#include <cmath>
+#include <cstring>
+#include <sstream>
+
+#include "common/rotation/rotation.h"
+
+namespace mfns::host {
+namespace {
+
+constexpr double kMm = 1e-3;
+
+// Error context: the source name and the YAML path of the field being read.
+struct Ctx {
+  const std::string& source;
+  std::string field;
+
+  [[noreturn]] void Fail(const YAML::Node& node, const std::string& what) const {
+    std::ostringstream ss;
+    ss << source;
+    if (node.IsDefined() && node.Mark().line >= 0) ss << ":" << node.Mark().line + 1;
+    ss << ": " << (field.empty() ? "" : field + ": ") << what;
+    throw UserError(ss.str());
+  }
+  Ctx Sub(const std::string& name) const { return {source, field.empty() ? name : field + "." + name}; }
+  Ctx Index(std::size_t i) const { return {source, field + "[" + std::to_string(i) + "]"}; }
+};
+
+const YAML::Node Require(const YAML::Node& map, const char* key, const Ctx& ctx) {
+  const YAML::Node n = map[key];
+  if (!n.IsDefined() || n.IsNull()) ctx.Fail(map, std::string("missing field '") + key + "'");
+  return n;
+}
+
+double Number(const YAML::Node& n, const Ctx& ctx) {
+  if (!n.IsScalar()) ctx.Fail(n, "expected a number");
+  double v = 0;
+  if (!YAML::convert<double>::decode(n, v)) ctx.Fail(n, "expected a number, got '" + n.Scalar() + "'");
+  if (!std::isfinite(v)) ctx.Fail(n, "value is not finite");
+  return v;
+}
+
+int Integer(const YAML::Node& n, const Ctx& ctx) {
+  int v = 0;
+  if (!n.IsScalar() || !YAML::convert<int>::decode(n, v)) ctx.Fail(n, "expected an integer");
+  return v;
+}
+
+template <std::size_t N>
+std::array<double, N> Numbers(const YAML::Node& n, const Ctx& ctx) {
+  if (!n.IsSequence()) ctx.Fail(n, "expected a list of " + std::to_string(N) + " numbers");
+  if (n.size() != N)
+    ctx.Fail(n, "expected " + std::to_string(N) + " numbers, got " + std::to_string(n.size()));
+  std::array<double, N> out{};
+  for (std::size_t i = 0; i < N; ++i) out[i] = Number(n[i], ctx.Index(i));
+  return out;
+}
+
+Eigen::Vector3d Vec3(const std::array<double, 3>& a) { return {a[0], a[1], a[2]}; }
+
+template <std::size_t N>
+void CopyName(const std::string& s, std::array<char, N>& out, const YAML::Node& n, const Ctx& ctx) {
+  if (s.empty() || s.size() >= N)
+    ctx.Fail(n, "must be 1.." + std::to_string(N - 1) + " characters, got '" + s + "'");
+  for (char c : s)
+    if (c < 0x21 || c > 0x7e) ctx.Fail(n, "must be printable ASCII without spaces");
+  out.fill('\0');
+  std::memcpy(out.data(), s.data(), s.size());
+}
+
+Eigen::Matrix3d ReadRotation(const YAML::Node& cam, const Ctx& ctx) {
+  const YAML::Node c_node = cam["C_k_b"], e_node = cam["euler_deg"];
+  const bool has_c = c_node.IsDefined() && !c_node.IsNull();
+  const bool has_e = e_node.IsDefined() && !e_node.IsNull();
+  if (!has_c && !has_e) ctx.Fail(cam, "needs C_k_b or euler_deg");
+  Eigen::Matrix3d C;
+  if (has_e) {
+    const auto e = Numbers<3>(e_node, ctx.Sub("euler_deg"));
+    C = EulerToMatrix({DegToRad(e[0]), DegToRad(e[1]), DegToRad(e[2])});
+  }
+  if (has_c) {
+    const auto m = Numbers<9>(c_node, ctx.Sub("C_k_b"));
+    Eigen::Matrix3d Cm;
+    Cm << m[0], m[1], m[2], m[3], m[4], m[5], m[6], m[7], m[8];
+    if (!IsRotation(Cm, 1e-6)) ctx.Sub("C_k_b").Fail(c_node, "not a rotation matrix (orthonormal, det +1)");
+    if (has_e) {
+      const double diff = LogSO3(Cm * C.transpose()).norm();
+      if (diff > 1e-6)
+        ctx.Sub("euler_deg").Fail(e_node, "disagrees with C_k_b by " + std::to_string(RadToDeg(diff)) + " deg");
+    }
+    C = Cm;
+  }
+  return C;
+}
+
+void ReadSigma(const YAML::Node& s, const Ctx& ctx, RigCameraSigma* out) {
+  if (!s.IsMap()) ctx.Fail(s, "expected a map");
+  out->intrinsics = Numbers<5>(Require(s, "intrinsics", ctx), ctx.Sub("intrinsics"));
+  out->distortion = Numbers<5>(Require(s, "distortion", ctx), ctx.Sub("distortion"));
+  out->euler = Vec3(Numbers<3>(Require(s, "euler_deg", ctx), ctx.Sub("euler_deg"))) * DegToRad(1.0);
+  out->r_b_bk = Vec3(Numbers<3>(Require(s, "r_b_bk_mm", ctx), ctx.Sub("r_b_bk_mm"))) * kMm;
+  for (double v : out->intrinsics)
+    if (v < 0) ctx.Sub("intrinsics").Fail(s, "sigma must not be negative");
+  for (double v : out->distortion)
+    if (v < 0) ctx.Sub("distortion").Fail(s, "sigma must not be negative");
+  if ((out->euler.array() < 0).any() || (out->r_b_bk.array() < 0).any())
+    ctx.Fail(s, "sigma must not be negative");
+}
+
+void ReadCamera(const YAML::Node& n, const Ctx& ctx, RigCamera* cam, RigCameraSigma* sigma, bool* has_sigma) {
+  if (!n.IsMap()) ctx.Fail(n, "expected a map");
+  const YAML::Node name = Require(n, "name", ctx);
+  CopyName(name.as<std::string>(), cam->name, name, ctx.Sub("name"));
+  CameraIntrinsics& k = cam->intrinsics;
+  k.width = Integer(Require(n, "width", ctx), ctx.Sub("width"));
+  k.height = Integer(Require(n, "height", ctx), ctx.Sub("height"));
+  if (k.width <= 0 || k.width > limits::kMaxImageWidth || k.height <= 0 || k.height > limits::kMaxImageHeight)
+    ctx.Fail(n, "image size " + std::to_string(k.width) + "x" + std::to_string(k.height) +
+                    " outside 1.." + std::to_string(limits::kMaxImageWidth) + "x" +
+                    std::to_string(limits::kMaxImageHeight));
+  const auto intr = Numbers<5>(Require(n, "intrinsics", ctx), ctx.Sub("intrinsics"));
+  k.alpha_x = intr[0];
+  k.alpha_y = intr[1];
+  k.skew = intr[2];
+  k.u0 = intr[3];
+  k.v0 = intr[4];
+  k.kc = Numbers<5>(Require(n, "distortion", ctx), ctx.Sub("distortion"));
+  cam->C_k_b = ReadRotation(n, ctx);
+  cam->r_b_bk = Vec3(Numbers<3>(Require(n, "r_b_bk_mm", ctx), ctx.Sub("r_b_bk_mm"))) * kMm;
+  const YAML::Node s = n["sigma"];
+  if (s.IsDefined() && !s.IsNull()) {
+    ReadSigma(s, ctx.Sub("sigma"), sigma);
+    *has_sigma = true;
+  }
+}
+
+// 15 significant digits: any decimal of up to 15 digits (every published or measured value)
+// prints back as written, and a computed double comes back within 1e-15 relative.
+std::string Num(double v) {
+  char buf[64];
+  const auto r = std::to_chars(buf, buf + sizeof(buf), v, std::chars_format::general, 15);
+  return std::string(buf, r.ptr);
+}
+
+template <typename It>
+std::string List(It begin, It end) {
+  std::string s = "[";
+  for (It it = begin; it != end; ++it) s += (it == begin ? "" : ", ") + Num(*it);
+  return s + "]";
+}
+
+std::string List(std::initializer_list<double> v) { return List(v.begin(), v.end()); }
+
+}  // namespace
+
+Rig ParseRigYaml(const std::string& text, const std::string& source) {
+  YAML::Node root;
+  try {
+    root = YAML::Load(text);
+  } catch (const YAML::Exception& e) {
+    throw UserError(source + ":" + std::to_string(e.mark.line + 1) + ": not valid YAML: " + e.msg);
+  }
+  const Ctx ctx{source, ""};
+  if (!root.IsMap()) ctx.Fail(root, "expected a map with rig_id and cameras");
+  Rig rig;
+  const YAML::Node id = Require(root, "rig_id", ctx);
+  CopyName(id.as<std::string>(), rig.rig_id, id, ctx.Sub("rig_id"));
+
+  const YAML::Node cams = Require(root, "cameras", ctx);
+  if (!cams.IsSequence() || cams.size() == 0) ctx.Sub("cameras").Fail(cams, "expected a non-empty list");
+  if (cams.size() > static_cast<std::size_t>(limits::kMaxCameras))
+    ctx.Sub("cameras").Fail(cams, std::to_string(cams.size()) + " cameras, limit " + std::to_string(limits::kMaxCameras));
+  rig.num_cameras = static_cast<int>(cams.size());
+  for (std::size_t i = 0; i < cams.size(); ++i) {
+    ReadCamera(cams[i], ctx.Sub("cameras").Index(i), &rig.cameras[i], &rig.sigma[i], &rig.has_sigma);
+    for (std::size_t j = 0; j < i; ++j)
+      if (std::strcmp(rig.cameras[j].name.data(), rig.cameras[i].name.data()) == 0)
+        ctx.Sub("cameras").Index(i).Sub("name").Fail(cams[i], "repeats the name of cameras[" + std::to_string(j) + "]");
+  }
+
+  const YAML::Node beacons = root["beacons_mm"];
+  if (beacons.IsDefined() && !beacons.IsNull()) {
+    const Ctx bctx = ctx.Sub("beacons_mm");
+    if (!beacons.IsSequence()) bctx.Fail(beacons, "expected a list of [x, y, z]");
+    if (beacons.size() > static_cast<std::size_t>(limits::kMaxBeacons))
+      bctx.Fail(beacons, std::to_string(beacons.size()) + " beacons, limit " + std::to_string(limits::kMaxBeacons));
+    rig.num_beacons = static_cast<int>(beacons.size());
+    for (std::size_t i = 0; i < beacons.size(); ++i)
+      rig.beacons_w[i] = Vec3(Numbers<3>(beacons[i], bctx.Index(i))) * kMm;
+  }
+  const YAML::Node bs = root["beacon_sigma_mm"];
+  if (bs.IsDefined() && !bs.IsNull()) {
+    rig.beacon_sigma = Number(bs, ctx.Sub("beacon_sigma_mm")) * kMm;
+    if (rig.beacon_sigma < 0) ctx.Sub("beacon_sigma_mm").Fail(bs, "must not be negative");
+  }
+
+  int bad_camera = -1;
+  const RigStatus status = ValidateRig(rig, &bad_camera);
+  if (status != RigStatus::kOk) {
+    const Ctx where = bad_camera >= 0 ? ctx.Sub("cameras").Index(static_cast<std::size_t>(bad_camera)) : ctx;
+    where.Fail(bad_camera >= 0 ? cams[static_cast<std::size_t>(bad_camera)] : root, ToString(status));
+  }
+  return rig;
+}
+
+Rig ReadRigYaml(const std::filesystem::path& path) {
+  return ParseRigYaml(ReadFile(path, 4u << 20), path.string());
+}
+
+std::string FormatRigYaml(const Rig& rig) {
+  std::ostringstream o;
+  o << "# MFNS rig file (DESIGN.md): lengths in mm, angles in deg, intrinsics in px.\n";
+  o << "rig_id: " << rig.rig_id.data() << "\ncameras:\n";
+  for (int i = 0; i < rig.num_cameras; ++i) {
+    const auto idx = static_cast<std::size_t>(i);
+    const RigCamera& c = rig.cameras[idx];
+    const CameraIntrinsics& k = c.intrinsics;
+    const EulerAngles e = MatrixToEuler(c.C_k_b);
+    const Eigen::Vector3d r_mm = c.r_b_bk / kMm;
+    Eigen::Matrix<double, 3, 3, Eigen::RowMajor> C = c.C_k_b;
+    o << "  - name: " << c.name.data() << "\n";
+    o << "    width: " << k.width << "\n    height: " << k.height << "\n";
+    o << "    intrinsics: " << List({k.alpha_x, k.alpha_y, k.skew, k.u0, k.v0}) << "\n";
+    o << "    distortion: " << List(k.kc.begin(), k.kc.end()) << "\n";
+    o << "    C_k_b: " << List(C.data(), C.data() + 9) << "\n";
+    o << "    euler_deg: " << List({RadToDeg(e.phi), RadToDeg(e.theta), RadToDeg(e.psi)}) << "\n";
+    o << "    r_b_bk_mm: " << List({r_mm.x(), r_mm.y(), r_mm.z()}) << "\n";
+    if (rig.has_sigma) {
+      const RigCameraSigma& s = rig.sigma[idx];
+      const Eigen::Vector3d e_deg = s.euler * RadToDeg(1.0), sr_mm = s.r_b_bk / kMm;
+      o << "    sigma:\n";
+      o << "      intrinsics: " << List(s.intrinsics.begin(), s.intrinsics.end()) << "\n";
+      o << "      distortion: " << List(s.distortion.begin(), s.distortion.end()) << "\n";
+      o << "      euler_deg: " << List({e_deg.x(), e_deg.y(), e_deg.z()}) << "\n";
+      o << "      r_b_bk_mm: " << List({sr_mm.x(), sr_mm.y(), sr_mm.z()}) << "\n";
+    }
+  }
+  if (rig.num_beacons > 0) {
+    o << "beacons_mm:\n";
+    for (int i = 0; i < rig.num_beacons; ++i) {
+      const Eigen::Vector3d b = rig.beacons_w[static_cast<std::size_t>(i)] / kMm;
+      o << "  - " << List({b.x(), b.y(), b.z()}) << "\n";
+    }
+  }
+  if (rig.beacon_sigma > 0) o << "beacon_sigma_mm: " << Num(rig.beacon_sigma / kMm) << "\n";
+  return o.str();
+}
+
+void WriteRigYaml(const std::filesystem::path& path, const Rig& rig) {
+  int bad_camera = -1;
+  const RigStatus status = ValidateRig(rig, &bad_camera);
+  if (status != RigStatus::kOk)
+    throw UserError(path.string() + ": refusing to write an invalid rig" +
+                    (bad_camera >= 0 ? " (cameras[" + std::to_string(bad_camera) + "])" : "") + ": " +
+                    ToString(status));
+  WriteFileAtomic(path, FormatRigYaml(rig));
+}
+
+}  // namespace mfns::host

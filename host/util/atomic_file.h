@@ -1,0 +1,29 @@
+// Crash-safe output files for host tools: write to a temp name beside the target, fsync,
+// rename over the target, fsync the directory. A reader never sees a half-written file and a
+// failed write leaves the old file as it was (DESIGN.md, "User-facing interfaces").
+#pragma once
+
+#include <cstdint>
+#include <filesystem>
+#include <span>
+#include <stdexcept>
+#include <string>
+#include <string_view>
+
+namespace mfns::host {
+
+// A user-facing error: what() is one line naming the file and what is wrong. Tools print it
+// as "<tool>: <what>" and exit 1.
+class UserError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+// Writes bytes to path atomically. Creates no directories. Throws UserError on failure.
+void WriteFileAtomic(const std::filesystem::path& path, std::span<const std::uint8_t> bytes);
+void WriteFileAtomic(const std::filesystem::path& path, std::string_view text);
+
+// Reads a whole file, refusing files above max_bytes. Throws UserError on failure.
+std::string ReadFile(const std::filesystem::path& path, std::size_t max_bytes = 256u << 20);
+
+}  // namespace mfns::host

@@ -1,0 +1,53 @@
+#include "host/util/atomic_file.h"
+
+#include <gtest/gtest.h>
+
+#include <filesystem>
+
+namespace mfns::host {
+namespace {
+
+std::filesystem::path TempDir() {
+  std::string tmpl = (std::filesystem::temp_directory_path() / "mfns-atomic-XXXXXX").string();
+  EXPECT_NE(::mkdtemp(tmpl.data()), nullptr);
+  return tmpl;
+}
+
+TEST(AtomicFile, WritesReplacesAndLeavesNoTemp) {
+  const auto dir = TempDir();
+  const auto file = dir / "out.txt";
+  WriteFileAtomic(file, std::string_view("first"));
+  EXPECT_EQ(ReadFile(file), "first");
+  WriteFileAtomic(file, std::string_view("second, longer"));
+  EXPECT_EQ(ReadFile(file), "second, longer");
+  int entries = 0;
+  for ([[maybe_unused]] const auto& e : std::filesystem::directory_iterator(dir)) ++entries;
+  EXPECT_EQ(entries, 1);
+  std::filesystem::remove_all(dir);
+}
+
+TEST(AtomicFile, FailureKeepsTheOldFile) {
+  const auto dir = TempDir();
+  const auto file = dir / "keep.txt";
+  WriteFileAtomic(file, std::string_view("good"));
+  // A target path whose directory does not exist cannot be written; nothing else changes.
+  EXPECT_THROW(WriteFileAtomic(dir / "missing" / "x.txt", std::string_view("bad")), UserError);
+  EXPECT_EQ(ReadFile(file), "good");
+  std::filesystem::remove_all(dir);
+}
+
+TEST(AtomicFile, ReadRefusesMissingAndOversized) {
+  const auto dir = TempDir();
+  EXPECT_THROW(ReadFile(dir / "nope"), UserError);
+  WriteFileAtomic(dir / "big", std::string(100, 'a'));
+  EXPECT_THROW(ReadFile(dir / "big", 10), UserError);
+  try {
+    ReadFile(dir / "big", 10);
+  } catch (const UserError& e) {
+    EXPECT_NE(std::string(e.what()).find("too large"), std::string::npos);
+  }
+  std::filesystem::remove_all(dir);
+}
+
+}  // namespace
+}  // namespace mfns::host

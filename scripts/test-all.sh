@@ -1,0 +1,39 @@
+#!/usr/bin/env bash
+# Installs what is missing, builds and runs every test suite: host, host-asan, and aarch64
+# (cross-compiled, run under qemu-aarch64). Exits non-zero if any build or test fails.
+# Usage: scripts/test-all.sh [preset ...]   (default: host host-asan aarch64)
+set -euo pipefail
+cd "$(dirname "$0")/.."
+bash scripts/install-deps.sh
+
+presets=("$@")
+[ ${#presets[@]} -gt 0 ] || presets=(host host-asan aarch64)
+jobs=$(nproc)
+total_pass=0
+total_fail=0
+for preset in "${presets[@]}"; do
+  echo "=== ${preset}: configure and build" >&2
+  start=$(date +%s)
+  cmake --preset "${preset}" >/dev/null
+  cmake --build --preset "${preset}" -j "${jobs}"
+  echo "=== ${preset}: test" >&2
+  log=$(mktemp)
+  status=0
+  ctest --preset "${preset}" -j "${jobs}" 2>&1 | tee "${log}" || status=$?
+  line=$(grep -E "tests passed, [0-9]+ tests failed out of [0-9]+" "${log}" | tail -n 1 || true)
+  rm -f "${log}"
+  if [ -z "${line}" ]; then
+    echo "=== ${preset}: ctest printed no summary" >&2
+    exit 1
+  fi
+  failed=$(sed -E 's/.* ([0-9]+) tests failed out of ([0-9]+).*/\1/' <<<"${line}")
+  count=$(sed -E 's/.* ([0-9]+) tests failed out of ([0-9]+).*/\2/' <<<"${line}")
+  total_fail=$((total_fail + failed))
+  total_pass=$((total_pass + count - failed))
+  echo "=== ${preset}: $((count - failed)) passed, ${failed} failed in $(( $(date +%s) - start )) s" >&2
+  if [ "${status}" -ne 0 ]; then
+    echo "total: ${total_pass} passed, ${total_fail} failed"
+    exit "${status}"
+  fi
+done
+echo "total: ${total_pass} passed, ${total_fail} failed"
