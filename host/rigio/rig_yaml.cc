@@ -1,69 +1,22 @@
 #include "host/rigio/rig_yaml.h"
 
-#include <yaml-cpp/yaml.h>
-
 #include <charconv>
 #include <cmath>
 #include <cstring>
 #include <sstream>
 
 #include "common/rotation/rotation.h"
+#include "host/rigio/yaml_fields.h"
 
 namespace mfns::host {
 namespace {
 
 constexpr double kMm = 1e-3;
 
-// Error context: the source name and the YAML path of the field being read.
-struct Ctx {
-  const std::string& source;
-  std::string field;
-
-  [[noreturn]] void Fail(const YAML::Node& node, const std::string& what) const {
-    std::ostringstream ss;
-    ss << source;
-    if (node.IsDefined() && node.Mark().line >= 0) ss << ":" << node.Mark().line + 1;
-    ss << ": " << (field.empty() ? "" : field + ": ") << what;
-    throw UserError(ss.str());
-  }
-  Ctx Sub(const std::string& name) const { return {source, field.empty() ? name : field + "." + name}; }
-  Ctx Index(std::size_t i) const { return {source, field + "[" + std::to_string(i) + "]"}; }
-};
-
-const YAML::Node Require(const YAML::Node& map, const char* key, const Ctx& ctx) {
-  const YAML::Node n = map[key];
-  if (!n.IsDefined() || n.IsNull()) ctx.Fail(map, std::string("missing field '") + key + "'");
-  return n;
-}
-
-double Number(const YAML::Node& n, const Ctx& ctx) {
-  if (!n.IsScalar()) ctx.Fail(n, "expected a number");
-  double v = 0;
-  if (!YAML::convert<double>::decode(n, v)) ctx.Fail(n, "expected a number, got '" + n.Scalar() + "'");
-  if (!std::isfinite(v)) ctx.Fail(n, "value is not finite");
-  return v;
-}
-
-int Integer(const YAML::Node& n, const Ctx& ctx) {
-  int v = 0;
-  if (!n.IsScalar() || !YAML::convert<int>::decode(n, v)) ctx.Fail(n, "expected an integer");
-  return v;
-}
-
-template <std::size_t N>
-std::array<double, N> Numbers(const YAML::Node& n, const Ctx& ctx) {
-  if (!n.IsSequence()) ctx.Fail(n, "expected a list of " + std::to_string(N) + " numbers");
-  if (n.size() != N)
-    ctx.Fail(n, "expected " + std::to_string(N) + " numbers, got " + std::to_string(n.size()));
-  std::array<double, N> out{};
-  for (std::size_t i = 0; i < N; ++i) out[i] = Number(n[i], ctx.Index(i));
-  return out;
-}
-
 Eigen::Vector3d Vec3(const std::array<double, 3>& a) { return {a[0], a[1], a[2]}; }
 
 template <std::size_t N>
-void CopyName(const std::string& s, std::array<char, N>& out, const YAML::Node& n, const Ctx& ctx) {
+void CopyName(const std::string& s, std::array<char, N>& out, const YAML::Node& n, const YamlCtx& ctx) {
   if (s.empty() || s.size() >= N)
     ctx.Fail(n, "must be 1.." + std::to_string(N - 1) + " characters, got '" + s + "'");
   for (char c : s)
@@ -72,7 +25,7 @@ void CopyName(const std::string& s, std::array<char, N>& out, const YAML::Node& 
   std::memcpy(out.data(), s.data(), s.size());
 }
 
-Eigen::Matrix3d ReadRotation(const YAML::Node& cam, const Ctx& ctx) {
+Eigen::Matrix3d ReadRotation(const YAML::Node& cam, const YamlCtx& ctx) {
   const YAML::Node c_node = cam["C_k_b"], e_node = cam["euler_deg"];
   const bool has_c = c_node.IsDefined() && !c_node.IsNull();
   const bool has_e = e_node.IsDefined() && !e_node.IsNull();
@@ -97,7 +50,7 @@ Eigen::Matrix3d ReadRotation(const YAML::Node& cam, const Ctx& ctx) {
   return C;
 }
 
-void ReadSigma(const YAML::Node& s, const Ctx& ctx, RigCameraSigma* out) {
+void ReadSigma(const YAML::Node& s, const YamlCtx& ctx, RigCameraSigma* out) {
   if (!s.IsMap()) ctx.Fail(s, "expected a map");
   out->intrinsics = Numbers<5>(Require(s, "intrinsics", ctx), ctx.Sub("intrinsics"));
   out->distortion = Numbers<5>(Require(s, "distortion", ctx), ctx.Sub("distortion"));
@@ -111,7 +64,7 @@ void ReadSigma(const YAML::Node& s, const Ctx& ctx, RigCameraSigma* out) {
     ctx.Fail(s, "sigma must not be negative");
 }
 
-void ReadCamera(const YAML::Node& n, const Ctx& ctx, RigCamera* cam, RigCameraSigma* sigma, bool* has_sigma) {
+void ReadCamera(const YAML::Node& n, const YamlCtx& ctx, RigCamera* cam, RigCameraSigma* sigma, bool* has_sigma) {
   if (!n.IsMap()) ctx.Fail(n, "expected a map");
   const YAML::Node name = Require(n, "name", ctx);
   CopyName(name.as<std::string>(), cam->name, name, ctx.Sub("name"));
@@ -158,13 +111,8 @@ std::string List(std::initializer_list<double> v) { return List(v.begin(), v.end
 }  // namespace
 
 Rig ParseRigYaml(const std::string& text, const std::string& source) {
-  YAML::Node root;
-  try {
-    root = YAML::Load(text);
-  } catch (const YAML::Exception& e) {
-    throw UserError(source + ":" + std::to_string(e.mark.line + 1) + ": not valid YAML: " + e.msg);
-  }
-  const Ctx ctx{source, ""};
+  const YAML::Node root = LoadYaml(text, source);
+  const YamlCtx ctx{source, ""};
   if (!root.IsMap()) ctx.Fail(root, "expected a map with rig_id and cameras");
   Rig rig;
   const YAML::Node id = Require(root, "rig_id", ctx);
@@ -184,7 +132,7 @@ Rig ParseRigYaml(const std::string& text, const std::string& source) {
 
   const YAML::Node beacons = root["beacons_mm"];
   if (beacons.IsDefined() && !beacons.IsNull()) {
-    const Ctx bctx = ctx.Sub("beacons_mm");
+    const YamlCtx bctx = ctx.Sub("beacons_mm");
     if (!beacons.IsSequence()) bctx.Fail(beacons, "expected a list of [x, y, z]");
     if (beacons.size() > static_cast<std::size_t>(limits::kMaxBeacons))
       bctx.Fail(beacons, std::to_string(beacons.size()) + " beacons, limit " + std::to_string(limits::kMaxBeacons));
@@ -201,7 +149,7 @@ Rig ParseRigYaml(const std::string& text, const std::string& source) {
   int bad_camera = -1;
   const RigStatus status = ValidateRig(rig, &bad_camera);
   if (status != RigStatus::kOk) {
-    const Ctx where = bad_camera >= 0 ? ctx.Sub("cameras").Index(static_cast<std::size_t>(bad_camera)) : ctx;
+    const YamlCtx where = bad_camera >= 0 ? ctx.Sub("cameras").Index(static_cast<std::size_t>(bad_camera)) : ctx;
     where.Fail(bad_camera >= 0 ? cams[static_cast<std::size_t>(bad_camera)] : root, ToString(status));
   }
   return rig;

@@ -1,0 +1,294 @@
+#include "host/sim/scenario/scenario.h"
+
+#include <cmath>
+#include <random>
+
+#include "common/rig/paper_rig.h"
+#include "common/rotation/rotation.h"
+#include "host/rigio/rig_yaml.h"
+#include "host/rigio/yaml_fields.h"
+
+namespace mfns::host {
+namespace {
+
+constexpr double kMm = 1e-3;
+constexpr double kArcsec = kPi / 180.0 / 3600.0;
+
+Eigen::Vector3d Vec3(const std::array<double, 3>& a) { return {a[0], a[1], a[2]}; }
+
+Eigen::Matrix3d EulerDeg(const std::array<double, 3>& e) {
+  return EulerToMatrix({DegToRad(e[0]), DegToRad(e[1]), DegToRad(e[2])});
+}
+
+Rig ReadRigField(const YAML::Node& root, const YamlCtx& ctx, const std::filesystem::path& base_dir) {
+  if (!Has(root, "rig")) return PaperRig();
+  const std::string name = String(root["rig"], ctx.Sub("rig"));
+  if (name == "paper") return PaperRig();
+  const std::filesystem::path path = std::filesystem::path(name).is_absolute() ? std::filesystem::path(name) : base_dir / name;
+  return ReadRigYaml(path);
+}
+
+void ReadBeacons(const YAML::Node& root, const YamlCtx& ctx, Rig* rig) {
+  if (Has(root, "beacons_mm")) {
+    const YAML::Node b = root["beacons_mm"];
+    const YamlCtx bctx = ctx.Sub("beacons_mm");
+    if (!b.IsSequence()) bctx.Fail(b, "expected a list of [x, y, z]");
+    if (b.size() > static_cast<std::size_t>(limits::kMaxBeacons))
+      bctx.Fail(b, std::to_string(b.size()) + " beacons, limit " + std::to_string(limits::kMaxBeacons));
+    rig->num_beacons = static_cast<int>(b.size());
+    for (std::size_t i = 0; i < b.size(); ++i) rig->beacons_w[i] = Vec3(Numbers<3>(b[i], bctx.Index(i))) * kMm;
+  }
+  if (Has(root, "beacon_sigma_mm")) rig->beacon_sigma = Number(root["beacon_sigma_mm"], ctx.Sub("beacon_sigma_mm")) * kMm;
+  if (rig->num_beacons == 0) ctx.Fail(root, "the scenario has no beacons (give beacons_mm or a rig with beacons)");
+}
+
+void ReadTurntable(const YAML::Node& n, const YamlCtx& ctx, Turntable* tt) {
+  RejectUnknownKeys(n, {"C_w_t_euler_deg", "r_w_wt_mm", "mount_euler_deg", "mount_r_p_pb_mm"}, ctx);
+  if (Has(n, "C_w_t_euler_deg")) tt->C_w_t = EulerDeg(Numbers<3>(n["C_w_t_euler_deg"], ctx.Sub("C_w_t_euler_deg")));
+  if (Has(n, "r_w_wt_mm")) tt->r_w_wt = Vec3(Numbers<3>(n["r_w_wt_mm"], ctx.Sub("r_w_wt_mm"))) * kMm;
+  if (Has(n, "mount_euler_deg")) tt->C_p_b = EulerDeg(Numbers<3>(n["mount_euler_deg"], ctx.Sub("mount_euler_deg")));
+  if (Has(n, "mount_r_p_pb_mm")) tt->r_p_pb = Vec3(Numbers<3>(n["mount_r_p_pb_mm"], ctx.Sub("mount_r_p_pb_mm"))) * kMm;
+}
+
+void ReadTrajectory(const YAML::Node& n, const YamlCtx& ctx, Trajectory* tr) {
+  const std::string kind = String(Require(n, "kind", ctx), ctx.Sub("kind"));
+  if (kind == "static") {
+    RejectUnknownKeys(n, {"kind", "position_mm", "euler_deg"}, ctx);
+    tr->kind = TrajectoryKind::kStatic;
+    if (Has(n, "position_mm")) tr->static_pose.r_w_wb = Vec3(Numbers<3>(n["position_mm"], ctx.Sub("position_mm"))) * kMm;
+    // Attitude as DESIGN.md reports it: the Euler angles of C_b_w.
+    if (Has(n, "euler_deg")) tr->static_pose.C_w_b = EulerDeg(Numbers<3>(n["euler_deg"], ctx.Sub("euler_deg"))).transpose();
+  } else if (kind == "turntable") {
+    RejectUnknownKeys(n, {"kind", "mode", "main_start_deg", "main_step_deg", "main_rate_deg_s", "aux_start_deg",
+                          "aux_step_deg", "aux_rate_deg_s"}, ctx);
+    tr->kind = TrajectoryKind::kTurntable;
+    const std::string mode = Has(n, "mode") ? String(n["mode"], ctx.Sub("mode")) : "steps";
+    if (mode != "steps" && mode != "rate") ctx.Sub("mode").Fail(n["mode"], "expected 'steps' or 'rate', got '" + mode + "'");
+    tr->turntable_rate_mode = mode == "rate";
+    tr->main_start = DegToRad(NumberOr(n, "main_start_deg", 0, ctx));
+    tr->main_step = DegToRad(NumberOr(n, "main_step_deg", 0, ctx));
+    tr->main_rate = DegToRad(NumberOr(n, "main_rate_deg_s", 0, ctx));
+    tr->aux_start = DegToRad(NumberOr(n, "aux_start_deg", 0, ctx));
+    tr->aux_step = DegToRad(NumberOr(n, "aux_step_deg", 0, ctx));
+    tr->aux_rate = DegToRad(NumberOr(n, "aux_rate_deg_s", 0, ctx));
+  } else if (kind == "free-flight") {
+    RejectUnknownKeys(n, {"kind", "centre_mm", "amplitude_mm", "period_s", "tilt_deg", "yaw_rate_deg_s"}, ctx);
+    tr->kind = TrajectoryKind::kFreeFlight;
+    if (Has(n, "centre_mm")) tr->centre = Vec3(Numbers<3>(n["centre_mm"], ctx.Sub("centre_mm"))) * kMm;
+    tr->amplitude = Vec3(Numbers<3>(Require(n, "amplitude_mm", ctx), ctx.Sub("amplitude_mm"))) * kMm;
+    tr->period_s = NumberOr(n, "period_s", 20.0, ctx);
+    if (!(tr->period_s > 0)) ctx.Sub("period_s").Fail(n["period_s"], "must be positive");
+    tr->tilt = DegToRad(NumberOr(n, "tilt_deg", 0, ctx));
+    tr->yaw_rate = DegToRad(NumberOr(n, "yaw_rate_deg_s", 0, ctx));
+  } else {
+    ctx.Sub("kind").Fail(n["kind"], "expected static, turntable or free-flight, got '" + kind + "'");
+  }
+}
+
+// `name: {enabled: bool, <magnitude_key>: number}` or absent.
+void ReadSwitch(const YAML::Node& n, const char* name, const char* magnitude_key, double unit, const YamlCtx& ctx,
+                bool* enabled, double* magnitude) {
+  if (!Has(n, name)) return;
+  const YAML::Node s = n[name];
+  const YamlCtx sctx = ctx.Sub(name);
+  RejectUnknownKeys(s, {"enabled", magnitude_key}, sctx);
+  *enabled = BooleanOr(s, "enabled", true, sctx);
+  if (Has(s, magnitude_key)) {
+    *magnitude = Number(s[magnitude_key], sctx.Sub(magnitude_key)) * unit;
+    if (*magnitude < 0) sctx.Sub(magnitude_key).Fail(s[magnitude_key], "must not be negative");
+  }
+}
+
+void ReadErrors(const YAML::Node& n, const YamlCtx& ctx, ErrorSources* e) {
+  RejectUnknownKeys(n, {"pixel_noise", "beacon_map", "intrinsics", "extrinsic_rotation", "extrinsic_translation",
+                        "turntable_angle"}, ctx);
+  ReadSwitch(n, "pixel_noise", "centroid_sigma_px", 1.0, ctx, &e->pixel_noise, &e->centroid_sigma_px);
+  ReadSwitch(n, "beacon_map", "sigma_mm", kMm, ctx, &e->beacon_map, &e->beacon_sigma);
+  ReadSwitch(n, "intrinsics", "scale", 1.0, ctx, &e->intrinsics, &e->intrinsics_scale);
+  ReadSwitch(n, "extrinsic_rotation", "sigma_deg", DegToRad(1.0), ctx, &e->extrinsic_rotation,
+             &e->extrinsic_rotation_sigma);
+  ReadSwitch(n, "extrinsic_translation", "sigma_mm", kMm, ctx, &e->extrinsic_translation,
+             &e->extrinsic_translation_sigma);
+  ReadSwitch(n, "turntable_angle", "sigma_arcsec", kArcsec, ctx, &e->turntable_angle, &e->turntable_angle_sigma);
+}
+
+void ReadSensor(const YAML::Node& n, const YamlCtx& ctx, SensorSetup* s) {
+  RejectUnknownKeys(n, {"mono16", "psf_sigma_px", "flux_e_at_1m", "background_e", "gain_e_per_dn", "read_noise_e",
+                        "full_well_e"}, ctx);
+  s->mono16 = BooleanOr(n, "mono16", s->mono16, ctx);
+  s->psf_sigma_px = NumberOr(n, "psf_sigma_px", s->psf_sigma_px, ctx);
+  s->flux_e_at_1m = NumberOr(n, "flux_e_at_1m", s->flux_e_at_1m, ctx);
+  s->background_e = NumberOr(n, "background_e", s->background_e, ctx);
+  s->gain_e_per_dn = NumberOr(n, "gain_e_per_dn", s->gain_e_per_dn, ctx);
+  s->read_noise_e = NumberOr(n, "read_noise_e", s->read_noise_e, ctx);
+  s->full_well_e = NumberOr(n, "full_well_e", s->full_well_e, ctx);
+  if (!(s->psf_sigma_px > 0) || !(s->flux_e_at_1m > 0) || s->background_e < 0 || !(s->gain_e_per_dn > 0) ||
+      s->read_noise_e < 0 || !(s->full_well_e > 0))
+    ctx.Fail(n, "psf, flux, gain and full well must be positive; background and read noise not negative");
+}
+
+int CameraIndex(const Rig& rig, const std::string& name, const YAML::Node& n, const YamlCtx& ctx) {
+  for (int i = 0; i < rig.num_cameras; ++i)
+    if (name == rig.cameras[static_cast<std::size_t>(i)].name.data()) return i;
+  ctx.Fail(n, "no camera named '" + name + "' in the rig");
+}
+
+void ReadClutter(const YAML::Node& n, const YamlCtx& ctx, const Rig& rig, Clutter* c) {
+  RejectUnknownKeys(n, {"reflections_per_frame", "reflection_flux_scale", "bright_regions", "occluded_beacons",
+                        "stop_camera", "stop_frame"}, ctx);
+  c->reflections_per_frame = IntegerOr(n, "reflections_per_frame", 0, ctx);
+  c->reflection_flux_scale = NumberOr(n, "reflection_flux_scale", c->reflection_flux_scale, ctx);
+  if (c->reflections_per_frame < 0 || c->reflections_per_frame > 50)
+    ctx.Sub("reflections_per_frame").Fail(n["reflections_per_frame"], "must be 0..50");
+  if (Has(n, "bright_regions")) {
+    const YAML::Node list = n["bright_regions"];
+    const YamlCtx lctx = ctx.Sub("bright_regions");
+    if (!list.IsSequence()) lctx.Fail(list, "expected a list");
+    for (std::size_t i = 0; i < list.size(); ++i) {
+      const YamlCtx ictx = lctx.Index(i);
+      RejectUnknownKeys(list[i], {"camera", "rect_px", "level_e"}, ictx);
+      Clutter::Region r;
+      r.camera = CameraIndex(rig, String(Require(list[i], "camera", ictx), ictx.Sub("camera")), list[i], ictx.Sub("camera"));
+      const auto rect = Numbers<4>(Require(list[i], "rect_px", ictx), ictx.Sub("rect_px"));
+      r.rect_px = Eigen::Vector4d(rect[0], rect[1], rect[2], rect[3]);
+      r.level_e = Number(Require(list[i], "level_e", ictx), ictx.Sub("level_e"));
+      c->bright_regions.push_back(r);
+    }
+  }
+  if (Has(n, "occluded_beacons")) {
+    const YAML::Node list = n["occluded_beacons"];
+    const YamlCtx lctx = ctx.Sub("occluded_beacons");
+    if (!list.IsSequence()) lctx.Fail(list, "expected a list of beacon indices");
+    for (std::size_t i = 0; i < list.size(); ++i) {
+      const int b = Integer(list[i], lctx.Index(i));
+      if (b < 0 || b >= rig.num_beacons) lctx.Index(i).Fail(list[i], "no beacon " + std::to_string(b));
+      c->occluded_beacons.push_back(b);
+    }
+  }
+  if (Has(n, "stop_camera")) {
+    c->stop_camera = CameraIndex(rig, String(n["stop_camera"], ctx.Sub("stop_camera")), n["stop_camera"], ctx.Sub("stop_camera"));
+    c->stop_frame = IntegerOr(n, "stop_frame", 0, ctx);
+  }
+}
+
+}  // namespace
+
+BodyPose TurntablePose(const Turntable& tt, double main_rad, double aux_rad) {
+  const Eigen::Matrix3d C_t_p = R3(main_rad).transpose() * R1(aux_rad).transpose();
+  BodyPose pose;
+  pose.C_w_b = tt.C_w_t * C_t_p * tt.C_p_b;
+  pose.r_w_wb = tt.r_w_wt + tt.C_w_t * (C_t_p * tt.r_p_pb);
+  return pose;
+}
+
+Scenario ParseScenarioYaml(const std::string& text, const std::string& source, const std::filesystem::path& base_dir) {
+  const YAML::Node root = LoadYaml(text, source);
+  const YamlCtx ctx{source, ""};
+  RejectUnknownKeys(root, {"name", "seed", "rig", "beacons_mm", "beacon_sigma_mm", "frame_rate_hz", "frames", "t0_ns",
+                           "turntable", "trajectory", "errors", "sensor", "clutter"}, ctx);
+  Scenario s;
+  s.name = Has(root, "name") ? String(root["name"], ctx.Sub("name")) : std::filesystem::path(source).stem().string();
+  if (Has(root, "seed")) {
+    const long long seed = root["seed"].as<long long>(-1);
+    if (seed < 0) ctx.Sub("seed").Fail(root["seed"], "expected a non-negative integer");
+    s.seed = static_cast<std::uint64_t>(seed);
+  }
+  s.rig = ReadRigField(root, ctx, base_dir);
+  ReadBeacons(root, ctx, &s.rig);
+  s.frame_rate_hz = NumberOr(root, "frame_rate_hz", s.frame_rate_hz, ctx);
+  if (!(s.frame_rate_hz > 0 && s.frame_rate_hz <= 1000))
+    ctx.Sub("frame_rate_hz").Fail(root["frame_rate_hz"], "must be in (0, 1000]");
+  s.frames = IntegerOr(root, "frames", s.frames, ctx);
+  if (s.frames < 1 || s.frames > 1'000'000) ctx.Sub("frames").Fail(root["frames"], "must be 1..1000000");
+  if (Has(root, "t0_ns")) s.t0_ns = root["t0_ns"].as<long long>(s.t0_ns);
+  if (Has(root, "turntable")) ReadTurntable(root["turntable"], ctx.Sub("turntable"), &s.turntable);
+  if (Has(root, "trajectory")) ReadTrajectory(root["trajectory"], ctx.Sub("trajectory"), &s.trajectory);
+  if (Has(root, "errors")) ReadErrors(root["errors"], ctx.Sub("errors"), &s.errors);
+  if (Has(root, "sensor")) ReadSensor(root["sensor"], ctx.Sub("sensor"), &s.sensor);
+  if (Has(root, "clutter")) ReadClutter(root["clutter"], ctx.Sub("clutter"), s.rig, &s.clutter);
+  return s;
+}
+
+Scenario LoadPreset(const std::string& name) { return ParseScenarioYaml(PresetYaml(name), "preset " + name, "."); }
+
+Scenario LoadScenarioFile(const std::filesystem::path& path) {
+  return ParseScenarioYaml(ReadFile(path, 1u << 20), path.string(), path.parent_path());
+}
+
+std::vector<FrameTruth> SimulateTrajectory(const Scenario& s) {
+  std::mt19937_64 rng(s.seed * 0x9E3779B97F4A7C15ull + 1);
+  std::normal_distribution<double> angle_noise(0.0, s.errors.turntable_angle ? s.errors.turntable_angle_sigma : 0.0);
+  std::uniform_real_distribution<double> phase(0.0, 2.0 * kPi);
+  const Trajectory& tr = s.trajectory;
+  // Free flight: per axis two sinusoids with seeded phases, periods P and P / 2.7.
+  std::array<double, 6> ph{};
+  for (double& p : ph) p = phase(rng);
+  std::vector<FrameTruth> out(static_cast<std::size_t>(s.frames));
+  for (int i = 0; i < s.frames; ++i) {
+    FrameTruth& f = out[static_cast<std::size_t>(i)];
+    f.frame = i;
+    const double t = i / s.frame_rate_hz;
+    f.t_ns = s.t0_ns + static_cast<std::int64_t>(std::llround(t * 1e9));
+    switch (tr.kind) {
+      case TrajectoryKind::kStatic:
+        f.pose = tr.static_pose;
+        break;
+      case TrajectoryKind::kTurntable: {
+        f.main_cmd = tr.main_start + (tr.turntable_rate_mode ? tr.main_rate * t : tr.main_step * i);
+        f.aux_cmd = tr.aux_start + (tr.turntable_rate_mode ? tr.aux_rate * t : tr.aux_step * i);
+        f.main_true = f.main_cmd + angle_noise(rng);
+        f.aux_true = f.aux_cmd + angle_noise(rng);
+        f.pose = TurntablePose(s.turntable, f.main_true, f.aux_true);
+        break;
+      }
+      case TrajectoryKind::kFreeFlight: {
+        const double w = 2.0 * kPi / tr.period_s;
+        Eigen::Vector3d r;
+        for (int a = 0; a < 3; ++a)
+          r[a] = tr.centre[a] + tr.amplitude[a] * (0.7 * std::sin(w * t + ph[static_cast<std::size_t>(a)]) +
+                                                   0.3 * std::sin(2.7 * w * t + ph[static_cast<std::size_t>(a + 3)]));
+        const double roll = tr.tilt * std::sin(1.3 * w * t + ph[0]);
+        const double pitch = tr.tilt * std::sin(0.9 * w * t + ph[1]);
+        const double yaw = tr.yaw_rate * t + 0.5 * tr.tilt * std::sin(w * t + ph[2]);
+        f.pose.r_w_wb = r;
+        f.pose.C_w_b = EulerToMatrix({roll, pitch, yaw}).transpose();
+        break;
+      }
+    }
+  }
+  return out;
+}
+
+Rig BelievedRig(const Scenario& s) {
+  // An independent stream: changing the trajectory does not change the believed rig.
+  std::mt19937_64 rng(s.seed * 0xD1B54A32D192ED03ull + 7);
+  std::normal_distribution<double> n01(0.0, 1.0);
+  const ErrorSources& e = s.errors;
+  Rig rig = s.rig;
+  const Rig paper = PaperRig();  // Table 2 sigma when the rig carries none
+  for (int k = 0; k < rig.num_cameras; ++k) {
+    const auto idx = static_cast<std::size_t>(k);
+    RigCamera& cam = rig.cameras[idx];
+    if (e.intrinsics) {
+      const RigCameraSigma& sg = rig.has_sigma ? s.rig.sigma[idx] : paper.sigma[std::min<std::size_t>(idx, 2)];
+      CameraParamVector p = cam.intrinsics.ToVector();
+      for (int j = 0; j < 5; ++j) p[j] += e.intrinsics_scale * sg.intrinsics[static_cast<std::size_t>(j)] * n01(rng);
+      for (int j = 0; j < 5; ++j) p[5 + j] += e.intrinsics_scale * sg.distortion[static_cast<std::size_t>(j)] * n01(rng);
+      cam.intrinsics.SetFromVector(p);
+    }
+    if (e.extrinsic_rotation) {
+      const Eigen::Vector3d w(n01(rng), n01(rng), n01(rng));
+      cam.C_k_b = ExpSO3(w * e.extrinsic_rotation_sigma) * cam.C_k_b;
+    }
+    if (e.extrinsic_translation)
+      cam.r_b_bk += Eigen::Vector3d(n01(rng), n01(rng), n01(rng)) * e.extrinsic_translation_sigma;
+  }
+  if (e.beacon_map) {
+    for (int i = 0; i < rig.num_beacons; ++i)
+      rig.beacons_w[static_cast<std::size_t>(i)] += Eigen::Vector3d(n01(rng), n01(rng), n01(rng)) * e.beacon_sigma;
+    rig.beacon_sigma = e.beacon_sigma;
+  }
+  return rig;
+}
+
+}  // namespace mfns::host

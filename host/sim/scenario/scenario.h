@@ -1,0 +1,138 @@
+// Simulation scenarios (issue 3): rig, beacons, trajectory, turntable, error sources, sensor
+// and clutter, read from YAML, deterministic for a seed. Built-in presets are YAML text too
+// (`mfns-sim preset NAME` prints one to start a custom scenario from).
+//
+// Truth and belief: the scenario's rig and beacons are the TRUTH the images are rendered from.
+// The enabled error sources perturb them (seeded) into the BELIEVED rig: what a navigator
+// would load from an imperfect calibration and beacon survey. Turntable angle error acts the
+// other way round: the commanded angle is what the user records, the true one moves the body.
+// Units: SI inside (m, rad, s); the YAML carries _mm, _deg, _arcsec, _px, _hz.
+#pragma once
+
+#include <Eigen/Core>
+#include <cstdint>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include "common/rig/rig.h"
+#include "host/util/atomic_file.h"
+
+namespace mfns::host {
+
+enum class TrajectoryKind { kStatic, kTurntable, kFreeFlight };
+
+// Two-axis turntable (paper Section 4, Appendix A): main axis Zt, auxiliary axis Xt carried by
+// the main one, both through Ot. Platform attitude C_t_p = Rz(main) * Rx(aux) with active
+// rotations (frame form: R3(main)^T R1(aux)^T). The body is mounted on the platform with C_p_b,
+// r_p_pb. The turntable sits in the world with C_w_t, r_w_wt.
+struct Turntable {
+  Eigen::Matrix3d C_w_t = Eigen::Matrix3d::Identity();
+  Eigen::Vector3d r_w_wt = Eigen::Vector3d::Zero();
+  Eigen::Matrix3d C_p_b = Eigen::Matrix3d::Identity();
+  Eigen::Vector3d r_p_pb = Eigen::Vector3d::Zero();
+};
+
+// Body pose for turntable angles (rad).
+BodyPose TurntablePose(const Turntable& tt, double main_rad, double aux_rad);
+
+struct Trajectory {
+  TrajectoryKind kind = TrajectoryKind::kStatic;
+  // kStatic: one pose.
+  BodyPose static_pose;
+  // kTurntable: angle of frame i = start + i * step (steps) or start + rate * t (rate).
+  bool turntable_rate_mode = false;
+  double main_start = 0.0, main_step = 0.0, main_rate = 0.0;  // rad, rad, rad/s
+  double aux_start = 0.0, aux_step = 0.0, aux_rate = 0.0;
+  // kFreeFlight: smooth path about centre: per axis a sum of two sinusoids (seeded phases)
+  // with the given amplitude; attitude: roll/pitch oscillate within +-tilt, yaw turns at
+  // yaw_rate plus an oscillation.
+  Eigen::Vector3d centre = Eigen::Vector3d::Zero();
+  Eigen::Vector3d amplitude = Eigen::Vector3d::Zero();  // m
+  double period_s = 20.0;
+  double tilt = 0.0;       // rad
+  double yaw_rate = 0.0;   // rad/s
+};
+
+// Error sources, each switchable with its magnitude (paper Section 3).
+struct ErrorSources {
+  bool pixel_noise = true;            // sensor noise in rendered images; centroid noise below
+  double centroid_sigma_px = 0.1;     // observation-level noise (blob truth, Cramér-Rao bound)
+  bool beacon_map = false;
+  double beacon_sigma = 0.4e-3;       // m, per coordinate (Table 4: 0.3963 mm)
+  bool intrinsics = false;
+  double intrinsics_scale = 1.0;      // draws from the rig's sigma (Table 2 when absent) x scale
+  bool extrinsic_rotation = false;
+  double extrinsic_rotation_sigma = 0.1 * 3.14159265358979323846 / 180.0;  // rad per axis
+  bool extrinsic_translation = false;
+  double extrinsic_translation_sigma = 0.6e-3;  // m per axis
+  bool turntable_angle = true;
+  double turntable_angle_sigma = 8.0 / 3600.0 * 3.14159265358979323846 / 180.0;  // rad
+};
+
+// Image formation of LED beacons (host/sim/render).
+struct SensorSetup {
+  bool mono16 = false;
+  double psf_sigma_px = 1.0;     // Gaussian blur of the LED image
+  double flux_e_at_1m = 60000;   // electrons collected from one LED at 1 m (falls off as 1/d^2)
+  double background_e = 400;     // electrons per pixel of ambient light
+  double gain_e_per_dn = 40;     // electrons per digital number
+  double read_noise_e = 10;      // electrons rms
+  double full_well_e = 10200;    // saturation (255 DN at the gain above)
+};
+
+struct Clutter {
+  int reflections_per_frame = 0;      // random extra spots per camera per frame
+  double reflection_flux_scale = 0.5; // relative to a beacon at 1 m
+  struct Region {
+    int camera = 0;
+    Eigen::Vector4d rect_px = Eigen::Vector4d::Zero();  // x0, y0, x1, y1
+    double level_e = 0;
+  };
+  std::vector<Region> bright_regions;
+  std::vector<int> occluded_beacons;   // never rendered
+  int stop_camera = -1;                // this camera delivers blank frames from stop_frame on
+  int stop_frame = 0;
+};
+
+struct Scenario {
+  std::string name;
+  std::uint64_t seed = 1;
+  Rig rig;                       // truth: rig and beacons
+  double frame_rate_hz = 18.6;
+  int frames = 1;
+  std::int64_t t0_ns = 1'000'000'000;
+  Turntable turntable;
+  Trajectory trajectory;
+  ErrorSources errors;
+  SensorSetup sensor;
+  Clutter clutter;
+};
+
+// Names of the built-in presets and their YAML text.
+std::vector<std::string> PresetNames();
+std::string PresetYaml(const std::string& name);  // throws UserError for an unknown name
+
+// Parses scenario YAML. `base_dir` resolves a relative `rig:` path. Throws UserError naming the
+// source, line and field.
+Scenario ParseScenarioYaml(const std::string& text, const std::string& source,
+                           const std::filesystem::path& base_dir);
+Scenario LoadPreset(const std::string& name);
+Scenario LoadScenarioFile(const std::filesystem::path& path);
+
+// One frame set of a scenario: sample time, true pose, turntable angles (commanded and true).
+struct FrameTruth {
+  int frame = 0;
+  std::int64_t t_ns = 0;
+  BodyPose pose;
+  double main_cmd = 0, aux_cmd = 0, main_true = 0, aux_true = 0;  // rad (turntable only)
+};
+
+// The whole trajectory; turntable angle errors drawn from the scenario's seed.
+std::vector<FrameTruth> SimulateTrajectory(const Scenario& s);
+
+// The believed rig: truth perturbed by the enabled error sources (seeded, independent of the
+// trajectory's draws).
+Rig BelievedRig(const Scenario& s);
+
+}  // namespace mfns::host

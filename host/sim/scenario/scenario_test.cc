@@ -1,0 +1,108 @@
+#include "host/sim/scenario/scenario.h"
+
+#include <gtest/gtest.h>
+
+#include "common/rig/paper_rig.h"
+#include "common/rotation/rotation.h"
+
+namespace mfns::host {
+namespace {
+
+TEST(Scenario, PresetsParse) {
+  for (const std::string& name : PresetNames()) {
+    const Scenario s = LoadPreset(name);
+    EXPECT_EQ(s.name, name);
+    EXPECT_EQ(ValidateRig(s.rig), RigStatus::kOk) << name;
+    EXPECT_GT(s.frames, 0);
+  }
+  EXPECT_THROW(PresetYaml("no-such"), UserError);
+}
+
+TEST(Scenario, PaperTurntableIsAYawSweepAboutTheOrigin) {
+  const Scenario s = LoadPreset("paper-turntable");
+  EXPECT_EQ(s.frames, 360);
+  const auto frames = SimulateTrajectory(s);
+  ASSERT_EQ(frames.size(), 360u);
+  for (const FrameTruth& f : frames) {
+    EXPECT_LT(f.pose.r_w_wb.norm(), 1e-15);
+    const EulerAngles e = MatrixToEuler(f.pose.C_w_b.transpose());
+    EXPECT_NEAR(e.phi, 0.0, 1e-12);
+    EXPECT_NEAR(e.theta, 0.0, 1e-12);
+    EXPECT_NEAR(std::remainder(e.psi - DegToRad(f.frame), 2 * kPi), 0.0, 1e-12);  // truth (0, 0, psi_t)
+    EXPECT_EQ(f.main_true, f.main_cmd);  // turntable angle error off in this preset
+  }
+  EXPECT_EQ(frames[1].t_ns - frames[0].t_ns, 53763441);  // 18.6 Hz
+}
+
+TEST(Scenario, TurntableAngleErrorIsSeededAndSized) {
+  Scenario s = LoadPreset("paper-turntable");
+  s.errors.turntable_angle = true;
+  s.frames = 4000;
+  const auto a = SimulateTrajectory(s), b = SimulateTrajectory(s);
+  double sum2 = 0;
+  for (std::size_t i = 0; i < a.size(); ++i) {
+    EXPECT_EQ(a[i].main_true, b[i].main_true);
+    sum2 += std::pow(a[i].main_true - a[i].main_cmd, 2);
+  }
+  EXPECT_NEAR(std::sqrt(sum2 / a.size()) / (DegToRad(8.0 / 3600.0)), 1.0, 0.05);
+  s.seed = 2;
+  EXPECT_NE(SimulateTrajectory(s)[5].main_true, a[5].main_true);
+}
+
+TEST(Scenario, TurntableKinematics) {
+  Turntable tt;
+  tt.r_p_pb = Eigen::Vector3d(0.1, 0, 0);
+  // Main axis +90 deg turns the platform's x axis onto the turntable's y axis (active).
+  const BodyPose p = TurntablePose(tt, DegToRad(90), 0.0);
+  EXPECT_TRUE(p.r_w_wb.isApprox(Eigen::Vector3d(0, 0.1, 0), 1e-12));
+  const BodyPose q = TurntablePose(tt, 0.0, DegToRad(90));  // aux about x: x stays
+  EXPECT_TRUE(q.r_w_wb.isApprox(Eigen::Vector3d(0.1, 0, 0), 1e-12));
+  EXPECT_TRUE((q.C_w_b * Eigen::Vector3d::UnitY()).isApprox(Eigen::Vector3d::UnitZ(), 1e-12));
+}
+
+TEST(Scenario, BelievedRigPerturbsOnlyWhatIsEnabled) {
+  Scenario s = LoadPreset("free-flight");
+  const Rig same = BelievedRig(s);  // only pixel noise on: belief == truth
+  for (int i = 0; i < s.rig.num_beacons; ++i) EXPECT_EQ(same.beacons_w[i], s.rig.beacons_w[i]);
+  EXPECT_EQ(same.cameras[0].C_k_b, s.rig.cameras[0].C_k_b);
+
+  s.errors.beacon_map = true;
+  s.errors.beacon_sigma = 0.4e-3;
+  const Rig b = BelievedRig(s);
+  double sum2 = 0;
+  for (int i = 0; i < s.rig.num_beacons; ++i) sum2 += (b.beacons_w[i] - s.rig.beacons_w[i]).squaredNorm();
+  EXPECT_NEAR(std::sqrt(sum2 / (3.0 * s.rig.num_beacons)) / 0.4e-3, 1.0, 0.2);
+  EXPECT_EQ(b.cameras[1].r_b_bk, s.rig.cameras[1].r_b_bk);
+
+  s.errors.extrinsic_rotation = true;
+  const Rig r = BelievedRig(s);
+  const double angle = LogSO3(r.cameras[2].C_k_b * s.rig.cameras[2].C_k_b.transpose()).norm();
+  EXPECT_GT(angle, 0.0);
+  EXPECT_LT(angle, DegToRad(0.6));  // 0.1 deg per axis: beyond 0.6 deg is a > 5 sigma event
+}
+
+TEST(Scenario, FreeFlightStaysInsideTheModule) {
+  const Scenario s = LoadPreset("free-flight");
+  for (const FrameTruth& f : SimulateTrajectory(s)) EXPECT_LT(f.pose.r_w_wb.cwiseAbs().maxCoeff(), 0.6);
+}
+
+std::string ErrorOf(const std::string& yaml) {
+  try {
+    ParseScenarioYaml(yaml, "s.yaml", ".");
+  } catch (const UserError& e) {
+    return e.what();
+  }
+  return "(no error)";
+}
+
+TEST(Scenario, ErrorsNameTheField) {
+  EXPECT_EQ(ErrorOf("frame_rate: 10\n"), "s.yaml:1: unknown field 'frame_rate'");
+  EXPECT_EQ(ErrorOf("frames: 0\n"), "s.yaml:1: frames: must be 1..1000000");
+  EXPECT_EQ(ErrorOf("trajectory: {kind: spin}\n"), "s.yaml:1: trajectory.kind: expected static, turntable or free-flight, got 'spin'");
+  EXPECT_EQ(ErrorOf("errors:\n  beacon_map: {sigma_mm: -1}\n"), "s.yaml:2: errors.beacon_map.sigma_mm: must not be negative");
+  EXPECT_EQ(ErrorOf("clutter: {stop_camera: w}\n"), "s.yaml:1: clutter.stop_camera: no camera named 'w' in the rig");
+  EXPECT_EQ(ErrorOf("rig: missing.yaml\n"), "./missing.yaml: no such file");
+}
+
+}  // namespace
+}  // namespace mfns::host
