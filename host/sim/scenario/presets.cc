@@ -35,7 +35,7 @@ errors:
   turntable_angle: {enabled: false, sigma_arcsec: 8}
 sensor:
   psf_sigma_px: 1.0
-  flux_e_at_1m: 60000
+  flux_e_at_1m: 12000
   background_e: 400
   gain_e_per_dn: 40
   read_noise_e: 10
@@ -60,7 +60,7 @@ errors:
   pixel_noise: {enabled: true, centroid_sigma_px: 0.1}
 sensor:
   psf_sigma_px: 1.0
-  flux_e_at_1m: 60000
+  flux_e_at_1m: 12000
   background_e: 400
   gain_e_per_dn: 40
   read_noise_e: 10

@@ -56,8 +56,12 @@ struct Trajectory {
 
 // Error sources, each switchable with its magnitude (paper Section 3).
 struct ErrorSources {
-  bool pixel_noise = true;            // sensor noise in rendered images; centroid noise below
-  double centroid_sigma_px = 0.1;     // observation-level noise (blob truth, Cramér-Rao bound)
+  // Pixel noise: sensor noise (shot, read) in rendered images, plus a random offset of each
+  // rendered spot of centroid_sigma_px per axis (the LED's and optics' irregularities that
+  // make real centroids scatter by ~0.1 px, Table 2's pixel error). Observation-level
+  // simulations and the Cramér-Rao bound use centroid_sigma_px.
+  bool pixel_noise = true;
+  double centroid_sigma_px = 0.1;
   bool beacon_map = false;
   double beacon_sigma = 0.4e-3;       // m, per coordinate (Table 4: 0.3963 mm)
   bool intrinsics = false;
@@ -74,7 +78,7 @@ struct ErrorSources {
 struct SensorSetup {
   bool mono16 = false;
   double psf_sigma_px = 1.0;     // Gaussian blur of the LED image
-  double flux_e_at_1m = 60000;   // electrons collected from one LED at 1 m (falls off as 1/d^2)
+  double flux_e_at_1m = 12000;   // electrons from one LED at 1 m (falls off as 1/d^2): ~240 DN peak at 0.45 m
   double background_e = 400;     // electrons per pixel of ambient light
   double gain_e_per_dn = 40;     // electrons per digital number
   double read_noise_e = 10;      // electrons rms

@@ -1,0 +1,217 @@
+#include "host/sim/frames/render_run.h"
+
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+#include <cstdio>
+#include <mutex>
+#include <random>
+#include <sstream>
+#include <thread>
+
+#include "common/rotation/rotation.h"
+#include "host/rigio/rig_yaml.h"
+#include "host/sim/crb/pose_bound.h"
+#include "host/sim/render/image.h"
+#include "host/sim/render/spot.h"
+#include "host/util/atomic_file.h"
+
+namespace mfns::host {
+namespace {
+
+struct BlobRow {
+  int camera, beacon;
+  Eigen::Vector2d uv, uv_geom;
+};
+
+SensorModel MakeSensor(const Scenario& s) {
+  SensorModel m;
+  m.bit_depth = s.sensor.mono16 ? 16 : 8;
+  m.gain_dn_per_e = (s.sensor.mono16 ? 257.0 : 1.0) / s.sensor.gain_e_per_dn;
+  m.shot_noise = s.errors.pixel_noise;
+  m.read_noise_e = s.errors.pixel_noise ? s.sensor.read_noise_e : 0.0;
+  m.full_well_e = s.sensor.full_well_e;
+  return m;
+}
+
+bool Occluded(const Scenario& s, int beacon) {
+  return std::find(s.clutter.occluded_beacons.begin(), s.clutter.occluded_beacons.end(), beacon) !=
+         s.clutter.occluded_beacons.end();
+}
+
+// Everything one camera renders for one frame set; appends the truth of visible beacons.
+LedFrameSpec FrameSpec(const Scenario& s, const BodyPose& pose, int camera, int frame, std::mt19937_64* rng,
+                       std::vector<BlobRow>* blobs) {
+  const RigCamera& cam = s.rig.cameras[static_cast<std::size_t>(camera)];
+  LedFrameSpec spec;
+  spec.background_e = s.sensor.background_e;
+  spec.blank = camera == s.clutter.stop_camera && frame >= s.clutter.stop_frame;
+  std::normal_distribution<double> jitter(0.0, s.errors.pixel_noise ? s.errors.centroid_sigma_px : 0.0);
+  for (int b = 0; b < s.rig.num_beacons; ++b) {
+    // Draw the jitter for every beacon, seen or not, so streams do not depend on visibility.
+    const Eigen::Vector2d offset(jitter(*rng), jitter(*rng));
+    if (Occluded(s, b)) continue;
+    const Eigen::Vector3d p_k = WorldToCamera(cam, pose, s.rig.beacons_w[static_cast<std::size_t>(b)]);
+    const ProjectedPoint geom = ProjectVisible(cam.intrinsics, p_k, 0.0);
+    if (geom.status != ProjectStatus::kOk) continue;
+    // Move the spot by the centroid noise in the image: the same depth, a shifted ray.
+    Eigen::Vector2d x_n;
+    if (Unproject(cam.intrinsics, geom.uv_px + offset, &x_n) != UnprojectStatus::kOk) continue;
+    BeaconInView in_view;
+    in_view.id = b;
+    in_view.p_k = Eigen::Vector3d(x_n.x(), x_n.y(), 1.0) * p_k.z();
+    in_view.appearance.sigma_px = s.sensor.psf_sigma_px;
+    in_view.appearance.flux_e = s.sensor.flux_e_at_1m / p_k.squaredNorm();
+    spec.beacons.push_back(in_view);
+    if (geom.visible && !spec.blank) blobs->push_back({camera, b, geom.uv_px + offset, geom.uv_px});
+  }
+  std::uniform_real_distribution<double> u(0.0, cam.intrinsics.width - 1.0), v(0.0, cam.intrinsics.height - 1.0);
+  for (int i = 0; i < s.clutter.reflections_per_frame; ++i) {
+    GaussianSpot r;
+    r.uv_px = Eigen::Vector2d(u(*rng), v(*rng));
+    r.sigma_px = s.sensor.psf_sigma_px;
+    r.flux_e = s.clutter.reflection_flux_scale * s.sensor.flux_e_at_1m;
+    spec.reflections.push_back(r);
+  }
+  for (const Clutter::Region& region : s.clutter.bright_regions) {
+    if (region.camera != camera) continue;
+    BrightRectangle rect;
+    rect.u_min = region.rect_px[0];
+    rect.v_min = region.rect_px[1];
+    rect.u_max = region.rect_px[2];
+    rect.v_max = region.rect_px[3];
+    rect.level_e = region.level_e;
+    spec.rectangles.push_back(rect);
+  }
+  return spec;
+}
+
+// Fixed-point text of v with `digits` decimals ("nan" for NaN).
+std::string Fmt(int digits, double v) {
+  char buf[64];
+  std::snprintf(buf, sizeof(buf), "%.*f", digits, v);
+  return buf;
+}
+
+std::string TruthCsv(const std::vector<FrameTruth>& frames) {
+  std::ostringstream o;
+  o << "frame,t_ns,x_mm,y_mm,z_mm,roll_deg,pitch_deg,yaw_deg\n";
+  for (const FrameTruth& f : frames) {
+    const EulerAngles e = MatrixToEuler(f.pose.C_w_b.transpose());
+    const Eigen::Vector3d r = f.pose.r_w_wb * 1e3;
+    o << f.frame << ',' << f.t_ns << ',' << Fmt(6, r.x()) << ',' << Fmt(6, r.y()) << ','
+      << Fmt(6, r.z()) << ',' << Fmt(8, RadToDeg(e.phi)) << ',' << Fmt(8, RadToDeg(e.theta)) << ','
+      << Fmt(8, RadToDeg(e.psi)) << '\n';
+  }
+  return o.str();
+}
+
+std::string TurntableCsv(const std::vector<FrameTruth>& frames) {
+  std::ostringstream o;
+  o << "frame,main_cmd_deg,aux_cmd_deg,main_true_deg,aux_true_deg\n";
+  for (const FrameTruth& f : frames)
+    o << f.frame << ',' << Fmt(9, RadToDeg(f.main_cmd)) << ',' << Fmt(9, RadToDeg(f.aux_cmd)) << ','
+      << Fmt(9, RadToDeg(f.main_true)) << ',' << Fmt(9, RadToDeg(f.aux_true)) << '\n';
+  return o.str();
+}
+
+void EnsureDir(const std::filesystem::path& dir) {
+  std::error_code ec;
+  std::filesystem::create_directories(dir, ec);
+  if (ec) throw UserError(dir.string() + ": cannot create directory: " + ec.message());
+}
+
+}  // namespace
+
+RenderSummary WriteBoundCsv(const Scenario& s, const std::filesystem::path& path) {
+  const std::vector<FrameTruth> frames = SimulateTrajectory(s);
+  std::ostringstream o;
+  o << "frame,t_ns,n_visible";
+  for (int k = 0; k < s.rig.num_cameras; ++k) o << ",n_" << s.rig.cameras[static_cast<std::size_t>(k)].name.data();
+  o << ",valid,sigma_x_mm,sigma_y_mm,sigma_z_mm,sigma_roll_deg,sigma_pitch_deg,sigma_yaw_deg\n";
+  RenderSummary sum;
+  long total = 0;
+  for (const FrameTruth& f : frames) {
+    const auto seen = VisibleBeacons(s.rig, f.pose, 0.0, s.clutter.occluded_beacons);
+    const PoseBound b = PoseCramerRao(s.rig, f.pose, seen, s.errors.centroid_sigma_px);
+    o << f.frame << ',' << f.t_ns << ',' << seen.size();
+    for (int k = 0; k < s.rig.num_cameras; ++k) o << ',' << b.per_camera[static_cast<std::size_t>(k)];
+    o << ',' << (b.valid ? 1 : 0);
+    for (int i = 0; i < 3; ++i) o << ',' << Fmt(6, b.valid ? b.sigma_position[i] * 1e3 : std::nan(""));
+    for (int i = 0; i < 3; ++i) o << ',' << Fmt(8, b.valid ? RadToDeg(b.sigma_euler[i]) : std::nan(""));
+    o << '\n';
+    ++sum.frames;
+    sum.frames_with_3 += seen.size() >= 3;
+    sum.frames_with_none += seen.empty();
+    total += static_cast<long>(seen.size());
+  }
+  sum.mean_visible = sum.frames > 0 ? static_cast<double>(total) / sum.frames : 0.0;
+  WriteFileAtomic(path, o.str());
+  return sum;
+}
+
+RenderSummary RenderScenario(const Scenario& s, const std::string& scenario_text, const RenderOptions& options) {
+  const std::filesystem::path& dir = options.out_dir;
+  EnsureDir(dir);
+  const std::vector<FrameTruth> frames = SimulateTrajectory(s);
+  const SensorModel sensor = MakeSensor(s);
+  ValidateSensor(sensor);
+  for (int k = 0; k < s.rig.num_cameras; ++k)
+    EnsureDir(dir / "frames" / s.rig.cameras[static_cast<std::size_t>(k)].name.data());
+
+  std::vector<std::vector<BlobRow>> blobs(frames.size());
+  std::atomic<int> next{0}, done{0};
+  std::mutex error_mutex;
+  std::string error;
+  const auto worker = [&]() {
+    for (int i = next++; i < static_cast<int>(frames.size()); i = next++) {
+      try {
+        for (int k = 0; k < s.rig.num_cameras; ++k) {
+          std::seed_seq seq{static_cast<std::uint32_t>(s.seed), static_cast<std::uint32_t>(s.seed >> 32),
+                            static_cast<std::uint32_t>(i), static_cast<std::uint32_t>(k), 0x5eedu};
+          std::mt19937_64 rng(seq);
+          const LedFrameSpec spec = FrameSpec(s, frames[static_cast<std::size_t>(i)].pose, k, i, &rng,
+                                              &blobs[static_cast<std::size_t>(i)]);
+          if (!options.write_images) continue;
+          const RigCamera& cam = s.rig.cameras[static_cast<std::size_t>(k)];
+          const LedFrame frame = RenderLedFrame(cam.intrinsics, spec, sensor, &rng);
+          char name[32];
+          std::snprintf(name, sizeof(name), "%06d.pgm", i);
+          WritePgm((dir / "frames" / cam.name.data() / name).string(), frame.image);
+        }
+      } catch (const std::exception& e) {
+        const std::lock_guard<std::mutex> lock(error_mutex);
+        if (error.empty()) error = e.what();
+        next = static_cast<int>(frames.size());
+      }
+      const int n = ++done;
+      if (options.progress && (n % 10 == 0 || n == static_cast<int>(frames.size()))) {
+        const std::lock_guard<std::mutex> lock(error_mutex);
+        std::fprintf(stderr, "\rmfns-sim: rendered %d/%zu frame sets", n, frames.size());
+        if (n == static_cast<int>(frames.size())) std::fprintf(stderr, "\n");
+      }
+    }
+  };
+  const int threads = std::max(1, options.threads > 0 ? options.threads : static_cast<int>(std::thread::hardware_concurrency()));
+  std::vector<std::thread> pool;
+  for (int t = 0; t < threads; ++t) pool.emplace_back(worker);
+  for (std::thread& t : pool) t.join();
+  if (!error.empty()) throw UserError(error);
+
+  std::ostringstream b;
+  b << "frame,camera,beacon,u_px,v_px,u_geom_px,v_geom_px\n";
+  for (std::size_t i = 0; i < blobs.size(); ++i)
+    for (const BlobRow& r : blobs[i])
+      b << i << ',' << s.rig.cameras[static_cast<std::size_t>(r.camera)].name.data() << ',' << r.beacon << ','
+        << Fmt(6, r.uv.x()) << ',' << Fmt(6, r.uv.y()) << ',' << Fmt(6, r.uv_geom.x()) << ','
+        << Fmt(6, r.uv_geom.y()) << '\n';
+  WriteFileAtomic(dir / "blobs.csv", b.str());
+  WriteFileAtomic(dir / "truth.csv", TruthCsv(frames));
+  if (s.trajectory.kind == TrajectoryKind::kTurntable) WriteFileAtomic(dir / "turntable.csv", TurntableCsv(frames));
+  WriteRigYaml(dir / "rig.yaml", s.rig);
+  WriteRigYaml(dir / "believed-rig.yaml", BelievedRig(s));
+  WriteFileAtomic(dir / "scenario.yaml", scenario_text);
+  return WriteBoundCsv(s, dir / "crb.csv");
+}
+
+}  // namespace mfns::host

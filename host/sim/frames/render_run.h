@@ -1,0 +1,48 @@
+// `mfns-sim render`: a scenario rendered to the frames directory of DESIGN.md with its truth.
+//
+// DIR/frames/<camera>/<frame:06d>.pgm   mono8 (or mono16) frames, 1 per camera per frame set
+// DIR/truth.csv       frame,t_ns,x_mm,y_mm,z_mm,roll_deg,pitch_deg,yaw_deg (true pose)
+// DIR/blobs.csv       frame,camera,beacon,u_px,v_px,u_geom_px,v_geom_px: true blob centres of
+//                     the visible beacons (u_px: the rendered spot's centre, what a perfect
+//                     detector finds; u_geom_px: the beacon's projection without centroid noise)
+// DIR/crb.csv         per frame set: beacons seen per camera and the Cramér-Rao bound of the
+//                     pose (1-sigma per axis) for centroid noise sigma_px
+// DIR/turntable.csv   frame,main_cmd_deg,aux_cmd_deg,main_true_deg,aux_true_deg (turntable runs)
+// DIR/rig.yaml        the true rig and beacons;  DIR/believed-rig.yaml  the rig with the
+//                     scenario's calibration and survey errors (what a navigator would load)
+// DIR/scenario.yaml   the scenario text that made it
+// Every (frame, camera) image draws from its own random stream seeded by (seed, frame,
+// camera), so output bytes do not depend on the number of threads.
+#pragma once
+
+#include <filesystem>
+#include <functional>
+#include <string>
+
+#include "host/sim/scenario/scenario.h"
+
+namespace mfns::host {
+
+struct RenderOptions {
+  std::filesystem::path out_dir;
+  int threads = 0;            // 0: all cores
+  bool write_images = true;   // false: truth, blobs and bound only (fast)
+  bool progress = true;       // a progress line on stderr
+};
+
+struct RenderSummary {
+  int frames = 0;
+  int frames_with_3 = 0;      // frame sets with >= 3 visible beacons in total
+  int frames_with_none = 0;
+  double mean_visible = 0.0;
+};
+
+// Renders scenario `s` (whose YAML text is `scenario_text`) into options.out_dir (created if
+// missing). Throws UserError on I/O failure.
+RenderSummary RenderScenario(const Scenario& s, const std::string& scenario_text, const RenderOptions& options);
+
+// Writes crb.csv (see above) for the scenario's trajectory into path, returns visibility
+// statistics.
+RenderSummary WriteBoundCsv(const Scenario& s, const std::filesystem::path& path);
+
+}  // namespace mfns::host

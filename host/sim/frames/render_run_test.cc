@@ -1,0 +1,134 @@
+#include "host/sim/frames/render_run.h"
+
+#include <gtest/gtest.h>
+
+#include <fstream>
+#include <sstream>
+
+#include "host/sim/render/image.h"
+#include "host/util/atomic_file.h"
+
+namespace mfns::host {
+namespace {
+
+std::filesystem::path TempDir() {
+  std::string tmpl = (std::filesystem::temp_directory_path() / "mfns-render-XXXXXX").string();
+  EXPECT_NE(::mkdtemp(tmpl.data()), nullptr);
+  return tmpl;
+}
+
+std::vector<std::vector<std::string>> ReadCsv(const std::filesystem::path& path) {
+  std::vector<std::vector<std::string>> rows;
+  std::istringstream in(ReadFile(path));
+  std::string line;
+  while (std::getline(in, line)) {
+    std::vector<std::string> cells;
+    std::stringstream ls(line);
+    std::string cell;
+    while (std::getline(ls, cell, ',')) cells.push_back(cell);
+    rows.push_back(cells);
+  }
+  return rows;
+}
+
+Scenario Small(int frames, bool noise) {
+  Scenario s = LoadPreset("paper-turntable");
+  s.frames = frames;
+  s.trajectory.main_step = 30.0 * 3.14159265358979 / 180.0;
+  s.errors.pixel_noise = noise;
+  return s;
+}
+
+TEST(RenderRun, WritesTheDesignLayoutAndTruth) {
+  const auto dir = TempDir();
+  RenderOptions opt;
+  opt.out_dir = dir;
+  opt.progress = false;
+  const Scenario s = Small(12, true);
+  const RenderSummary sum = RenderScenario(s, "name: test\n", opt);
+  EXPECT_EQ(sum.frames, 12);
+  for (const char* cam : {"x", "y", "z"})
+    for (int i = 0; i < 12; ++i) {
+      char name[32];
+      std::snprintf(name, sizeof(name), "%06d.pgm", i);
+      const cv::Mat img = ReadPgm((dir / "frames" / cam / name).string());
+      EXPECT_EQ(img.cols, 1280);
+      EXPECT_EQ(img.rows, 1024);
+      EXPECT_EQ(img.type(), CV_8UC1);
+    }
+  const auto truth = ReadCsv(dir / "truth.csv");
+  ASSERT_EQ(truth.size(), 13u);
+  EXPECT_EQ(truth[0][0], "frame");
+  EXPECT_EQ(truth[0].size(), 8u);
+  EXPECT_NEAR(std::stod(truth[4][7]), 90.0, 1e-6);  // frame 3 at 30 deg steps: yaw 90
+  const auto crb = ReadCsv(dir / "crb.csv");
+  ASSERT_EQ(crb.size(), 13u);
+  EXPECT_TRUE(std::filesystem::exists(dir / "rig.yaml"));
+  EXPECT_TRUE(std::filesystem::exists(dir / "believed-rig.yaml"));
+  EXPECT_TRUE(std::filesystem::exists(dir / "turntable.csv"));
+  // blobs.csv lists exactly the beacons crb.csv counts as visible.
+  const auto blobs = ReadCsv(dir / "blobs.csv");
+  std::vector<int> per_frame(12, 0);
+  for (std::size_t r = 1; r < blobs.size(); ++r) ++per_frame[static_cast<std::size_t>(std::stoi(blobs[r][0]))];
+  for (int i = 0; i < 12; ++i) EXPECT_EQ(per_frame[static_cast<std::size_t>(i)], std::stoi(crb[static_cast<std::size_t>(i + 1)][2]));
+  std::filesystem::remove_all(dir);
+}
+
+// At zero noise the rendered spot's intensity-weighted centroid is the truth in blobs.csv.
+TEST(RenderRun, SpotsSitOnTheirTruth) {
+  const auto dir = TempDir();
+  RenderOptions opt;
+  opt.out_dir = dir;
+  opt.progress = false;
+  RenderScenario(Small(12, false), "", opt);
+  const auto blobs = ReadCsv(dir / "blobs.csv");
+  ASSERT_GT(blobs.size(), 10u);
+  int checked = 0;
+  for (std::size_t r = 1; r < blobs.size(); ++r) {
+    char name[32];
+    std::snprintf(name, sizeof(name), "%06d.pgm", std::stoi(blobs[r][0]));
+    const cv::Mat img = ReadPgm((dir / "frames" / blobs[r][1] / name).string());
+    const double u = std::stod(blobs[r][3]), v = std::stod(blobs[r][4]);
+    EXPECT_EQ(blobs[r][3], blobs[r][5]);  // no centroid noise: rendered centre = projection
+    const int cu = static_cast<int>(std::lround(u)), cv_ = static_cast<int>(std::lround(v));
+    if (cu < 8 || cv_ < 8 || cu > img.cols - 9 || cv_ > img.rows - 9) continue;
+    double sw = 0, su = 0, sv = 0;
+    for (int y = cv_ - 7; y <= cv_ + 7; ++y)
+      for (int x = cu - 7; x <= cu + 7; ++x) {
+        const double w = std::max(0.0, img.at<std::uint8_t>(y, x) - 10.0);  // background 400 e = 10 DN
+        sw += w;
+        su += w * x;
+        sv += w * y;
+      }
+    ASSERT_GT(sw, 0);
+    EXPECT_NEAR(su / sw, u, 0.05);
+    EXPECT_NEAR(sv / sw, v, 0.05);
+    ++checked;
+  }
+  EXPECT_GT(checked, 10);
+  std::filesystem::remove_all(dir);
+}
+
+TEST(RenderRun, SameSeedSameBytesAnyThreadCount) {
+  const auto a = TempDir(), b = TempDir(), c = TempDir();
+  RenderOptions opt;
+  opt.progress = false;
+  Scenario s = Small(3, true);
+  opt.out_dir = a;
+  opt.threads = 1;
+  RenderScenario(s, "", opt);
+  opt.out_dir = b;
+  opt.threads = 3;
+  RenderScenario(s, "", opt);
+  s.seed = 99;
+  opt.out_dir = c;
+  RenderScenario(s, "", opt);
+  for (const char* f : {"frames/x/000002.pgm", "frames/z/000000.pgm", "blobs.csv"}) {
+    EXPECT_EQ(ReadFile(a / f), ReadFile(b / f)) << f;
+    EXPECT_NE(ReadFile(a / f), ReadFile(c / f)) << f;
+  }
+  for (const auto& d : {a, b, c}) std::filesystem::remove_all(d);
+}
+
+}  // namespace
+}  // namespace mfns::host
