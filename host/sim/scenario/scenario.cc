@@ -174,7 +174,7 @@ void ReadClutter(const YAML::Node& n, const YamlCtx& ctx, const Rig& rig, Clutte
 }  // namespace
 
 BodyPose TurntablePose(const Turntable& tt, double main_rad, double aux_rad) {
-  const Eigen::Matrix3d C_t_p = R3(main_rad).transpose() * R1(aux_rad).transpose();
+  const Eigen::Matrix3d C_t_p = R1(aux_rad).transpose() * R3(main_rad).transpose();
   BodyPose pose;
   pose.C_w_b = tt.C_w_t * C_t_p * tt.C_p_b;
   pose.r_w_wb = tt.r_w_wt + tt.C_w_t * (C_t_p * tt.r_p_pb);

@@ -22,10 +22,12 @@ namespace mfns::host {
 
 enum class TrajectoryKind { kStatic, kTurntable, kFreeFlight };
 
-// Two-axis turntable (paper Section 4, Appendix A): main axis Zt, auxiliary axis Xt carried by
-// the main one, both through Ot. Platform attitude C_t_p = Rz(main) * Rx(aux) with active
-// rotations (frame form: R3(main)^T R1(aux)^T). The body is mounted on the platform with C_p_b,
-// r_p_pb. The turntable sits in the world with C_w_t, r_w_wt.
+// Two-axis turntable (paper Section 4, Appendix A): the inner main axis Zt carries the
+// platform; the outer auxiliary axis Xt tilts the whole inner assembly (as on inertial test
+// tables). Both axes pass through Ot. Platform attitude C_t_p = Rx(aux) * Rz(main) with active
+// rotations (frame form: R1(aux)^T R3(main)^T): main alone is eq. A5, aux alone eq. A9. The
+// body is mounted on the platform with C_p_b, r_p_pb. The turntable sits in the world with
+// C_w_t, r_w_wt.
 struct Turntable {
   Eigen::Matrix3d C_w_t = Eigen::Matrix3d::Identity();
   Eigen::Vector3d r_w_wt = Eigen::Vector3d::Zero();

@@ -58,6 +58,10 @@ TEST(Scenario, TurntableKinematics) {
   const BodyPose q = TurntablePose(tt, 0.0, DegToRad(90));  // aux about x: x stays
   EXPECT_TRUE(q.r_w_wb.isApprox(Eigen::Vector3d(0.1, 0, 0), 1e-12));
   EXPECT_TRUE((q.C_w_b * Eigen::Vector3d::UnitY()).isApprox(Eigen::Vector3d::UnitZ(), 1e-12));
+  // The outer aux axis tilts the inner main axis: main 90 then aux -90 turns the body's -x
+  // axis (camera X's view) up.
+  const BodyPose up = TurntablePose(Turntable{}, DegToRad(90), DegToRad(-90));
+  EXPECT_TRUE((up.C_w_b * -Eigen::Vector3d::UnitX()).isApprox(Eigen::Vector3d::UnitZ(), 1e-12));
 }
 
 TEST(Scenario, BelievedRigPerturbsOnlyWhatIsEnabled) {
