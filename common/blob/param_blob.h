@@ -30,7 +30,7 @@ enum class BlobStatus : unsigned char {
   kUnsupportedVersion,  // format version newer (or older) than this decoder understands
   kHeaderCrcMismatch,
   kBadHeader,           // header size, flags or rig id field malformed
-  kTooLarge,            // payload length above limits::kMaxBlobBytes
+  kTooLarge,            // header + payload length above limits::kMaxBlobBytes
   kPayloadCrcMismatch,
   kBadSection,          // a section length overruns the payload or disagrees with its contents
   kMissingSection,      // cameras, extrinsics or beacons absent
