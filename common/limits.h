@@ -28,13 +28,37 @@ inline constexpr std::size_t kMaxBlobBytes = 16384;
 // Detection and identification (firmware).
 inline constexpr int kMaxBlobsPerFrame = 256;
 inline constexpr int kMaxObservations = kMaxCameras * kMaxBlobsPerFrame;
+// Streaming connected components (firmware/modules/detect) keep two rows of runs and the labels
+// they reference: a row has at most ceil(width / 2) runs and each run opens at most one label,
+// so this label table can never overflow for frames within kMaxImageWidth.
+inline constexpr int kMaxRunsPerRow = (kMaxImageWidth + 1) / 2;
+inline constexpr int kMaxBlobLabels = 2 * kMaxRunsPerRow;
+// Adaptive background mesh of the detector: tiles per axis and sparse samples per tile.
+inline constexpr int kMaxBackgroundTilesPerAxis = 64;
+inline constexpr int kMaxBackgroundSamplesPerTile = 1024;
 
 // Capture.
 inline constexpr int kMinCaptureBuffers = 4;
 inline constexpr int kMaxCaptureBuffers = 8;
+inline constexpr int kMaxEintrRetries = 8;        // a syscall interrupted more often fails
+inline constexpr int kMaxPathChars = 255;         // device paths, replay file paths (plus NUL)
+inline constexpr int kMaxReplayFrames = 1000000;  // <frame:06d>.pgm: six digits
+inline constexpr int kMaxPgmHeaderBytes = 1024;   // PGM magic, size, maxval and comments
+inline constexpr std::int64_t kMaxTriggerPulseNs = 100000000;  // 100 ms exposure trigger pulse
 
 // Iterative solvers: every loop has one of these as its bound.
 inline constexpr int kMaxUnprojectIterations = 20;
 inline constexpr int kMaxSolverIterations = 30;
+
+// Identification and pose solve (firmware/modules/identify, firmware/modules/solve).
+// One beacon may be seen by several cameras, so a frame set has at most this many matches.
+inline constexpr int kMaxMatches = kMaxCameras * kMaxBeacons;
+inline constexpr int kMaxOutlierRounds = 8;      // solver: drop-worst-and-re-solve rounds
+inline constexpr int kMaxLisBlobs = 16;          // lost-in-space: brightest blobs used for triples
+inline constexpr int kMaxLisHypotheses = 20000;  // lost-in-space: beacon-triple P3P solves per frame set
+inline constexpr int kMaxLisCandidates = 8;      // lost-in-space: distinct poses kept for refinement
+inline constexpr int kMaxP3pScanSteps = 512;     // generalized P3P: depth samples of its 1-D scan
+inline constexpr int kMaxP3pSolutions = 16;      // generalized P3P: 4 branch pairs x 4 roots
+inline constexpr int kMaxBisectionIterations = 64;
 
 }  // namespace mfns::limits

@@ -11,6 +11,11 @@ enum class PixelFormat : std::uint8_t { kMono8 = 0, kMono16 = 1 };
 
 inline constexpr int BytesPerPixel(PixelFormat f) { return f == PixelFormat::kMono16 ? 2 : 1; }
 
+// Which instant of the exposure t_capture_ns marks (V4L2_BUF_FLAG_TSTAMP_SRC_*): the end of the
+// frame (V4L2's default, after readout) or the start of exposure. Replayed and simulated frames
+// carry the truth time of the frame set (kTruth).
+enum class TimestampSource : std::uint8_t { kEndOfFrame = 0, kStartOfExposure = 1, kTruth = 2 };
+
 struct FrameView {
   const std::uint8_t* data = nullptr;  // first byte of row 0; owned by the source
   int width = 0;                        // px
@@ -19,6 +24,7 @@ struct FrameView {
   PixelFormat format = PixelFormat::kMono8;
   std::uint64_t t_capture_ns = 0;  // sample time: CLOCK_MONOTONIC ns, from the driver
   std::uint32_t sequence = 0;       // driver frame counter (gaps are drops)
+  TimestampSource t_source = TimestampSource::kEndOfFrame;  // what t_capture_ns marks
   int camera = -1;                  // index into the rig's cameras
 
   // Pixel value at (x, y); mono16 is native little-endian as V4L2 Y16 delivers it.
