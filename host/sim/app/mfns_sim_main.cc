@@ -1,6 +1,7 @@
 // mfns-sim: the simulator (DESIGN.md, "Simulator"; issue 3).
 //   mfns-sim render --preset NAME|--scenario FILE --out DIR [--frames N] [--seed S]
 //   mfns-sim crb    --preset NAME|--scenario FILE --out FILE.csv [--frames N] [--seed S]
+//   mfns-sim calib-dataset --preset NAME|--scenario FILE --out DIR [--seed S]
 //   mfns-sim preset NAME            print a built-in scenario (to start a custom one)
 //   mfns-sim analyze --out DIR ...  Figures 4-6 of the paper (error analysis)
 // Exit 0 on success, 1 on a user error with a one-line reason on stderr.
@@ -11,6 +12,7 @@
 #include <yaml-cpp/yaml.h>
 
 #include "host/sim/analysis/analyze_command.h"
+#include "host/sim/calibdata/calib_dataset.h"
 #include "host/sim/frames/render_run.h"
 #include "host/sim/scenario/scenario.h"
 #include "host/util/atomic_file.h"
@@ -81,6 +83,14 @@ int Run(int argc, char** argv) {
   crb_args.Add(crb);
   crb->add_option("--out", crb_out, "Output CSV file")->required();
 
+  ScenarioArgs calib_args;
+  CalibDatasetOptions calib_opt;
+  std::string calib_out;
+  CLI::App* calib = app.add_subcommand("calib-dataset", "Simulate a turntable calibration session (docs/calib-dataset.md)");
+  calib_args.Add(calib);
+  calib->add_option("--out", calib_out, "Output directory")->required();
+  calib->add_option("--threads", calib_opt.threads, "Worker threads (0: all cores)")->check(CLI::NonNegativeNumber);
+
   std::string preset_name;
   bool list = false;
   CLI::App* preset = app.add_subcommand("preset", "Print a built-in scenario's YAML, or list them");
@@ -104,6 +114,13 @@ int Run(int argc, char** argv) {
   if (*crb) {
     std::string text;
     PrintSummary(WriteBoundCsv(crb_args.Load(&text), crb_out));
+  }
+  if (*calib) {
+    std::string text;
+    const Scenario s = calib_args.Load(&text);
+    calib_opt.out_dir = calib_out;
+    const CalibDatasetSummary sum = WriteCalibDataset(s, text, calib_opt);
+    std::printf("calibration images %d, with the whole target in view %d\n", sum.images, sum.complete);
   }
   if (*preset) {
     if (list || preset_name.empty()) {

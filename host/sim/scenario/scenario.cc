@@ -171,6 +171,53 @@ void ReadClutter(const YAML::Node& n, const YamlCtx& ctx, const Rig& rig, Clutte
   }
 }
 
+void ReadCalibration(const YAML::Node& root, const YamlCtx& ctx, CalibrationSetup* c) {
+  if (Has(root, "target")) {
+    const YAML::Node t = root["target"];
+    const YamlCtx tctx = ctx.Sub("target");
+    const std::string type = String(Require(t, "type", tctx), tctx.Sub("type"));
+    if (type == "checkerboard") {
+      RejectUnknownKeys(t, {"type", "cols", "rows", "square_mm"}, tctx);
+      c->cols = Integer(Require(t, "cols", tctx), tctx.Sub("cols"));
+      c->rows = Integer(Require(t, "rows", tctx), tctx.Sub("rows"));
+      c->square = Number(Require(t, "square_mm", tctx), tctx.Sub("square_mm")) * kMm;
+    } else if (type == "aprilgrid") {
+      RejectUnknownKeys(t, {"type", "tag_cols", "tag_rows", "tag_size_mm", "tag_spacing"}, tctx);
+      c->aprilgrid = true;
+      c->cols = Integer(Require(t, "tag_cols", tctx), tctx.Sub("tag_cols"));
+      c->rows = Integer(Require(t, "tag_rows", tctx), tctx.Sub("tag_rows"));
+      c->square = Number(Require(t, "tag_size_mm", tctx), tctx.Sub("tag_size_mm")) * kMm;
+      c->tag_spacing = NumberOr(t, "tag_spacing", c->tag_spacing, tctx);
+    } else {
+      tctx.Sub("type").Fail(t["type"], "expected checkerboard or aprilgrid, got '" + type + "'");
+    }
+    if (c->cols < 2 || c->rows < 2 || c->cols > 40 || c->rows > 40 || !(c->square > 0))
+      tctx.Fail(t, "needs 2..40 columns and rows and a positive size");
+    c->present = true;
+  }
+  if (Has(root, "calibration")) {
+    const YAML::Node n = root["calibration"];
+    const YamlCtx cctx = ctx.Sub("calibration");
+    RejectUnknownKeys(n, {"turntable_images", "free_images", "variation_deg", "free_distance_mm", "free_tilt_deg",
+                          "illumination_e", "blur_sigma_px", "vignetting"}, cctx);
+    c->turntable_images = IntegerOr(n, "turntable_images", c->turntable_images, cctx);
+    c->free_images = IntegerOr(n, "free_images", c->free_images, cctx);
+    if (c->turntable_images < 0 || c->turntable_images > 100 || c->free_images < 0 || c->free_images > 100)
+      cctx.Fail(n, "image counts must be 0..100");
+    c->variation = DegToRad(NumberOr(n, "variation_deg", RadToDeg(c->variation), cctx));
+    if (Has(n, "free_distance_mm")) {
+      const auto d = Numbers<2>(n["free_distance_mm"], cctx.Sub("free_distance_mm"));
+      c->free_distance_min = d[0] * kMm;
+      c->free_distance_max = d[1] * kMm;
+      if (!(d[0] > 0 && d[1] >= d[0])) cctx.Sub("free_distance_mm").Fail(n["free_distance_mm"], "expected 0 < min <= max");
+    }
+    c->free_tilt = DegToRad(NumberOr(n, "free_tilt_deg", RadToDeg(c->free_tilt), cctx));
+    c->illumination_e = NumberOr(n, "illumination_e", c->illumination_e, cctx);
+    c->blur_sigma_px = NumberOr(n, "blur_sigma_px", c->blur_sigma_px, cctx);
+    c->vignetting = BooleanOr(n, "vignetting", c->vignetting, cctx);
+  }
+}
+
 }  // namespace
 
 BodyPose TurntablePose(const Turntable& tt, double main_rad, double aux_rad) {
@@ -185,7 +232,7 @@ Scenario ParseScenarioYaml(const std::string& text, const std::string& source, c
   const YAML::Node root = LoadYaml(text, source);
   const YamlCtx ctx{source, ""};
   RejectUnknownKeys(root, {"name", "seed", "rig", "beacons_mm", "beacon_sigma_mm", "frame_rate_hz", "frames", "t0_ns",
-                           "turntable", "trajectory", "errors", "sensor", "clutter"}, ctx);
+                           "turntable", "trajectory", "errors", "sensor", "clutter", "target", "calibration"}, ctx);
   Scenario s;
   s.name = Has(root, "name") ? String(root["name"], ctx.Sub("name")) : std::filesystem::path(source).stem().string();
   if (Has(root, "seed")) {
@@ -206,6 +253,7 @@ Scenario ParseScenarioYaml(const std::string& text, const std::string& source, c
   if (Has(root, "errors")) ReadErrors(root["errors"], ctx.Sub("errors"), &s.errors);
   if (Has(root, "sensor")) ReadSensor(root["sensor"], ctx.Sub("sensor"), &s.sensor);
   if (Has(root, "clutter")) ReadClutter(root["clutter"], ctx.Sub("clutter"), s.rig, &s.clutter);
+  ReadCalibration(root, ctx, &s.calibration);
   return s;
 }
 

@@ -101,6 +101,25 @@ struct Clutter {
   int stop_frame = 0;
 };
 
+// A calibration session (paper Section 4.2; `mfns-sim calib-dataset`): a fixed target (the
+// world frame w is the target frame, host/sim/render/target.h), the flyer on the turntable at
+// recorded angles (turntable_images per camera) plus hand-held views (free_images per camera).
+struct CalibrationSetup {
+  bool present = false;
+  bool aprilgrid = false;
+  int cols = 9, rows = 6;            // checkerboard inner corners, or AprilGrid tags
+  double square = 0.03;              // m: checkerboard square, or AprilGrid tag size
+  double tag_spacing = 0.3;          // AprilGrid gap / tag size
+  int turntable_images = 11;         // per camera
+  int free_images = 10;              // per camera
+  double variation = 15.0 * 3.14159265358979323846 / 180.0;  // turntable offsets, rad
+  double free_distance_min = 0.35, free_distance_max = 0.6;    // m
+  double free_tilt = 35.0 * 3.14159265358979323846 / 180.0;   // rad, of the view to the normal
+  double illumination_e = 9400;      // white paper ~200 DN at the default gain
+  double blur_sigma_px = 0.6;
+  bool vignetting = true;            // cos^4
+};
+
 struct Scenario {
   std::string name;
   std::uint64_t seed = 1;
@@ -113,6 +132,7 @@ struct Scenario {
   ErrorSources errors;
   SensorSetup sensor;
   Clutter clutter;
+  CalibrationSetup calibration;
 };
 
 // Names of the built-in presets and their YAML text.
