@@ -1,0 +1,807 @@
+#include "firmware/modules/detect/detect.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <numbers>
+#include <utility>
+
+namespace mfns::fw {
+namespace {
+
+constexpr int kMeshAxis = limits::kMaxBackgroundTilesPerAxis;
+constexpr int kMeshSize = kMeshAxis * kMeshAxis;
+constexpr int kMinTilePx =
+    (std::max(limits::kMaxImageWidth, limits::kMaxImageHeight) + kMeshAxis - 1) / kMeshAxis;
+// The adaptive threshold is constant over row segments this long: short enough to follow a
+// background slope (error <= 8 px x slope), long enough for the vectorised background skip.
+constexpr int kSegmentPx = 16;
+constexpr int kMaxSegments = (limits::kMaxImageWidth + kSegmentPx - 1) / kSegmentPx;
+constexpr double kPixelVariance = 1.0 / 12.0;  // variance of a uniform 1 px box
+constexpr double kMadToSigma = 1.4826;          // Gaussian sigma / median absolute deviation
+constexpr double kClipSigmas = 3.5;             // background samples kept within this
+
+// A horizontal run of foreground pixels [x0, x1] in one row and the label it belongs to.
+struct Run {
+  int x0 = 0;
+  int x1 = 0;
+  int label = -1;
+};
+
+// Union-find node and the running sums of one connected component (centroid weights w).
+struct Component {
+  double s0, sx, sy, sxx, syy, sxy;  // sum of w, w x, w y, w x^2, w y^2, w x y
+  double flux;                       // sum of max(pixel - background, 0)
+  int area, peak, saturated;
+  int x_min, x_max, y_min, y_max;
+  int parent;  // itself when a root
+  int stamp;   // last row a run of this root was seen in (closing test)
+};
+
+// Row readers: the pixel value at column x of one row, and whether any of the 16 bytes from
+// column x on exceed t (GCC vector extensions: SSE2 on x86-64, NEON on aarch64). Mono16 is
+// little-endian and may be unaligned (any stride, any buffer offset), hence memcpy.
+using U8x16 = std::uint8_t __attribute__((vector_size(16)));
+using U16x8 = std::uint16_t __attribute__((vector_size(16)));
+
+struct Mono8Row {
+  static constexpr int kBlock = 16;  // pixels per AnyAbove
+  const std::uint8_t* p;
+  int operator[](int x) const { return p[x]; }
+  bool AnyAbove(int x, int t) const {
+    U8x16 v;
+    std::memcpy(&v, p + x, sizeof v);
+    const auto gt = v > static_cast<std::uint8_t>(std::min(t, 255));
+    std::uint64_t h[2];
+    std::memcpy(h, &gt, sizeof h);
+    return (h[0] | h[1]) != 0;
+  }
+};
+
+struct Mono16Row {
+  static constexpr int kBlock = 8;
+  const std::uint8_t* p;
+  int operator[](int x) const {
+    std::uint16_t v;
+    std::memcpy(&v, p + 2 * static_cast<std::ptrdiff_t>(x), sizeof v);
+    return v;
+  }
+  bool AnyAbove(int x, int t) const {
+    U16x8 v;
+    std::memcpy(&v, p + 2 * static_cast<std::ptrdiff_t>(x), sizeof v);
+    const auto gt = v > static_cast<std::uint16_t>(std::min(t, 65535));
+    std::uint64_t h[2];
+    std::memcpy(h, &gt, sizeof h);
+    return (h[0] | h[1]) != 0;
+  }
+};
+
+// Piecewise-linear interpolation over sorted knots c[0..n-1] (spacing about `tile`): the
+// segment i and the fraction f so that value = v[i] + f (v[i+1] - v[i]); beyond the outer knots
+// the end segments are extended (a background slope continues to the image edge).
+void Bracket(const double* c, int n, int tile, double t, int* i, double* f) {
+  if (n == 1) {
+    *i = 0;
+    *f = 0.0;
+    return;
+  }
+  int k = std::clamp(static_cast<int>(std::floor(t / tile)), 0, n - 1);
+  if (t < c[k] && k > 0) --k;
+  k = std::min(k, n - 2);
+  *i = k;
+  *f = (t - c[k]) / (c[k + 1] - c[k]);
+}
+
+double Interpolate(const double* c, const double* v, int n, int tile, double t) {
+  int i = 0;
+  double f = 0.0;
+  Bracket(c, n, tile, t, &i, &f);
+  return n == 1 ? v[0] : v[i] + f * (v[i + 1] - v[i]);
+}
+
+// Robust level and spread of v[0..n-1] (n >= 1; may reorder v): the mean and RMS about it of
+// the values within kClipSigmas of the median, sigma from the MAD. Continuous-valued even when
+// the MAD of integer data is 0 or 1 (the clip is at least kClipSigmas DN). The median and MAD
+// come from a histogram when the values span at most kHistogramBins (always for mono8), from
+// selection otherwise.
+constexpr int kHistogramBins = 1024;
+
+// `max_abs`: a bound on |v| known in advance (255 for mono8), or 0 to find the range.
+void MedianMad(int* v, int n, int max_abs, int* hist, int* scratch, int* median, int* mad) {
+  int lo = -max_abs, range = 2 * max_abs + 1;
+  if (max_abs <= 0 || range > kHistogramBins) {
+    const auto [lo_it, hi_it] = std::minmax_element(v, v + n);
+    lo = *lo_it;
+    range = *hi_it - lo + 1;
+  }
+  const int half = n / 2;  // the median is the element of rank n / 2 (0-based)
+  if (range <= kHistogramBins) {
+    std::fill_n(hist, range, 0);
+    for (int k = 0; k < n; ++k) ++hist[v[k] - lo];
+    int m = 0;
+    for (int seen = hist[0]; seen <= half; seen += hist[++m]) {
+    }
+    *median = lo + m;
+    // Rank n / 2 of |v - median|: widen a window about the median until it holds more.
+    int d = 0;
+    for (int seen = hist[m]; seen <= half; ++d) {
+      if (m - d - 1 >= 0) seen += hist[m - d - 1];
+      if (m + d + 1 < range) seen += hist[m + d + 1];
+    }
+    *mad = d;
+    return;
+  }
+  std::nth_element(v, v + half, v + n);
+  *median = v[half];
+  for (int k = 0; k < n; ++k) scratch[k] = std::abs(v[k] - *median);
+  std::nth_element(scratch, scratch + half, scratch + n);
+  *mad = scratch[half];
+}
+
+void ClippedMeanRms(int* v, int n, int max_abs, int* hist, int* scratch, double* mean, double* rms) {
+  int median = 0, mad = 0;
+  MedianMad(v, n, max_abs, hist, scratch, &median, &mad);
+  const double clip = kClipSigmas * std::max(kMadToSigma * mad, 1.0);
+  double sum = 0.0, sum2 = 0.0;
+  int m = 0;
+  for (int k = 0; k < n; ++k) {
+    const double d = v[k] - median;
+    if (std::abs(d) <= clip) {
+      sum += d;
+      sum2 += d * d;
+      ++m;
+    }
+  }
+  const double mu = sum / m;  // m >= 1: the median itself is within the clip
+  *mean = median + mu;
+  *rms = std::sqrt(std::max(sum2 / m - mu * mu, 0.0));
+}
+
+void AddComponent(Component* into, const Component& from) {
+  into->s0 += from.s0;
+  into->sx += from.sx;
+  into->sy += from.sy;
+  into->sxx += from.sxx;
+  into->syy += from.syy;
+  into->sxy += from.sxy;
+  into->flux += from.flux;
+  into->area += from.area;
+  into->peak = std::max(into->peak, from.peak);
+  into->saturated += from.saturated;
+  into->x_min = std::min(into->x_min, from.x_min);
+  into->x_max = std::max(into->x_max, from.x_max);
+  into->y_min = std::min(into->y_min, from.y_min);
+  into->y_max = std::max(into->y_max, from.y_max);
+}
+
+bool BrighterFirst(const Blob& a, const Blob& b) {
+  if (a.flux_dn != b.flux_dn) return a.flux_dn > b.flux_dn;
+  if (a.uv_px.y() != b.uv_px.y()) return a.uv_px.y() < b.uv_px.y();
+  return a.uv_px.x() < b.uv_px.x();
+}
+
+}  // namespace
+
+const char* ToString(ThresholdMode m) {
+  switch (m) {
+    case ThresholdMode::kFixed: return "fixed";
+    case ThresholdMode::kAdaptive: return "adaptive";
+  }
+  return "unknown";
+}
+
+const char* ToString(SaturationPolicy p) {
+  switch (p) {
+    case SaturationPolicy::kAccept: return "accept";
+    case SaturationPolicy::kFlag: return "flag";
+    case SaturationPolicy::kReject: return "reject";
+  }
+  return "unknown";
+}
+
+const char* ToString(CentroidWeights w) {
+  switch (w) {
+    case CentroidWeights::kRaw: return "raw";
+    case CentroidWeights::kAboveBackground: return "above background";
+    case CentroidWeights::kAboveThreshold: return "above threshold";
+  }
+  return "unknown";
+}
+
+const char* ToString(DetectStatus s) {
+  switch (s) {
+    case DetectStatus::kOk: return "ok";
+    case DetectStatus::kBadOptions: return "bad options";
+    case DetectStatus::kBadFrame: return "bad frame";
+    case DetectStatus::kCameraMismatch: return "camera size differs from frame size";
+    case DetectStatus::kBlobLimit: return "more blobs than max_blobs";
+    case DetectStatus::kLabelTableFull: return "label table full";
+  }
+  return "unknown";
+}
+
+bool DetectOptions::IsValid(const char** why) const {
+  const auto fail = [why](const char* reason) {
+    if (why != nullptr) *why = reason;
+    return false;
+  };
+  if (threshold_mode != ThresholdMode::kFixed && threshold_mode != ThresholdMode::kAdaptive)
+    return fail("threshold_mode");
+  if (fixed_threshold_dn < 0 || fixed_threshold_dn > 65535) return fail("fixed_threshold_dn");
+  if (!std::isfinite(fixed_background_dn) || fixed_background_dn < 0.0)
+    return fail("fixed_background_dn");
+  if (tile_px < kMinTilePx || tile_px > std::max(limits::kMaxImageWidth, limits::kMaxImageHeight))
+    return fail("tile_px");
+  if (sample_step_px < 1) return fail("sample_step_px");
+  const int per_axis = (tile_px + sample_step_px - 1) / sample_step_px;
+  if (per_axis * per_axis > limits::kMaxBackgroundSamplesPerTile) return fail("sample_step_px");
+  if (!std::isfinite(k_sigma) || k_sigma <= 0.0) return fail("k_sigma");
+  if (!std::isfinite(min_contrast_dn) || min_contrast_dn < 0.0) return fail("min_contrast_dn");
+  if (centroid_weights != CentroidWeights::kRaw &&
+      centroid_weights != CentroidWeights::kAboveBackground &&
+      centroid_weights != CentroidWeights::kAboveThreshold)
+    return fail("centroid_weights");
+  if (min_area_px < 1) return fail("min_area_px");
+  if (max_area_px < min_area_px) return fail("max_area_px");
+  if (border_margin_px < 0) return fail("border_margin_px");
+  if (!std::isfinite(min_peak_above_background_dn) || min_peak_above_background_dn < 0.0)
+    return fail("min_peak_above_background_dn");
+  if (saturation_dn < 0 || saturation_dn > 65535) return fail("saturation_dn");
+  if (saturation_policy != SaturationPolicy::kAccept &&
+      saturation_policy != SaturationPolicy::kFlag && saturation_policy != SaturationPolicy::kReject)
+    return fail("saturation_policy");
+  if (max_saturated_px < 0) return fail("max_saturated_px");
+  if (!(max_elongation >= 1.0)) return fail("max_elongation");  // also rejects NaN
+  if (max_blobs < 1 || max_blobs > limits::kMaxBlobsPerFrame) return fail("max_blobs");
+  return true;
+}
+
+DetectCounters& DetectCounters::operator+=(const DetectCounters& o) {
+  frames += o.frames;
+  bad_frames += o.bad_frames;
+  components += o.components;
+  rejected_small += o.rejected_small;
+  rejected_large += o.rejected_large;
+  rejected_border += o.rejected_border;
+  rejected_faint += o.rejected_faint;
+  rejected_saturated += o.rejected_saturated;
+  rejected_elongated += o.rejected_elongated;
+  flagged_saturated += o.flagged_saturated;
+  over_blob_limit += o.over_blob_limit;
+  label_table_full += o.label_table_full;
+  open_discarded += o.open_discarded;
+  undistort_failures += o.undistort_failures;
+  return *this;
+}
+
+// All working memory of a detector; one heap block reserved at construction.
+struct detail::DetectWorkspace {
+  int max_labels = 0;
+
+  // Streaming components: runs of the previous and current row, the label table, its free
+  // list, and the labels merged into another during the current row (freed at row end).
+  std::array<Run, limits::kMaxRunsPerRow> runs_a{};
+  std::array<Run, limits::kMaxRunsPerRow> runs_b{};
+  std::array<Component, limits::kMaxBlobLabels> comps{};
+  std::array<int, limits::kMaxBlobLabels> free_labels{};
+  int num_free = 0;
+  std::array<int, limits::kMaxBlobLabels> merged{};
+  int num_merged = 0;
+
+  // Background mesh: tile backgrounds at tile centres (kFixed: one tile, the fixed level).
+  int tile = 0;
+  int nx = 0;
+  int ny = 0;
+  double contrast = 0.0;  // threshold - background (DN)
+  std::array<double, kMeshSize> mesh_bg{};
+  std::array<double, kMeshSize> mesh_sigma{};
+  std::array<double, kMeshSize> mesh_tmp{};
+  std::array<double, kMeshAxis> centre_x{};
+  std::array<double, kMeshAxis> centre_y{};
+  std::array<double, kMeshAxis> row_bg{};    // mesh interpolated to the current row
+  std::array<double, kMeshAxis> point_bg{};  // scratch of BackgroundAt
+  std::array<int, kMaxSegments> segment_thr{};  // the current row's thresholds (DN)
+  std::array<int, limits::kMaxBackgroundSamplesPerTile> samples{};
+  std::array<int, limits::kMaxBackgroundSamplesPerTile> differences{};
+  std::array<int, limits::kMaxBackgroundSamplesPerTile> scratch{};
+  std::array<int, kHistogramBins> histogram{};
+  // Background at each threshold segment's centre on each tile row: [ny][num_segments].
+  std::array<double, kMeshAxis * kMaxSegments> segment_bg{};
+
+  // Per frame.
+  int width = 0;
+  int height = 0;
+  int full_scale = 0;
+  int saturation_level = 0;
+  int segment_px = 0;  // kSegmentPx (kAdaptive) or the frame width (kFixed)
+  int num_segments = 0;
+
+  int Find(int a) {
+    // Path halving; depth is small because labels merged in a row are freed at its end.
+    for (int i = 0; i < max_labels && comps[a].parent != a; ++i) {
+      comps[a].parent = comps[comps[a].parent].parent;
+      a = comps[a].parent;
+    }
+    return a;
+  }
+
+  int Alloc(int y) {
+    if (num_free == 0) return -1;
+    const int l = free_labels[--num_free];
+    comps[l] = Component{0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0, 0, 0, width, -1, height, -1, l, y};
+    return l;
+  }
+
+  void Release(int l) { free_labels[num_free++] = l; }
+
+  // Joins the components of labels a and b; returns the surviving root.
+  int Union(int a, int b) {
+    const int ra = Find(a);
+    const int rb = Find(b);
+    if (ra == rb) return ra;
+    AddComponent(&comps[ra], comps[rb]);
+    comps[rb].parent = ra;
+    merged[num_merged++] = rb;
+    return ra;
+  }
+
+  // Fills out[i], i < nx, with the mesh interpolated (vertically) to row y.
+  void MeshAtRow(double y, double* out) const {
+    int j = 0;
+    double f = 0.0;
+    Bracket(centre_y.data(), ny, tile, y, &j, &f);
+    for (int i = 0; i < nx; ++i) {
+      const double a = mesh_bg[j * nx + i];
+      out[i] = ny == 1 ? a : a + f * (mesh_bg[(j + 1) * nx + i] - a);
+    }
+  }
+
+  double BackgroundAt(double x, double y) {
+    MeshAtRow(y, point_bg.data());
+    return Interpolate(centre_x.data(), point_bg.data(), nx, tile, x);
+  }
+
+  double RowBackground(int x) const { return Interpolate(centre_x.data(), row_bg.data(), nx, tile, x); }
+
+  // After the mesh is final: the background at every segment centre on every tile row.
+  void PrepareSegments() {
+    for (int j = 0; j < ny; ++j) {
+      const double* row = mesh_bg.data() + j * nx;
+      for (int k = 0; k < num_segments; ++k) {
+        const int x0 = k * segment_px, x1 = std::min(x0 + segment_px, width);
+        segment_bg[j * num_segments + k] = Interpolate(centre_x.data(), row, nx, tile, 0.5 * (x0 + x1 - 1));
+      }
+    }
+  }
+
+  // Row y's background (row_bg) and, in kAdaptive, its segment thresholds.
+  void PrepareRow(int y, bool adaptive) {
+    MeshAtRow(y, row_bg.data());
+    if (!adaptive) return;
+    int j = 0;
+    double f = 0.0;
+    Bracket(centre_y.data(), ny, tile, y, &j, &f);
+    const double* a = segment_bg.data() + j * num_segments;
+    const double* b = ny == 1 ? a : a + num_segments;
+    const double top = full_scale;
+    for (int k = 0; k < num_segments; ++k) {
+      // pixel > t <=> pixel > floor(t) for integer pixels; t is clamped >= 0, so truncate.
+      const double t = a[k] + f * (b[k] - a[k]) + contrast;
+      segment_thr[k] = static_cast<int>(std::clamp(t, 0.0, top));
+    }
+  }
+};
+
+BlobDetector::BlobDetector(const DetectOptions& options, int max_labels)
+    : options_(options), options_valid_(options.IsValid()), ws_(new detail::DetectWorkspace) {
+  ws_->max_labels = std::clamp(max_labels, 1, limits::kMaxBlobLabels);
+}
+
+BlobDetector::~BlobDetector() = default;
+BlobDetector::BlobDetector(BlobDetector&&) noexcept = default;
+BlobDetector& BlobDetector::operator=(BlobDetector&&) noexcept = default;
+
+namespace {
+
+// One frame through the detector, with the pixel type as a template parameter.
+template <typename RowT>
+class FramePass {
+ public:
+  FramePass(const DetectOptions& o, detail::DetectWorkspace& ws, const FrameView& f, BlobList* out)
+      : o_(o), ws_(ws), f_(f), out_(out) {}
+
+  void SetUpFixed();
+  void EstimateBackground();
+  DetectStatus Label();
+
+ private:
+  RowT Row(int y) const { return RowT{f_.data + static_cast<std::ptrdiff_t>(y) * f_.stride_bytes}; }
+  bool Adaptive() const { return o_.threshold_mode == ThresholdMode::kAdaptive; }
+  int ScanRow(int y, Run* runs) const;
+  void Accumulate(const Run& run, int y, Component* c) const;
+  void Close(const Component& c);
+  void Emit(const Blob& b);
+
+  const DetectOptions& o_;
+  detail::DetectWorkspace& ws_;
+  const FrameView& f_;
+  BlobList* out_;
+};
+
+template <typename RowT>
+void FramePass<RowT>::SetUpFixed() {
+  ws_.tile = std::max(f_.width, f_.height);
+  ws_.nx = ws_.ny = 1;
+  ws_.centre_x[0] = 0.5 * (f_.width - 1);
+  ws_.centre_y[0] = 0.5 * (f_.height - 1);
+  ws_.mesh_bg[0] = o_.fixed_background_dn;
+  ws_.contrast = o_.fixed_threshold_dn - o_.fixed_background_dn;
+  ws_.segment_px = f_.width;
+  ws_.num_segments = 1;
+  ws_.segment_thr[0] = o_.fixed_threshold_dn;  // exactly, whatever the background
+  out_->background_dn = o_.fixed_background_dn;
+  out_->noise_dn = 0.0;
+  out_->contrast_dn = ws_.contrast;
+  out_->threshold_min_dn = out_->threshold_max_dn = o_.fixed_threshold_dn;
+}
+
+template <typename RowT>
+void FramePass<RowT>::EstimateBackground() {
+  const int T = o_.tile_px;
+  const int step = o_.sample_step_px;
+  ws_.tile = T;
+  ws_.nx = (f_.width + T - 1) / T;
+  ws_.ny = (f_.height + T - 1) / T;
+  ws_.segment_px = kSegmentPx;
+  ws_.num_segments = (f_.width + kSegmentPx - 1) / kSegmentPx;
+  const int nx = ws_.nx;
+  const int ny = ws_.ny;
+  for (int i = 0; i < nx; ++i) ws_.centre_x[i] = 0.5 * (i * T + std::min((i + 1) * T, f_.width) - 1);
+  for (int j = 0; j < ny; ++j) ws_.centre_y[j] = 0.5 * (j * T + std::min((j + 1) * T, f_.height) - 1);
+
+  const int max_abs = f_.format == PixelFormat::kMono8 ? 255 : 0;  // mono16: find the range
+  for (int j = 0; j < ny; ++j) {
+    for (int i = 0; i < nx; ++i) {
+      const int x0 = i * T, x1 = std::min(x0 + T, f_.width);
+      const int y0 = j * T, y1 = std::min(y0 + T, f_.height);
+      // Sample grid centred in the tile (a partial edge tile still gets one sample per axis).
+      const int ox = std::min(step / 2, (x1 - x0 - 1) / 2);
+      const int oy = std::min(step / 2, (y1 - y0 - 1) / 2);
+      int n = 0;
+      for (int y = y0 + oy; y < y1; y += step) {
+        const RowT row = Row(y);
+        for (int x = x0 + ox; x < x1; x += step) {
+          // The difference to the next pixel measures noise without the background's slope.
+          const int xn = x + 1 < f_.width ? x + 1 : x - 1;
+          ws_.samples[n] = row[x];
+          ws_.differences[n] = xn >= 0 ? row[x] - row[xn] : 0;
+          ++n;
+        }
+      }
+      double level = 0.0, spread = 0.0, diff_mean = 0.0, diff_rms = 0.0;
+      ClippedMeanRms(ws_.samples.data(), n, max_abs, ws_.histogram.data(), ws_.scratch.data(), &level,
+                     &spread);
+      ClippedMeanRms(ws_.differences.data(), n, max_abs, ws_.histogram.data(), ws_.scratch.data(),
+                     &diff_mean, &diff_rms);
+      ws_.mesh_bg[j * nx + i] = level;
+      ws_.mesh_sigma[j * nx + i] = diff_rms / std::numbers::sqrt2;  // var(a - b) = 2 var(a)
+    }
+  }
+
+  const int cells = nx * ny;
+  if (o_.mesh_median_filter && nx >= 3 && ny >= 3) {
+    // 3x3 median over interior tiles: a tile filled by a bright object takes its neighbours'.
+    std::copy_n(ws_.mesh_bg.begin(), cells, ws_.mesh_tmp.begin());
+    for (int j = 1; j + 1 < ny; ++j) {
+      for (int i = 1; i + 1 < nx; ++i) {
+        std::array<double, 9> w{};
+        int k = 0;
+        for (int dj = -1; dj <= 1; ++dj)
+          for (int di = -1; di <= 1; ++di) w[k++] = ws_.mesh_tmp[(j + dj) * nx + (i + di)];
+        std::nth_element(w.begin(), w.begin() + 4, w.end());
+        ws_.mesh_bg[j * nx + i] = w[4];
+      }
+    }
+  }
+
+  // Frame noise: the median of the tiles' (read noise dominates a dark frame).
+  std::copy_n(ws_.mesh_sigma.begin(), cells, ws_.mesh_tmp.begin());
+  std::nth_element(ws_.mesh_tmp.begin(), ws_.mesh_tmp.begin() + cells / 2, ws_.mesh_tmp.begin() + cells);
+  const double noise = ws_.mesh_tmp[cells / 2];
+  ws_.contrast = std::max(o_.k_sigma * noise, o_.min_contrast_dn);
+
+  std::copy_n(ws_.mesh_bg.begin(), cells, ws_.mesh_tmp.begin());
+  const auto [lo, hi] = std::minmax_element(ws_.mesh_tmp.begin(), ws_.mesh_tmp.begin() + cells);
+  const double bg_min = *lo, bg_max = *hi;
+  std::nth_element(ws_.mesh_tmp.begin(), ws_.mesh_tmp.begin() + cells / 2, ws_.mesh_tmp.begin() + cells);
+  out_->background_dn = ws_.mesh_tmp[cells / 2];
+  out_->noise_dn = noise;
+  out_->contrast_dn = ws_.contrast;
+  const auto clamp_thr = [this](double t) {
+    return static_cast<int>(std::clamp(std::floor(t + ws_.contrast), 0.0, static_cast<double>(ws_.full_scale)));
+  };
+  out_->threshold_min_dn = clamp_thr(bg_min);
+  out_->threshold_max_dn = clamp_thr(bg_max);
+  ws_.PrepareSegments();
+}
+
+// Finds the runs of row y (pixel > threshold of its segment); returns how many
+// (<= (width + 1) / 2). Background is skipped a vector block at a time.
+template <typename RowT>
+int FramePass<RowT>::ScanRow(int y, Run* runs) const {
+  const RowT row = Row(y);
+  const int W = f_.width;
+  const int L = ws_.segment_px;
+  int n = 0;
+  int start = -1;
+  for (int k = 0; k < ws_.num_segments; ++k) {
+    const int t = ws_.segment_thr[k];
+    const int x1 = std::min((k + 1) * L, W);
+    int x = k * L;
+    while (x < x1) {
+      if (start < 0) {
+        while (x + RowT::kBlock <= x1 && !row.AnyAbove(x, t)) x += RowT::kBlock;
+        while (x < x1 && row[x] <= t) ++x;
+        if (x < x1) start = x;
+      } else {
+        while (x < x1 && row[x] > t) ++x;
+        if (x < x1) {
+          runs[n++] = Run{start, x - 1, -1};
+          start = -1;
+        }
+      }
+    }
+  }
+  if (start >= 0) runs[n++] = Run{start, W - 1, -1};
+  return n;
+}
+
+// Adds the pixels of one run in row y to component c (row prepared for y).
+template <typename RowT>
+void FramePass<RowT>::Accumulate(const Run& run, int y, Component* c) const {
+  const RowT row = Row(y);
+  double s0 = 0.0, sx = 0.0, sxx = 0.0, flux = 0.0;
+  int peak = c->peak, saturated = 0;
+  for (int x = run.x0; x <= run.x1; ++x) {
+    const int p = row[x];
+    const double bg = ws_.RowBackground(x);
+    const double above_bg = std::max(p - bg, 0.0);
+    double w = above_bg;
+    if (o_.centroid_weights == CentroidWeights::kRaw) {
+      w = p;
+    } else if (o_.centroid_weights == CentroidWeights::kAboveThreshold) {
+      // In kFixed the threshold is fixed_threshold_dn exactly (= background + contrast).
+      w = Adaptive() ? std::max(p - (bg + ws_.contrast), 0.0)
+                     : std::max(p - static_cast<double>(o_.fixed_threshold_dn), 0.0);
+    }
+    s0 += w;
+    sx += w * x;
+    sxx += w * x * x;
+    flux += above_bg;
+    peak = std::max(peak, p);
+    saturated += p >= ws_.saturation_level ? 1 : 0;
+  }
+  c->s0 += s0;
+  c->sx += sx;
+  c->sxx += sxx;
+  c->sy += s0 * y;
+  c->syy += s0 * y * y;
+  c->sxy += sx * y;
+  c->flux += flux;
+  c->area += run.x1 - run.x0 + 1;
+  c->peak = peak;
+  c->saturated += saturated;
+  c->x_min = std::min(c->x_min, run.x0);
+  c->x_max = std::max(c->x_max, run.x1);
+  c->y_min = std::min(c->y_min, y);
+  c->y_max = std::max(c->y_max, y);
+}
+
+// A component is complete: measure it, gate it, keep it if it passes.
+template <typename RowT>
+void FramePass<RowT>::Close(const Component& c) {
+  DetectCounters& k = out_->counters;
+  ++k.components;
+  if (c.area < o_.min_area_px) {
+    ++k.rejected_small;
+    return;
+  }
+  if (c.area > o_.max_area_px) {
+    ++k.rejected_large;
+    return;
+  }
+  const int m = o_.border_margin_px;
+  if (o_.reject_border && (c.x_min <= m || c.y_min <= m || c.x_max >= f_.width - 1 - m ||
+                           c.y_max >= f_.height - 1 - m)) {
+    ++k.rejected_border;
+    return;
+  }
+  Blob b;
+  if (c.s0 > 0.0) {
+    b.uv_px = Eigen::Vector2d(c.sx / c.s0, c.sy / c.s0);
+  } else {
+    b.uv_px = Eigen::Vector2d(0.5 * (c.x_min + c.x_max), 0.5 * (c.y_min + c.y_max));
+  }
+  b.background_dn = ws_.BackgroundAt(b.uv_px.x(), b.uv_px.y());
+  b.peak_dn = c.peak;
+  if (!(c.s0 > 0.0) || c.peak - b.background_dn < o_.min_peak_above_background_dn) {
+    ++k.rejected_faint;
+    return;
+  }
+  b.saturated_px = c.saturated;
+  if (c.saturated > o_.max_saturated_px) {
+    if (o_.saturation_policy == SaturationPolicy::kReject) {
+      ++k.rejected_saturated;
+      return;
+    }
+    if (o_.saturation_policy == SaturationPolicy::kFlag) b.saturated = true;
+  }
+  b.m_xx = std::max(c.sxx / c.s0 - b.uv_px.x() * b.uv_px.x(), 0.0);
+  b.m_yy = std::max(c.syy / c.s0 - b.uv_px.y() * b.uv_px.y(), 0.0);
+  b.m_xy = c.sxy / c.s0 - b.uv_px.x() * b.uv_px.y();
+  // Eigenvalues of the 2x2 symmetric moment matrix (+ a pixel's own variance), closed form.
+  const double a = b.m_xx + kPixelVariance, d = b.m_yy + kPixelVariance;
+  const double half_trace = 0.5 * (a + d);
+  const double r = std::sqrt(0.25 * (a - d) * (a - d) + b.m_xy * b.m_xy);
+  const double l_min = std::max(half_trace - r, 1e-12);
+  b.elongation = std::sqrt((half_trace + r) / l_min);
+  if (b.elongation > o_.max_elongation) {
+    ++k.rejected_elongated;
+    return;
+  }
+  if (b.saturated) ++k.flagged_saturated;
+  b.flux_dn = c.flux;
+  b.area_px = c.area;
+  b.x_min = c.x_min;
+  b.x_max = c.x_max;
+  b.y_min = c.y_min;
+  b.y_max = c.y_max;
+  Emit(b);
+}
+
+// Keeps the max_blobs brightest: when full, the faintest is replaced by a brighter newcomer.
+template <typename RowT>
+void FramePass<RowT>::Emit(const Blob& b) {
+  if (out_->count < o_.max_blobs) {
+    out_->blobs[out_->count++] = b;
+    return;
+  }
+  ++out_->counters.over_blob_limit;
+  int faintest = 0;
+  for (int i = 1; i < out_->count; ++i)
+    if (BrighterFirst(out_->blobs[faintest], out_->blobs[i])) faintest = i;
+  if (BrighterFirst(b, out_->blobs[faintest])) out_->blobs[faintest] = b;
+}
+
+// Streaming 8-connected labelling, one row at a time. A component is closed (measured and
+// freed) at the end of the first row that does not continue it.
+template <typename RowT>
+DetectStatus FramePass<RowT>::Label() {
+  detail::DetectWorkspace& w = ws_;
+  w.num_free = 0;
+  for (int l = w.max_labels - 1; l >= 0; --l) w.free_labels[w.num_free++] = l;
+  Run* prev = w.runs_a.data();
+  Run* cur = w.runs_b.data();
+  int n_prev = 0;
+
+  for (int y = 0; y < f_.height; ++y) {
+    if (Adaptive()) w.PrepareRow(y, true);
+    const int n_cur = ScanRow(y, cur);
+    w.num_merged = 0;
+    if (n_cur > 0 && !Adaptive()) w.PrepareRow(y, false);
+    int j = 0;  // first previous run that may touch the current one
+    for (int r = 0; r < n_cur; ++r) {
+      Run& run = cur[r];
+      // 8-connectivity: [x0, x1] touches [p0, p1] when p0 <= x1 + 1 and p1 >= x0 - 1.
+      while (j < n_prev && prev[j].x1 < run.x0 - 1) ++j;
+      int label = -1;
+      for (int k = j; k < n_prev && prev[k].x0 <= run.x1 + 1; ++k)
+        label = label < 0 ? w.Find(prev[k].label) : w.Union(label, prev[k].label);
+      if (label < 0) {
+        label = w.Alloc(y);
+        if (label < 0) {
+          // Out of labels: the frame is cut here; components still open are incomplete.
+          ++out_->counters.label_table_full;
+          out_->counters.open_discarded +=
+              static_cast<std::uint64_t>(w.max_labels - w.num_free - w.num_merged);
+          return DetectStatus::kLabelTableFull;
+        }
+      }
+      run.label = label;
+      Accumulate(run, y, &w.comps[label]);
+    }
+    // Resolve the current runs to their roots and mark those roots as continuing.
+    for (int r = 0; r < n_cur; ++r) {
+      cur[r].label = w.Find(cur[r].label);
+      w.comps[cur[r].label].stamp = y;
+    }
+    // Roots of the previous row not continued in this one are complete.
+    for (int k = 0; k < n_prev; ++k) {
+      const int root = w.Find(prev[k].label);
+      if (w.comps[root].stamp != y) {
+        w.comps[root].stamp = y;  // closed once even when several runs point to it
+        Close(w.comps[root]);
+        w.Release(root);
+      }
+    }
+    for (int m = 0; m < w.num_merged; ++m) w.Release(w.merged[m]);
+    std::swap(prev, cur);
+    n_prev = n_cur;
+  }
+  for (int k = 0; k < n_prev; ++k) {
+    const int root = prev[k].label;  // resolved at the end of the last row
+    if (w.comps[root].stamp != f_.height) {
+      w.comps[root].stamp = f_.height;
+      Close(w.comps[root]);
+      w.Release(root);
+    }
+  }
+  return DetectStatus::kOk;
+}
+
+template <typename RowT>
+DetectStatus DetectTyped(const DetectOptions& o, detail::DetectWorkspace& ws, const FrameView& f,
+                         BlobList* out) {
+  ws.width = f.width;
+  ws.height = f.height;
+  ws.full_scale = f.format == PixelFormat::kMono8 ? 255 : 65535;
+  ws.saturation_level = o.saturation_dn > 0 ? o.saturation_dn : ws.full_scale;
+  FramePass<RowT> pass(o, ws, f, out);
+  if (o.threshold_mode == ThresholdMode::kAdaptive) {
+    pass.EstimateBackground();
+  } else {
+    pass.SetUpFixed();
+  }
+  return pass.Label();
+}
+
+bool FrameIsValid(const FrameView& f) {
+  if (f.data == nullptr) return false;
+  if (f.format != PixelFormat::kMono8 && f.format != PixelFormat::kMono16) return false;
+  if (f.width <= 0 || f.height <= 0) return false;
+  if (f.width > limits::kMaxImageWidth || f.height > limits::kMaxImageHeight) return false;
+  return f.stride_bytes >= f.width * BytesPerPixel(f.format);
+}
+
+}  // namespace
+
+DetectStatus BlobDetector::Detect(const FrameView& frame, const CameraIntrinsics* camera,
+                                  BlobList* out) {
+  out->count = 0;
+  out->camera = frame.camera;
+  out->sequence = frame.sequence;
+  out->t_capture_ns = frame.t_capture_ns;
+  out->background_dn = out->noise_dn = out->contrast_dn = 0.0;
+  out->threshold_min_dn = out->threshold_max_dn = 0;
+  out->counters = DetectCounters{};
+  out->counters.frames = 1;
+
+  DetectStatus status = DetectStatus::kOk;
+  if (!options_valid_) {
+    status = DetectStatus::kBadOptions;
+  } else if (!FrameIsValid(frame)) {
+    status = DetectStatus::kBadFrame;
+  } else if (camera != nullptr && (camera->width != frame.width || camera->height != frame.height)) {
+    status = DetectStatus::kCameraMismatch;
+  }
+  if (status != DetectStatus::kOk) {
+    out->counters.bad_frames = 1;
+    counters_ += out->counters;
+    return status;
+  }
+
+  status = frame.format == PixelFormat::kMono8 ? DetectTyped<Mono8Row>(options_, *ws_, frame, out)
+                                               : DetectTyped<Mono16Row>(options_, *ws_, frame, out);
+  if (status == DetectStatus::kOk && out->counters.over_blob_limit > 0) status = DetectStatus::kBlobLimit;
+
+  std::sort(out->blobs.begin(), out->blobs.begin() + out->count, BrighterFirst);
+  for (int i = 0; i < out->count && camera != nullptr; ++i) {
+    Blob& b = out->blobs[i];
+    b.normalised_ok = Unproject(*camera, b.uv_px, &b.x_n) == UnprojectStatus::kOk;
+    if (!b.normalised_ok) ++out->counters.undistort_failures;
+  }
+  counters_ += out->counters;
+  return status;
+}
+
+}  // namespace mfns::fw

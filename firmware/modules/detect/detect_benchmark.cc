@@ -1,0 +1,116 @@
+// Blob detection on a 1280x1024 mono8 frame with 10 spots and noise (issue 4, benchmarks):
+// the detector (adaptive and fixed threshold) beside the OpenCV baseline measured in the same
+// program: cv::threshold + cv::connectedComponentsWithStats + weighted centroid per component.
+#include <benchmark/benchmark.h>
+
+#include <opencv2/core.hpp>
+#include <opencv2/imgproc.hpp>
+#include <random>
+#include <vector>
+
+#include "firmware/modules/detect/detect.h"
+#include "firmware/modules/detect/detect_testing.h"
+
+namespace mfns::fw {
+namespace {
+
+constexpr double kBackground = 20.0;
+constexpr double kNoise = 2.0;
+constexpr int kThreshold = 40;  // fixed threshold for the fixed-mode run and the baseline
+
+const testing::FrameBuffer& Frame() {
+  static const testing::FrameBuffer frame = [] {
+    std::mt19937_64 rng(1);
+    std::uniform_real_distribution<double> ux(40.0, 1240.0), uy(40.0, 984.0), us(1.2, 2.2), up(80.0, 220.0);
+    testing::SyntheticImage img(1280, 1024);
+    img.AddBackground(kBackground);
+    for (int i = 0; i < 10; ++i) {
+      testing::Spot s;
+      s.u = ux(rng);
+      s.v = uy(rng);
+      s.sigma_x = s.sigma_y = us(rng);
+      s.flux = up(rng) * 2.0 * std::numbers::pi * s.sigma_x * s.sigma_y;
+      img.AddSpot(s);
+    }
+    img.AddNoise(kNoise, rng);
+    return testing::Quantize(img, PixelFormat::kMono8);
+  }();
+  return frame;
+}
+
+void RunDetector(benchmark::State& state, const DetectOptions& options) {
+  const FrameView& view = Frame().view;
+  BlobDetector detector(options);
+  static BlobList out;  // 40 kB: not on the stack
+  for (auto _ : state) {
+    detector.Detect(view, nullptr, &out);
+    benchmark::DoNotOptimize(out.blobs.data());
+    benchmark::ClobberMemory();
+  }
+  state.counters["blobs"] = out.count;
+  state.counters["Mpx/s"] = benchmark::Counter(static_cast<double>(view.width) * view.height,
+                                               benchmark::Counter::kIsIterationInvariantRate);
+}
+
+void BM_DetectAdaptive(benchmark::State& state) { RunDetector(state, DetectOptions()); }
+
+void BM_DetectFixed(benchmark::State& state) {
+  DetectOptions o;
+  o.threshold_mode = ThresholdMode::kFixed;
+  o.fixed_threshold_dn = kThreshold;
+  o.fixed_background_dn = kBackground;
+  RunDetector(state, o);
+}
+
+// The baseline of the issue, with every Mat preallocated and the weighted centroid computed
+// only inside each component's bounding box. Argument: OpenCV threads (1, as the detector; or
+// -1 = OpenCV's default, all cores, which parallelises the labelling). Times are process CPU.
+void BM_OpenCvThresholdComponentsCentroid(benchmark::State& state) {
+  const int threads_before = cv::getNumThreads();
+  cv::setNumThreads(static_cast<int>(state.range(0)));
+  const FrameView& f = Frame().view;
+  const cv::Mat img(f.height, f.width, CV_8UC1, const_cast<std::uint8_t*>(f.data),
+                    static_cast<std::size_t>(f.stride_bytes));
+  cv::Mat mask(f.height, f.width, CV_8UC1), labels(f.height, f.width, CV_32S), stats, centroids;
+  std::vector<double> u(limits::kMaxBlobsPerFrame + 1), v(limits::kMaxBlobsPerFrame + 1);
+  int n = 0;
+  for (auto _ : state) {
+    cv::threshold(img, mask, kThreshold, 255, cv::THRESH_BINARY);
+    n = cv::connectedComponentsWithStats(mask, labels, stats, centroids, 8, CV_32S);
+    for (int l = 1; l < n && l <= limits::kMaxBlobsPerFrame; ++l) {
+      const int x0 = stats.at<int>(l, cv::CC_STAT_LEFT), y0 = stats.at<int>(l, cv::CC_STAT_TOP);
+      const int x1 = x0 + stats.at<int>(l, cv::CC_STAT_WIDTH), y1 = y0 + stats.at<int>(l, cv::CC_STAT_HEIGHT);
+      double s0 = 0.0, sx = 0.0, sy = 0.0;
+      for (int y = y0; y < y1; ++y) {
+        const int* lab = labels.ptr<int>(y);
+        const std::uint8_t* p = img.ptr<std::uint8_t>(y);
+        for (int x = x0; x < x1; ++x) {
+          if (lab[x] != l) continue;
+          const double w = std::max(p[x] - kBackground, 0.0);
+          s0 += w;
+          sx += w * x;
+          sy += w * y;
+        }
+      }
+      u[l] = sx / s0;
+      v[l] = sy / s0;
+    }
+    benchmark::DoNotOptimize(u.data());
+    benchmark::DoNotOptimize(v.data());
+    benchmark::ClobberMemory();
+  }
+  cv::setNumThreads(threads_before);
+  state.counters["blobs"] = n - 1;
+  state.counters["Mpx/s"] = benchmark::Counter(static_cast<double>(f.width) * f.height,
+                                               benchmark::Counter::kIsIterationInvariantRate);
+}
+
+BENCHMARK(BM_DetectAdaptive)->MeasureProcessCPUTime()->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_DetectFixed)->MeasureProcessCPUTime()->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_OpenCvThresholdComponentsCentroid)->ArgName("threads")->Arg(1)->Arg(-1)->MeasureProcessCPUTime()->Unit(
+    benchmark::kMicrosecond);
+
+}  // namespace
+}  // namespace mfns::fw
+
+BENCHMARK_MAIN();
