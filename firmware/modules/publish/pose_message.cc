@@ -1,0 +1,185 @@
+#include "firmware/modules/publish/pose_message.h"
+
+#include "common/blob/param_blob.h"
+#include "common/wire/byte_io.h"
+
+namespace mfns::fw {
+namespace {
+
+constexpr std::array<std::uint8_t, 4> kMagic = {'M', 'F', 'N', 'P'};
+constexpr std::uint8_t kTypePose = 1, kTypeHealth = 2;
+constexpr std::size_t kCameraHealthBytes = 20;
+static_assert(48 + 3 * 8 + 4 * 8 + 3 * 4 + 4 + 21 * 4 + 4 == kPoseMessageBytes, "pose layout");
+static_assert(56 + limits::kMaxCameras * kCameraHealthBytes + 4 == kHealthMessageBytes, "health layout");
+static_assert(limits::kMaxCameras == 4, "the wire formats carry exactly 4 camera slots");
+
+void Header(wire::ByteWriter& w, std::uint8_t type, std::size_t size) {
+  w.Bytes(kMagic);
+  w.U8(kMessageVersion);
+  w.U8(type);
+  w.U16(static_cast<std::uint16_t>(size));
+}
+
+void Seal(std::span<std::uint8_t> out) {
+  const std::size_t n = out.size() - 4;
+  const std::uint32_t crc = Crc32(out.first(n));
+  wire::ByteWriter w(out.subspan(n));
+  w.U32(crc);
+}
+
+MessageStatus Check(std::span<const std::uint8_t> in, std::uint8_t type, std::size_t size) {
+  if (in.size() < 8) return MessageStatus::kTruncated;
+  for (std::size_t i = 0; i < 4; ++i)
+    if (in[i] != kMagic[i]) return MessageStatus::kBadMagic;
+  if (in[4] != kMessageVersion) return MessageStatus::kBadVersion;
+  if (in[5] != type) return MessageStatus::kBadType;
+  if (wire::LoadLe(in, 6, 2) != size) return MessageStatus::kBadSize;
+  if (in.size() < size) return MessageStatus::kTruncated;
+  if (in.size() > size) return MessageStatus::kBadSize;
+  if (Crc32(in.first(size - 4)) != wire::LoadLe(in, size - 4, 4)) return MessageStatus::kBadCrc;
+  return MessageStatus::kOk;
+}
+
+}  // namespace
+
+const char* ToString(NavStatus s) {
+  switch (s) {
+    case NavStatus::kFix: return "fix";
+    case NavStatus::kDegraded: return "degraded";
+    case NavStatus::kLost: return "lost";
+  }
+  return "unknown";
+}
+
+const char* ToString(NavReason r) {
+  switch (r) {
+    case NavReason::kNone: return "none";
+    case NavReason::kFewBeacons: return "few beacons";
+    case NavReason::kLargeResidual: return "large residual";
+    case NavReason::kLargeCovariance: return "large covariance";
+    case NavReason::kCameraDown: return "camera down";
+    case NavReason::kTooFewBeacons: return "too few beacons";
+    case NavReason::kAmbiguous: return "ambiguous identification";
+    case NavReason::kSolveFailed: return "solve failed";
+    case NavReason::kNoFrames: return "no frames";
+    case NavReason::kCount: break;
+  }
+  return "unknown";
+}
+
+const char* ToString(MessageStatus s) {
+  switch (s) {
+    case MessageStatus::kOk: return "ok";
+    case MessageStatus::kTruncated: return "truncated";
+    case MessageStatus::kBadMagic: return "bad magic";
+    case MessageStatus::kBadVersion: return "unsupported version";
+    case MessageStatus::kBadType: return "wrong message type";
+    case MessageStatus::kBadSize: return "wrong size";
+    case MessageStatus::kBadCrc: return "CRC mismatch";
+  }
+  return "unknown";
+}
+
+void EncodePose(const PoseRecord& r, std::span<std::uint8_t, kPoseMessageBytes> out) {
+  wire::ByteWriter w(out);
+  Header(w, kTypePose, kPoseMessageBytes);
+  w.U32(r.sequence);
+  w.U32(r.frame_set);
+  w.U64(r.t_capture_ns);
+  w.U64(r.t_publish_ns);
+  w.U64(r.param_generation);
+  w.U8(static_cast<std::uint8_t>(r.status));
+  w.U8(static_cast<std::uint8_t>(r.reason));
+  w.U8(r.num_cameras);
+  w.U8(r.num_beacons);
+  for (std::uint8_t n : r.beacons_per_camera) w.U8(n);
+  for (int i = 0; i < 3; ++i) w.F64(r.r_w_wb[i]);
+  w.F64(r.q_w_b.w());
+  w.F64(r.q_w_b.x());
+  w.F64(r.q_w_b.y());
+  w.F64(r.q_w_b.z());
+  for (int i = 0; i < 3; ++i) w.F32(r.euler_deg[i]);
+  w.F32(r.residual_rms_px);
+  for (int i = 0; i < 6; ++i)
+    for (int j = i; j < 6; ++j) w.F32(static_cast<float>(r.covariance(i, j)));
+  Seal(out);
+}
+
+void EncodeHealth(const HealthRecord& r, std::span<std::uint8_t, kHealthMessageBytes> out) {
+  wire::ByteWriter w(out);
+  Header(w, kTypeHealth, kHealthMessageBytes);
+  w.U32(r.sequence);
+  w.U32(r.frame_sets);
+  w.U64(r.t_ns);
+  w.U64(r.param_generation);
+  w.U32(r.fixes);
+  w.U32(r.degraded);
+  w.U32(r.lost);
+  w.U32(r.deadline_slips);
+  w.U32(r.worst_frame_set_us);
+  w.U8(r.num_cameras);
+  for (int i = 0; i < 3; ++i) w.U8(0);
+  for (const CameraHealth& c : r.cameras) {
+    w.U8(c.state);
+    w.U8(0);
+    w.U16(c.blobs_last);
+    w.U32(c.frames);
+    w.U32(c.drops);
+    w.U32(c.timeouts);
+    w.U32(c.errors);
+  }
+  Seal(out);
+}
+
+MessageStatus DecodePose(std::span<const std::uint8_t> in, PoseRecord* r) {
+  const MessageStatus s = Check(in, kTypePose, kPoseMessageBytes);
+  if (s != MessageStatus::kOk) return s;
+  wire::ByteReader rd(in.subspan(8));
+  r->sequence = rd.U32();
+  r->frame_set = rd.U32();
+  r->t_capture_ns = rd.U64();
+  r->t_publish_ns = rd.U64();
+  r->param_generation = rd.U64();
+  r->status = static_cast<NavStatus>(rd.U8());
+  r->reason = static_cast<NavReason>(rd.U8());
+  r->num_cameras = rd.U8();
+  r->num_beacons = rd.U8();
+  for (std::uint8_t& n : r->beacons_per_camera) n = rd.U8();
+  for (int i = 0; i < 3; ++i) r->r_w_wb[i] = rd.F64();
+  const double qw = rd.F64(), qx = rd.F64(), qy = rd.F64(), qz = rd.F64();
+  r->q_w_b = Eigen::Quaterniond(qw, qx, qy, qz);
+  for (int i = 0; i < 3; ++i) r->euler_deg[i] = rd.F32();
+  r->residual_rms_px = rd.F32();
+  for (int i = 0; i < 6; ++i)
+    for (int j = i; j < 6; ++j) r->covariance(i, j) = r->covariance(j, i) = rd.F32();
+  return MessageStatus::kOk;
+}
+
+MessageStatus DecodeHealth(std::span<const std::uint8_t> in, HealthRecord* r) {
+  const MessageStatus s = Check(in, kTypeHealth, kHealthMessageBytes);
+  if (s != MessageStatus::kOk) return s;
+  wire::ByteReader rd(in.subspan(8));
+  r->sequence = rd.U32();
+  r->frame_sets = rd.U32();
+  r->t_ns = rd.U64();
+  r->param_generation = rd.U64();
+  r->fixes = rd.U32();
+  r->degraded = rd.U32();
+  r->lost = rd.U32();
+  r->deadline_slips = rd.U32();
+  r->worst_frame_set_us = rd.U32();
+  r->num_cameras = rd.U8();
+  for (int i = 0; i < 3; ++i) rd.U8();
+  for (CameraHealth& c : r->cameras) {
+    c.state = rd.U8();
+    rd.U8();
+    c.blobs_last = rd.U16();
+    c.frames = rd.U32();
+    c.drops = rd.U32();
+    c.timeouts = rd.U32();
+    c.errors = rd.U32();
+  }
+  return MessageStatus::kOk;
+}
+
+}  // namespace mfns::fw

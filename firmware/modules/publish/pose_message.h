@@ -1,0 +1,111 @@
+// The navigation output datagram (DESIGN.md, "Pose output"): one fixed-size little-endian
+// message per frame set, versioned, CRC-protected, sent over UDP. Also the health message.
+// Wire layout (offsets in bytes; all little-endian; f64/f32 IEEE 754):
+//
+//   PoseMessage v1 (type 1, 208 bytes)
+//   0   char[4] magic "MFNP"          4   u8 version = 1     5 u8 type = 1     6 u16 size = 208
+//   8   u32 sequence (per message)    12  u32 frame_set (frame index of the source)
+//   16  u64 t_capture_ns  (sample time: CLOCK_MONOTONIC of the driver timestamp, earliest camera)
+//   24  u64 t_publish_ns  (CLOCK_MONOTONIC when sent; latency = t_publish - t_capture)
+//   32  u64 param_generation (blob in use)
+//   40  u8 status (0 fix, 1 degraded, 2 lost)   41 u8 reason (NavReason)
+//   42  u8 num_cameras                          43 u8 num_beacons (used in the solve)
+//   44  u8[4] beacons per camera
+//   48  f64[3] r_w_wb (m, body origin in world)
+//   72  f64[4] q_w_b (w, x, y, z; rotation body -> world)
+//   104 f32[3] roll, pitch, yaw of C_b_w (deg, the paper's 2-1-3 set; for people)
+//   116 f32 residual RMS (px)
+//   120 f32[21] covariance, upper triangle row by row, of [dr_w (m); dtheta_b (rad)]
+//               (common/rig/rig.h PoseDelta)
+//   204 u32 CRC-32 (zlib) of bytes 0..203
+//
+//   HealthMessage v1 (type 2, 140 bytes)
+//   0   magic, version, type = 2, u16 size = 140 (as above)
+//   8   u32 sequence   12 u32 frame_sets   16 u64 t_ns   24 u64 param_generation
+//   32  u32 fixes   36 u32 degraded   40 u32 lost   44 u32 deadline_slips
+//   48  u32 worst_frame_set_us   52 u8 num_cameras   53 u8[3] zero
+//   56  4 x 20 bytes per camera: u8 state, u8 zero, u16 blobs_last, u32 frames, u32 drops,
+//       u32 timeouts, u32 errors
+//   136 u32 CRC-32 of bytes 0..135
+#pragma once
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+#include <array>
+#include <cstdint>
+#include <span>
+
+#include "common/limits.h"
+
+namespace mfns::fw {
+
+enum class NavStatus : std::uint8_t { kFix = 0, kDegraded = 1, kLost = 2 };
+const char* ToString(NavStatus s);  // "fix", "degraded", "lost" (the poses CSV words)
+
+// Why the status is not a plain fix (kNone for a good fix).
+enum class NavReason : std::uint8_t {
+  kNone = 0,
+  kFewBeacons,        // a fix on fewer beacons than wanted for redundancy (degraded)
+  kLargeResidual,     // residual RMS above its bound (degraded)
+  kLargeCovariance,   // position or attitude sigma above its bound (degraded)
+  kCameraDown,        // a camera set aside (degraded)
+  kTooFewBeacons,     // fewer than 3 identified beacons (lost)
+  kAmbiguous,         // identification could not decide (lost)
+  kSolveFailed,       // the solver gave no pose (lost)
+  kNoFrames,          // no camera delivered a frame (lost)
+  kCount
+};
+const char* ToString(NavReason r);
+
+inline constexpr std::size_t kPoseMessageBytes = 208;
+inline constexpr std::size_t kHealthMessageBytes = 140;
+inline constexpr std::uint8_t kMessageVersion = 1;
+
+struct PoseRecord {
+  std::uint32_t sequence = 0;
+  std::uint32_t frame_set = 0;
+  std::uint64_t t_capture_ns = 0;
+  std::uint64_t t_publish_ns = 0;
+  std::uint64_t param_generation = 0;
+  NavStatus status = NavStatus::kLost;
+  NavReason reason = NavReason::kNoFrames;
+  std::uint8_t num_cameras = 0;
+  std::uint8_t num_beacons = 0;
+  std::array<std::uint8_t, limits::kMaxCameras> beacons_per_camera{};
+  Eigen::Vector3d r_w_wb = Eigen::Vector3d::Zero();
+  Eigen::Quaterniond q_w_b = Eigen::Quaterniond::Identity();
+  Eigen::Vector3f euler_deg = Eigen::Vector3f::Zero();
+  float residual_rms_px = 0.0f;
+  Eigen::Matrix<double, 6, 6> covariance = Eigen::Matrix<double, 6, 6>::Zero();
+};
+
+struct CameraHealth {
+  std::uint8_t state = 0;  // 0 ok, 1 set aside (retrying), 2 failed at start
+  std::uint32_t frames = 0, drops = 0, timeouts = 0, errors = 0;
+  std::uint16_t blobs_last = 0;
+};
+
+struct HealthRecord {
+  std::uint32_t sequence = 0;
+  std::uint32_t frame_sets = 0;
+  std::uint64_t t_ns = 0;
+  std::uint64_t param_generation = 0;
+  std::uint32_t fixes = 0, degraded = 0, lost = 0;
+  std::uint32_t deadline_slips = 0;
+  std::uint32_t worst_frame_set_us = 0;
+  std::uint8_t num_cameras = 0;
+  std::array<CameraHealth, limits::kMaxCameras> cameras{};
+};
+
+enum class MessageStatus : unsigned char { kOk = 0, kTruncated, kBadMagic, kBadVersion, kBadType, kBadSize, kBadCrc };
+const char* ToString(MessageStatus s);
+
+// Encoders write exactly the message size into out (which must be at least that long).
+void EncodePose(const PoseRecord& r, std::span<std::uint8_t, kPoseMessageBytes> out);
+void EncodeHealth(const HealthRecord& r, std::span<std::uint8_t, kHealthMessageBytes> out);
+
+// Decoders for receivers and tests: check magic, version, type, size and CRC.
+MessageStatus DecodePose(std::span<const std::uint8_t> in, PoseRecord* r);
+MessageStatus DecodeHealth(std::span<const std::uint8_t> in, HealthRecord* r);
+
+}  // namespace mfns::fw

@@ -1,0 +1,191 @@
+#include <arpa/inet.h>
+#include <gtest/gtest.h>
+#include <netinet/in.h>
+#include <sys/socket.h>
+#include <unistd.h>
+
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <random>
+#include <sstream>
+
+#include "common/rotation/rotation.h"
+#include "common/wire/byte_io.h"
+#include "firmware/modules/publish/pose_message.h"
+#include "firmware/modules/publish/publishers.h"
+
+namespace mfns::fw {
+namespace {
+
+PoseRecord SampleRecord(std::mt19937_64& rng) {
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  PoseRecord r;
+  r.sequence = static_cast<std::uint32_t>(rng());
+  r.frame_set = static_cast<std::uint32_t>(rng());
+  r.t_capture_ns = rng();
+  r.t_publish_ns = rng();
+  r.param_generation = rng();
+  r.status = NavStatus::kDegraded;
+  r.reason = NavReason::kLargeResidual;
+  r.num_cameras = 3;
+  r.num_beacons = 5;
+  r.beacons_per_camera = {2, 1, 2, 0};
+  r.r_w_wb = Eigen::Vector3d(u(rng), u(rng), u(rng));
+  r.q_w_b = Eigen::Quaterniond(ExpSO3(Eigen::Vector3d(u(rng), u(rng), u(rng))));
+  r.euler_deg = Eigen::Vector3f(1.5f, -2.25f, 170.0f);
+  r.residual_rms_px = 0.125f;
+  Eigen::Matrix<double, 6, 6> A = Eigen::Matrix<double, 6, 6>::Random();
+  r.covariance = A * A.transpose() * 1e-6;
+  return r;
+}
+
+TEST(PoseMessage, RoundTripAndLayout) {
+  std::mt19937_64 rng(3);
+  for (int i = 0; i < 200; ++i) {
+    const PoseRecord r = SampleRecord(rng);
+    std::array<std::uint8_t, kPoseMessageBytes> bytes{};
+    EncodePose(r, bytes);
+    // Spot checks of the documented offsets, read independently of the decoder.
+    EXPECT_EQ(std::string(bytes.begin(), bytes.begin() + 4), "MFNP");
+    EXPECT_EQ(wire::LoadLe(bytes, 6, 2), kPoseMessageBytes);
+    EXPECT_EQ(wire::LoadLe(bytes, 16, 8), r.t_capture_ns);
+    EXPECT_EQ(bytes[40], 1);  // degraded
+    EXPECT_EQ(std::bit_cast<double>(wire::LoadLe(bytes, 48, 8)), r.r_w_wb.x());
+    PoseRecord back;
+    ASSERT_EQ(DecodePose(bytes, &back), MessageStatus::kOk);
+    EXPECT_EQ(back.sequence, r.sequence);
+    EXPECT_EQ(back.frame_set, r.frame_set);
+    EXPECT_EQ(back.t_publish_ns, r.t_publish_ns);
+    EXPECT_EQ(back.param_generation, r.param_generation);
+    EXPECT_EQ(back.status, r.status);
+    EXPECT_EQ(back.reason, r.reason);
+    EXPECT_EQ(back.beacons_per_camera, r.beacons_per_camera);
+    EXPECT_EQ(back.r_w_wb, r.r_w_wb);
+    EXPECT_EQ(back.q_w_b.coeffs(), r.q_w_b.coeffs());
+    EXPECT_EQ(back.euler_deg, r.euler_deg);
+    EXPECT_EQ(back.residual_rms_px, r.residual_rms_px);
+    EXPECT_LT((back.covariance - r.covariance).cwiseAbs().maxCoeff(), 1e-6 * r.covariance.cwiseAbs().maxCoeff());
+    EXPECT_TRUE(back.covariance.isApprox(back.covariance.transpose()));
+  }
+}
+
+TEST(PoseMessage, RejectsEveryCorruption) {
+  std::mt19937_64 rng(4);
+  std::array<std::uint8_t, kPoseMessageBytes> bytes{};
+  EncodePose(SampleRecord(rng), bytes);
+  PoseRecord r;
+  for (std::size_t n = 0; n < bytes.size(); ++n)
+    EXPECT_EQ(DecodePose(std::span<const std::uint8_t>(bytes.data(), n), &r), MessageStatus::kTruncated) << n;
+  for (std::size_t i = 0; i < bytes.size(); ++i)
+    for (int bit = 0; bit < 8; ++bit) {
+      auto bad = bytes;
+      bad[i] ^= static_cast<std::uint8_t>(1u << bit);
+      EXPECT_NE(DecodePose(bad, &r), MessageStatus::kOk) << i << ":" << bit;
+    }
+  std::array<std::uint8_t, kHealthMessageBytes> health{};
+  EncodeHealth(HealthRecord{}, health);
+  EXPECT_EQ(DecodePose(health, &r), MessageStatus::kBadType);
+}
+
+TEST(HealthMessage, RoundTrip) {
+  HealthRecord h;
+  h.sequence = 7;
+  h.frame_sets = 1234;
+  h.t_ns = 99;
+  h.param_generation = 42;
+  h.fixes = 1000;
+  h.degraded = 200;
+  h.lost = 34;
+  h.deadline_slips = 3;
+  h.worst_frame_set_us = 45678;
+  h.num_cameras = 3;
+  h.cameras[1] = {1, 100, 2, 3, 4, 17};
+  std::array<std::uint8_t, kHealthMessageBytes> bytes{};
+  EncodeHealth(h, bytes);
+  HealthRecord back;
+  ASSERT_EQ(DecodeHealth(bytes, &back), MessageStatus::kOk);
+  EXPECT_EQ(back.frame_sets, 1234u);
+  EXPECT_EQ(back.worst_frame_set_us, 45678u);
+  EXPECT_EQ(back.cameras[1].state, 1);
+  EXPECT_EQ(back.cameras[1].drops, 2u);
+  EXPECT_EQ(back.cameras[1].blobs_last, 17);
+  bytes[100] ^= 4;
+  EXPECT_EQ(DecodeHealth(bytes, &back), MessageStatus::kBadCrc);
+}
+
+TEST(UdpPublisher, DeliversDatagramsOnLoopback) {
+  const int rx = ::socket(AF_INET, SOCK_DGRAM, 0);
+  ASSERT_GE(rx, 0);
+  sockaddr_in addr{};
+  addr.sin_family = AF_INET;
+  addr.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  ASSERT_EQ(::bind(rx, reinterpret_cast<sockaddr*>(&addr), sizeof(addr)), 0);
+  socklen_t len = sizeof(addr);
+  ASSERT_EQ(::getsockname(rx, reinterpret_cast<sockaddr*>(&addr), &len), 0);
+  timeval tv{2, 0};
+  ::setsockopt(rx, SOL_SOCKET, SO_RCVTIMEO, &tv, sizeof(tv));
+
+  UdpPublisher pub;
+  const std::string url = "udp://127.0.0.1:" + std::to_string(ntohs(addr.sin_port));
+  ASSERT_EQ(pub.Open(url.c_str()), PublishStatus::kOk);
+  std::mt19937_64 rng(5);
+  const PoseRecord r = SampleRecord(rng);
+  std::array<std::uint8_t, kPoseMessageBytes> bytes{};
+  EncodePose(r, bytes);
+  ASSERT_EQ(pub.Send(bytes), PublishStatus::kOk);
+  std::array<std::uint8_t, 512> got{};
+  const ssize_t n = ::recv(rx, got.data(), got.size(), 0);
+  ASSERT_EQ(n, static_cast<ssize_t>(kPoseMessageBytes));
+  PoseRecord back;
+  ASSERT_EQ(DecodePose(std::span<const std::uint8_t>(got.data(), static_cast<std::size_t>(n)), &back), MessageStatus::kOk);
+  EXPECT_EQ(back.sequence, r.sequence);
+  EXPECT_EQ(pub.counters().sent, 1u);
+  ::close(rx);
+}
+
+TEST(UdpPublisher, RefusesBadAddressesAndCountsFailures) {
+  UdpPublisher pub;
+  for (const char* bad : {"127.0.0.1:5000", "udp://", "udp://127.0.0.1", "udp://127.0.0.1:0", "udp://127.0.0.1:70000",
+                          "udp://:5000", "udp://no.such.host.invalid:5000", "udp://127.0.0.1:12x"})
+    EXPECT_EQ(pub.Open(bad), PublishStatus::kBadAddress) << bad;
+  EXPECT_EQ(pub.Send(std::span<const std::uint8_t>()), PublishStatus::kNotOpen);
+  EXPECT_EQ(pub.Open("udp://localhost:9"), PublishStatus::kOk);  // discard port: nobody listens
+  std::array<std::uint8_t, 8> d{};
+  int errors = 0;
+  for (int i = 0; i < 5; ++i) errors += pub.Send(d) != PublishStatus::kOk;
+  // Loopback reports ECONNREFUSED on a later send: counted, never fatal.
+  EXPECT_EQ(pub.counters().sent + pub.counters().send_errors + pub.counters().would_block, 5u);
+  EXPECT_EQ(static_cast<std::uint64_t>(errors), pub.counters().send_errors + pub.counters().would_block);
+}
+
+TEST(PoseLog, WritesTheDesignCsvAndRenamesOnClose) {
+  std::string tmpl = (std::filesystem::temp_directory_path() / "mfns-poselog-XXXXXX").string();
+  ASSERT_NE(::mkdtemp(tmpl.data()), nullptr);
+  const std::string path = tmpl + "/poses.csv";
+  PoseLog log;
+  ASSERT_EQ(log.Open(path.c_str()), PublishStatus::kOk);
+  PoseRecord r;
+  r.frame_set = 12;
+  r.t_capture_ns = 1053763441;
+  r.status = NavStatus::kFix;
+  r.r_w_wb = Eigen::Vector3d(0.001, -0.002, 0.0035);
+  r.q_w_b = Eigen::Quaterniond(EulerToMatrix({DegToRad(1), DegToRad(2), DegToRad(30)}).transpose());
+  r.num_beacons = 4;
+  r.residual_rms_px = 0.25f;
+  ASSERT_EQ(log.Write(r), PublishStatus::kOk);
+  EXPECT_FALSE(std::filesystem::exists(path));  // only the .partial until Close
+  ASSERT_EQ(log.Close(), PublishStatus::kOk);
+  std::ifstream in(path);
+  std::string header, row;
+  std::getline(in, header);
+  std::getline(in, row);
+  EXPECT_EQ(header, "frame,t_ns,status,x_mm,y_mm,z_mm,roll_deg,pitch_deg,yaw_deg,n_beacons,rms_px");
+  EXPECT_EQ(row, "12,1053763441,fix,1.0000,-2.0000,3.5000,1.000000,2.000000,30.000000,4,0.2500");
+  EXPECT_FALSE(std::filesystem::exists(path + ".partial"));
+  EXPECT_EQ(log.Open((tmpl + "/missing/x.csv").c_str()), PublishStatus::kFileError);
+  std::filesystem::remove_all(tmpl);
+}
+
+}  // namespace
+}  // namespace mfns::fw

@@ -1,0 +1,133 @@
+#include "firmware/modules/publish/publishers.h"
+
+#include <arpa/inet.h>
+#include <fcntl.h>
+#include <netdb.h>
+#include <netinet/in.h>
+#include <sys/socket.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <cstdlib>
+#include <cstring>
+
+#include "common/rotation/rotation.h"
+
+namespace mfns::fw {
+
+const char* ToString(PublishStatus s) {
+  switch (s) {
+    case PublishStatus::kOk: return "ok";
+    case PublishStatus::kBadAddress: return "bad address (expected udp://HOST:PORT with an IPv4 host)";
+    case PublishStatus::kSocketError: return "socket error";
+    case PublishStatus::kWouldBlock: return "socket buffer full, datagram dropped";
+    case PublishStatus::kSendError: return "send failed";
+    case PublishStatus::kNotOpen: return "not open";
+    case PublishStatus::kFileError: return "log file error";
+  }
+  return "unknown";
+}
+
+UdpPublisher::~UdpPublisher() { Close(); }
+
+PublishStatus UdpPublisher::Open(const char* url) {
+  Close();
+  constexpr char kScheme[] = "udp://";
+  if (url == nullptr || std::strncmp(url, kScheme, sizeof(kScheme) - 1) != 0) return PublishStatus::kBadAddress;
+  const char* host = url + sizeof(kScheme) - 1;
+  const char* colon = std::strrchr(host, ':');
+  if (colon == nullptr || colon == host) return PublishStatus::kBadAddress;
+  char host_buf[256] = {};
+  const auto host_len = static_cast<std::size_t>(colon - host);
+  if (host_len >= sizeof(host_buf)) return PublishStatus::kBadAddress;
+  std::memcpy(host_buf, host, host_len);
+  char* end = nullptr;
+  const long port = std::strtol(colon + 1, &end, 10);
+  if (end == colon + 1 || *end != '\0' || port <= 0 || port > 65535) return PublishStatus::kBadAddress;
+
+  addrinfo hints{};
+  hints.ai_family = AF_INET;
+  hints.ai_socktype = SOCK_DGRAM;
+  addrinfo* res = nullptr;
+  if (getaddrinfo(host_buf, nullptr, &hints, &res) != 0 || res == nullptr) return PublishStatus::kBadAddress;
+  sockaddr_in addr{};
+  std::memcpy(&addr, res->ai_addr, sizeof(addr));
+  freeaddrinfo(res);
+  addr.sin_port = htons(static_cast<std::uint16_t>(port));
+
+  fd_ = ::socket(AF_INET, SOCK_DGRAM | SOCK_NONBLOCK | SOCK_CLOEXEC, 0);
+  if (fd_ < 0) return PublishStatus::kSocketError;
+  // connect() fixes the destination once: send() then needs no address per datagram.
+  if (::connect(fd_, reinterpret_cast<const sockaddr*>(&addr), sizeof(addr)) != 0) {
+    Close();
+    return PublishStatus::kSocketError;
+  }
+  return PublishStatus::kOk;
+}
+
+PublishStatus UdpPublisher::Send(std::span<const std::uint8_t> datagram) {
+  if (fd_ < 0) return PublishStatus::kNotOpen;
+  const ssize_t n = ::send(fd_, datagram.data(), datagram.size(), MSG_DONTWAIT | MSG_NOSIGNAL);
+  if (n == static_cast<ssize_t>(datagram.size())) {
+    ++counters_.sent;
+    return PublishStatus::kOk;
+  }
+  if (n < 0 && (errno == EAGAIN || errno == EWOULDBLOCK)) {
+    ++counters_.would_block;
+    return PublishStatus::kWouldBlock;
+  }
+  // ECONNREFUSED (nobody listening yet) and the like: count and go on.
+  ++counters_.send_errors;
+  return PublishStatus::kSendError;
+}
+
+void UdpPublisher::Close() {
+  if (fd_ >= 0) ::close(fd_);
+  fd_ = -1;
+}
+
+PoseLog::~PoseLog() { Close(); }
+
+PublishStatus PoseLog::Open(const char* path) {
+  Close();
+  if (path == nullptr || std::strlen(path) >= sizeof(path_)) return PublishStatus::kFileError;
+  std::strncpy(path_, path, sizeof(path_) - 1);
+  std::snprintf(partial_, sizeof(partial_), "%s.partial", path_);
+  file_ = std::fopen(partial_, "w");
+  if (file_ == nullptr) return PublishStatus::kFileError;
+  std::setvbuf(file_, buffer_, _IOFBF, sizeof(buffer_));  // our buffer: no heap in stdio
+  if (std::fputs("frame,t_ns,status,x_mm,y_mm,z_mm,roll_deg,pitch_deg,yaw_deg,n_beacons,rms_px\n", file_) < 0) {
+    ++counters_.log_errors;
+    return PublishStatus::kFileError;
+  }
+  return PublishStatus::kOk;
+}
+
+PublishStatus PoseLog::Write(const PoseRecord& r) {
+  if (file_ == nullptr) return PublishStatus::kNotOpen;
+  const Eigen::Vector3d p_mm = r.r_w_wb * 1e3;
+  const EulerAngles e = MatrixToEuler(r.q_w_b.toRotationMatrix().transpose());  // of C_b_w
+  const int n = std::fprintf(file_, "%u,%llu,%s,%.4f,%.4f,%.4f,%.6f,%.6f,%.6f,%u,%.4f\n", r.frame_set,
+                             static_cast<unsigned long long>(r.t_capture_ns), ToString(r.status), p_mm.x(), p_mm.y(),
+                             p_mm.z(), RadToDeg(e.phi), RadToDeg(e.theta), RadToDeg(e.psi), r.num_beacons,
+                             static_cast<double>(r.residual_rms_px));
+  if (n < 0 || std::fflush(file_) != 0) {
+    ++counters_.log_errors;
+    return PublishStatus::kFileError;
+  }
+  ++counters_.log_rows;
+  return PublishStatus::kOk;
+}
+
+PublishStatus PoseLog::Close() {
+  if (file_ == nullptr) return PublishStatus::kOk;
+  bool ok = std::fflush(file_) == 0;
+  ok = (::fsync(fileno(file_)) == 0) && ok;
+  ok = (std::fclose(file_) == 0) && ok;
+  file_ = nullptr;
+  ok = ok && std::rename(partial_, path_) == 0;
+  if (!ok) ++counters_.log_errors;
+  return ok ? PublishStatus::kOk : PublishStatus::kFileError;
+}
+
+}  // namespace mfns::fw

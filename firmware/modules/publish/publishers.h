@@ -1,0 +1,78 @@
+// Where navigation output goes: a UDP socket (pose and health datagrams, pose_message.h) and
+// the poses CSV of DESIGN.md. Both are opened at start; after that, sending and logging use
+// no heap and never block the frame loop: a failed send is counted and dropped.
+#pragma once
+
+#include <cstdint>
+#include <cstdio>
+#include <span>
+
+#include "common/limits.h"
+#include "firmware/modules/publish/pose_message.h"
+
+namespace mfns::fw {
+
+enum class PublishStatus : unsigned char {
+  kOk = 0,
+  kBadAddress,   // not udp://HOST:PORT, or HOST does not resolve to IPv4, or port 0 / > 65535
+  kSocketError,  // socket() or connect() failed
+  kWouldBlock,   // the socket buffer is full: the datagram is dropped
+  kSendError,    // sendto failed otherwise
+  kNotOpen,
+  kFileError,    // the log could not be opened, written or renamed
+};
+const char* ToString(PublishStatus s);
+
+struct PublishCounters {
+  std::uint64_t sent = 0;
+  std::uint64_t would_block = 0;
+  std::uint64_t send_errors = 0;
+  std::uint64_t log_rows = 0;
+  std::uint64_t log_errors = 0;
+};
+
+// UDP datagrams to one IPv4 destination. Open resolves the host (getaddrinfo: "localhost" or a
+// literal) at start; the socket is non-blocking.
+class UdpPublisher {
+ public:
+  UdpPublisher() = default;
+  ~UdpPublisher();
+  UdpPublisher(const UdpPublisher&) = delete;
+  UdpPublisher& operator=(const UdpPublisher&) = delete;
+
+  PublishStatus Open(const char* url);  // "udp://HOST:PORT"
+  PublishStatus Send(std::span<const std::uint8_t> datagram);
+  void Close();
+  bool is_open() const { return fd_ >= 0; }
+  const PublishCounters& counters() const { return counters_; }
+
+ private:
+  int fd_ = -1;
+  PublishCounters counters_;
+};
+
+// The poses CSV (DESIGN.md): frame,t_ns,status,x_mm,y_mm,z_mm,roll_deg,pitch_deg,yaw_deg,
+// n_beacons,rms_px. Rows go to "<path>.partial" and are flushed per frame set (a crash keeps
+// what was logged); Close renames it to <path>, so <path> only ever holds a finished log.
+class PoseLog {
+ public:
+  PoseLog() = default;
+  ~PoseLog();
+  PoseLog(const PoseLog&) = delete;
+  PoseLog& operator=(const PoseLog&) = delete;
+
+  PublishStatus Open(const char* path);
+  PublishStatus Write(const PoseRecord& r);
+  PublishStatus Close();
+  bool is_open() const { return file_ != nullptr; }
+  const PublishCounters& counters() const { return counters_; }
+
+ private:
+  std::FILE* file_ = nullptr;
+  char path_[limits::kMaxPathChars] = {};
+  char partial_[limits::kMaxPathChars + 16] = {};
+  char buffer_[8192] = {};
+  PublishCounters counters_;
+};
+
+}  // namespace mfns::fw
