@@ -55,7 +55,8 @@ SvgPlot MakePlot(const FigureResult& r, const AnalysisSetup& s) {
   const ErrorFigure f = r.figure;
   SvgPlot p;
   p.title = "Figure " + std::to_string(static_cast<int>(f)) + ": RMS pixel error of u vs " + Describe(f);
-  p.x_label = Describe(f) + " (" + DisplayUnit(f) + (s.draw == ErrorDraw::kGaussian ? ", 1-sigma per axis)" : ", norm)");
+  p.x_label = Describe(f) + " (" + DisplayUnit(f) +
+              (s.draw == ErrorDraw::kGaussian ? ", 1-sigma per axis)" : ", norm)");
   p.y_label = "RMS error of u (px)";
   p.dots_legend = "Monte Carlo (" + std::to_string(r.points.empty() ? 0 : r.points.front().trials) + " trials/point)";
   p.line_legend = "first-order analytic";
@@ -165,7 +166,8 @@ AnalyzeResult RunAnalyze(const AnalyzeOptions& o, std::ostream& summary, std::os
       progress << line << std::flush;
     };
     try {
-      res.figures[i] = RunFigure(res.setup, f, FromDisplayUnit(f, MaxMagnitude(o, f)), o.points, o.trials, o.seed, report);
+      res.figures[i] =
+          RunFigure(res.setup, f, FromDisplayUnit(f, MaxMagnitude(o, f)), o.points, o.trials, o.seed, report);
     } catch (const std::invalid_argument& e) {
       throw UserError(std::string("analyze: ") + e.what());
     }
@@ -184,7 +186,8 @@ void AddAnalyzeCommand(CLI::App& app) {
       "Error analysis of the paper's Section 3: RMS pixel error of u against beacon position, camera position and "
       "camera attitude error (Figures 4-6, Table 1), Monte Carlo beside the first-order analytic prediction");
   // --out is checked in SetupFromOptions so that every bad option is a UserError.
-  cmd->add_option("--out", o->out_dir, "Output directory (required; created if missing) for the CSV and SVG of each figure");
+  cmd->add_option("--out", o->out_dir,
+                  "Output directory (required; created if missing) for the CSV and SVG of each figure");
   cmd->add_option("--trials", o->trials, "Monte Carlo trials (kept beacons) per point")->capture_default_str();
   cmd->add_option("--points", o->points, "Error magnitudes per figure, evenly spaced from 0 to the maximum")
       ->capture_default_str();

@@ -94,7 +94,8 @@ TEST_F(AnalyzeCommand, SameSeedSameFilesDifferentSeedDifferent) {
 TEST_F(AnalyzeCommand, CommandLineRunsTheAnalysis) {
   testing::internal::CaptureStdout();
   testing::internal::CaptureStderr();
-  Parse("--out " + dir_.string() + " --trials 100 --points 2 --seed 3 --beacon-y-range-mm -500 500 --error-draw sphere");
+  Parse("--out " + dir_.string() +
+        " --trials 100 --points 2 --seed 3 --beacon-y-range-mm -500 500 --error-draw sphere");
   const std::string out = testing::internal::GetCapturedStdout();
   testing::internal::GetCapturedStderr();
   EXPECT_NE(out.find("Y [-500, 500]"), std::string::npos) << out;

@@ -106,7 +106,8 @@ std::string RenderSvg(const SvgPlot& plot) {
   s += "<rect x=\"" + Num(kLeft) + "\" y=\"" + Num(kTop) + "\" width=\"" + Num(pw) + "\" height=\"" + Num(ph) +
        "\" fill=\"none\"/>\n";
   s += "</g>\n";
-  s += "<text x=\"" + Num(kLeft + pw / 2) + "\" y=\"" + Num(kHeight - 16) + "\" text-anchor=\"middle\" font-size=\"13\">" +
+  s += "<text x=\"" + Num(kLeft + pw / 2) + "\" y=\"" + Num(kHeight - 16) +
+       "\" text-anchor=\"middle\" font-size=\"13\">" +
        XmlEscape(plot.x_label) + "</text>\n";
   s += "<text transform=\"translate(20 " + Num(kTop + ph / 2) +
        ") rotate(-90)\" text-anchor=\"middle\" font-size=\"13\">" + XmlEscape(plot.y_label) + "</text>\n";

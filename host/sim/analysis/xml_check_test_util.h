@@ -40,8 +40,10 @@ inline XmlSummary CheckXml(const std::string& s) {
     if (!good && e.size() > 1 && e[0] == '#') {
       good = true;
       const bool hex = e[1] == 'x';
-      for (std::size_t k = hex ? 2 : 1; k < e.size(); ++k)
-        good = good && (hex ? std::isxdigit(static_cast<unsigned char>(e[k])) : std::isdigit(static_cast<unsigned char>(e[k])));
+      for (std::size_t k = hex ? 2 : 1; k < e.size(); ++k) {
+        const auto c = static_cast<unsigned char>(e[k]);
+        good = good && (hex ? std::isxdigit(c) : std::isdigit(c));
+      }
     }
     i = end + 1;
     return good;

@@ -2,6 +2,7 @@
 //   mfns-sim render --preset NAME|--scenario FILE --out DIR [--frames N] [--seed S]
 //   mfns-sim crb    --preset NAME|--scenario FILE --out FILE.csv [--frames N] [--seed S]
 //   mfns-sim calib-dataset --preset NAME|--scenario FILE --out DIR [--seed S]
+//   mfns-sim compare DIR POSES.csv  estimates against truth and the bound
 //   mfns-sim preset NAME            print a built-in scenario (to start a custom one)
 //   mfns-sim analyze --out DIR ...  Figures 4-6 of the paper (error analysis)
 // Exit 0 on success, 1 on a user error with a one-line reason on stderr.
@@ -13,6 +14,7 @@
 
 #include "host/sim/analysis/analyze_command.h"
 #include "host/sim/calibdata/calib_dataset.h"
+#include "host/sim/eval/compare.h"
 #include "host/sim/frames/render_run.h"
 #include "host/sim/scenario/scenario.h"
 #include "host/util/atomic_file.h"
@@ -91,6 +93,11 @@ int Run(int argc, char** argv) {
   calib->add_option("--out", calib_out, "Output directory")->required();
   calib->add_option("--threads", calib_opt.threads, "Worker threads (0: all cores)")->check(CLI::NonNegativeNumber);
 
+  std::string cmp_dir, cmp_poses;
+  CLI::App* compare = app.add_subcommand("compare", "Navigation estimates against truth and the Cramér-Rao bound");
+  compare->add_option("dir", cmp_dir, "Directory written by `mfns-sim render` (truth.csv, crb.csv)")->required();
+  compare->add_option("poses", cmp_poses, "Poses CSV written by `mfns-navd --log`")->required();
+
   std::string preset_name;
   bool list = false;
   CLI::App* preset = app.add_subcommand("preset", "Print a built-in scenario's YAML, or list them");
@@ -122,6 +129,7 @@ int Run(int argc, char** argv) {
     const CalibDatasetSummary sum = WriteCalibDataset(s, text, calib_opt);
     std::printf("calibration images %d, with the whole target in view %d\n", sum.images, sum.complete);
   }
+  if (*compare) std::fputs(FormatCompare(ComparePoses(cmp_dir, cmp_poses)).c_str(), stdout);
   if (*preset) {
     if (list || preset_name.empty()) {
       for (const std::string& n : PresetNames()) std::printf("%s\n", n.c_str());

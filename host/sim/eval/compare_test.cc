@@ -1,0 +1,80 @@
+#include "host/sim/eval/compare.h"
+
+#include <gtest/gtest.h>
+
+#include <random>
+
+#include "host/util/atomic_file.h"
+
+namespace mfns::host {
+namespace {
+
+std::filesystem::path TempDir() {
+  std::string tmpl = (std::filesystem::temp_directory_path() / "mfns-compare-XXXXXX").string();
+  EXPECT_NE(::mkdtemp(tmpl.data()), nullptr);
+  return tmpl;
+}
+
+// Estimates = truth + Gaussian errors of known sigma; the bound says that sigma: the statistics
+// must come back (mean ~0, std ~ sigma, ratio ~1), and a frame with a bad status is left out.
+TEST(Compare, RecoversKnownErrorStatistics) {
+  const auto dir = TempDir();
+  std::mt19937_64 rng(1);
+  std::normal_distribution<double> n01(0.0, 1.0);
+  const std::array<double, 6> sigma = {0.5, 0.7, 1.1, 0.01, 0.02, 0.03};
+  std::string truth = "frame,t_ns,x_mm,y_mm,z_mm,roll_deg,pitch_deg,yaw_deg\n";
+  std::string crb = "frame,t_ns,n_visible,n_x,n_y,n_z,valid,sigma_x_mm,sigma_y_mm,sigma_z_mm,sigma_roll_deg,sigma_pitch_deg,sigma_yaw_deg\n";
+  std::string poses = "frame,t_ns,status,x_mm,y_mm,z_mm,roll_deg,pitch_deg,yaw_deg,n_beacons,rms_px\n";
+  const int frames = 4000;
+  for (int f = 0; f < frames; ++f) {
+    const double yaw = std::remainder(f * 1.0, 360.0);
+    truth += std::to_string(f) + ",0,0,0,0,0,0," + std::to_string(yaw) + "\n";
+    crb += std::to_string(f) + ",0," + (f % 10 == 0 ? "2,1,1,0,0" : "4,2,1,1,1");
+    for (double s : sigma) crb += "," + std::to_string(s);
+    crb += "\n";
+    if (f % 10 == 0) {
+      poses += std::to_string(f) + ",0,lost,0,0,0,0,0,0,0,0\n";
+      continue;
+    }
+    poses += std::to_string(f) + ",0,fix";
+    for (int a = 0; a < 6; ++a) {
+      double v = sigma[static_cast<std::size_t>(a)] * n01(rng);
+      if (a == 5) v = std::remainder(yaw + v, 360.0);  // yaw wraps around +-180
+      poses += "," + std::to_string(v);
+    }
+    poses += ",4,0.1\n";
+  }
+  WriteFileAtomic(dir / "truth.csv", truth);
+  WriteFileAtomic(dir / "crb.csv", crb);
+  WriteFileAtomic(dir / "poses.csv", poses);
+  const CompareResult r = ComparePoses(dir, dir / "poses.csv");
+  EXPECT_EQ(r.frames, frames);
+  EXPECT_EQ(r.lost, frames / 10);
+  EXPECT_EQ(r.frames_3plus, frames - frames / 10);
+  EXPECT_EQ(r.fixes_3plus, frames - frames / 10);
+  EXPECT_EQ(r.compared, frames - frames / 10);
+  for (std::size_t a = 0; a < 6; ++a) {
+    EXPECT_NEAR(r.axes[a].ratio, 1.0, 0.05) << kAxisNames[a];
+    EXPECT_NEAR(r.axes[a].mean, 0.0, 4.0 * sigma[a] / std::sqrt(3600.0)) << kAxisNames[a];
+  }
+  EXPECT_NE(FormatCompare(r).find("rms/CRB"), std::string::npos);
+  std::filesystem::remove_all(dir);
+}
+
+TEST(Compare, MalformedInputsNameTheFileAndLine) {
+  const auto dir = TempDir();
+  WriteFileAtomic(dir / "truth.csv", std::string("frame,t_ns,x_mm,y_mm,z_mm,roll_deg,pitch_deg,yaw_deg\n0,0,0,0,0,0,0,0\n"));
+  WriteFileAtomic(dir / "crb.csv", std::string("frame,n_visible,valid\n0,3\n"));
+  WriteFileAtomic(dir / "poses.csv", std::string("frame,status\n0,fix\n"));
+  try {
+    ComparePoses(dir, dir / "poses.csv");
+    FAIL() << "no error";
+  } catch (const UserError& e) {
+    EXPECT_EQ(std::string(e.what()), (dir / "crb.csv").string() + ":2: 2 columns, header has 3");
+  }
+  EXPECT_THROW(ComparePoses(dir / "nope", dir / "poses.csv"), UserError);
+  std::filesystem::remove_all(dir);
+}
+
+}  // namespace
+}  // namespace mfns::host
