@@ -21,9 +21,10 @@ constexpr int kMaxInversionCount = 100;
 constexpr double kMaxPoissonMean = 1e15;
 
 // One pixel through the model of sensor.h, before rounding.
-double PixelDn(double signal_e, const SensorModel& s, std::mt19937_64* rng, NormalSampler* normal) {
+double PixelDn(double signal_e, const SensorModel& s, std::mt19937_64* rng, PoissonSampler* poisson,
+               NormalSampler* normal) {
   double e = std::clamp(std::max(0.0, signal_e), 0.0, kMaxPoissonMean);  // NaN or < 0: no light
-  if (s.shot_noise) e = static_cast<double>(Poisson(e, rng));
+  if (s.shot_noise) e = static_cast<double>(poisson->Draw(e, rng));
   e = std::min(e, s.full_well_e);
   if (s.read_noise_e > 0.0) e += s.read_noise_e * normal->Draw(rng);
   return s.offset_dn + s.gain_dn_per_e * e;
@@ -32,12 +33,13 @@ double PixelDn(double signal_e, const SensorModel& s, std::mt19937_64* rng, Norm
 template <typename T>
 void Quantise(const cv::Mat& signal_e, const SensorModel& s, std::mt19937_64* rng, cv::Mat* out) {
   const double full_scale = s.FullScale();
+  PoissonSampler poisson;
   NormalSampler normal;
   for (int v = 0; v < signal_e.rows; ++v) {
     const double* in = signal_e.ptr<double>(v);
     T* row = out->ptr<T>(v);
     for (int u = 0; u < signal_e.cols; ++u) {
-      const double dn = std::clamp(std::nearbyint(PixelDn(in[u], s, rng, &normal)), 0.0, full_scale);
+      const double dn = std::clamp(std::nearbyint(PixelDn(in[u], s, rng, &poisson, &normal)), 0.0, full_scale);
       row[u] = static_cast<T>(dn);
     }
   }
@@ -98,13 +100,29 @@ double NormalSampler::Draw(std::mt19937_64* rng) {
   return r * std::cos(kTwoPi * u2);
 }
 
-std::uint64_t Poisson(double mean, std::mt19937_64* rng) {
+void PoissonSampler::Prepare(double mean) {
+  mean_ = mean;
+  if (mean < 10.0) {
+    exp_neg_mean_ = std::exp(-mean);
+    return;
+  }
+  // PTRS constants, W. Hoermann, "The transformed rejection method for generating Poisson
+  // random variables", Insurance: Mathematics and Economics 12 (1993) 39-45.
+  log_mean_ = std::log(mean);
+  b_ = 0.931 + 2.53 * std::sqrt(mean);
+  a_ = -0.059 + 0.02483 * b_;
+  log_inv_alpha_ = std::log(1.1239 + 1.1328 / (b_ - 3.4));
+  v_r_ = 0.9277 - 3.6224 / (b_ - 2.0);
+}
+
+std::uint64_t PoissonSampler::Draw(double mean, std::mt19937_64* rng) {
   if (!(mean > 0.0)) return 0;
   if (!(mean <= kMaxPoissonMean)) return static_cast<std::uint64_t>(kMaxPoissonMean);
+  if (mean != mean_) Prepare(mean);  // uniform regions reuse the constants
   if (mean < 10.0) {
     // Inversion: the smallest k whose cumulative probability exceeds one uniform draw.
     const double u = Uniform01(rng);
-    double p = std::exp(-mean), cumulative = p;
+    double p = exp_neg_mean_, cumulative = p;
     int k = 0;
     while (u >= cumulative && k < kMaxInversionCount) {
       ++k;
@@ -113,26 +131,20 @@ std::uint64_t Poisson(double mean, std::mt19937_64* rng) {
     }
     return static_cast<std::uint64_t>(k);
   }
-  // PTRS, W. Hoermann, "The transformed rejection method for generating Poisson random
-  // variables", Insurance: Mathematics and Economics 12 (1993) 39-45.
-  const double slam = std::sqrt(mean);
-  const double loglam = std::log(mean);
-  const double b = 0.931 + 2.53 * slam;
-  const double a = -0.059 + 0.02483 * b;
-  const double inv_alpha = 1.1239 + 1.1328 / (b - 3.4);
-  const double v_r = 0.9277 - 3.6224 / (b - 2.0);
   for (;;) {
     const double u = Uniform01(rng) - 0.5;
     const double v = Uniform01(rng);
     const double us = 0.5 - std::abs(u);
-    const double k = std::floor((2.0 * a / us + b) * u + mean + 0.43);
-    if (us >= 0.07 && v <= v_r) return static_cast<std::uint64_t>(k);
+    const double k = std::floor((2.0 * a_ / us + b_) * u + mean + 0.43);
+    if (us >= 0.07 && v <= v_r_) return static_cast<std::uint64_t>(k);
     if (k < 0.0 || (us < 0.013 && v > us)) continue;
     int sign = 0;  // lgamma_r: std::lgamma writes the global signgam (a data race across threads)
-    if (std::log(v) + std::log(inv_alpha) - std::log(a / (us * us) + b) <=
-        -mean + k * loglam - ::lgamma_r(k + 1.0, &sign))
+    if (std::log(v) + log_inv_alpha_ - std::log(a_ / (us * us) + b_) <=
+        -mean + k * log_mean_ - ::lgamma_r(k + 1.0, &sign))
       return static_cast<std::uint64_t>(k);
   }
 }
+
+std::uint64_t Poisson(double mean, std::mt19937_64* rng) { return PoissonSampler().Draw(mean, rng); }
 
 }  // namespace mfns::host

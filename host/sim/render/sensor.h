@@ -59,9 +59,22 @@ class NormalSampler {
   bool has_spare_ = false;
 };
 
-// Poisson(mean): inversion by sequential search below mean 10 (one uniform per draw),
+// Poisson(mean) draws: inversion by sequential search below mean 10 (one uniform per draw),
 // Hoermann's PTRS transformed rejection (1993) above. mean <= 0 or NaN gives 0; means above
-// 1e15 (and Inf) give 1e15.
+// 1e15 (and Inf) give 1e15. The sampler keeps the constants of the last mean (a flat region
+// costs one exp or log, not one per pixel); the draws do not depend on that cache.
+class PoissonSampler {
+ public:
+  std::uint64_t Draw(double mean, std::mt19937_64* rng);
+
+ private:
+  void Prepare(double mean);
+  double mean_ = -1.0;
+  double exp_neg_mean_ = 0.0;                                       // inversion
+  double log_mean_ = 0.0, a_ = 0.0, b_ = 0.0, log_inv_alpha_ = 0.0, v_r_ = 0.0;  // PTRS
+};
+
+// One draw with a fresh sampler.
 std::uint64_t Poisson(double mean, std::mt19937_64* rng);
 
 }  // namespace mfns::host

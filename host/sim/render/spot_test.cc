@@ -90,9 +90,15 @@ TEST(GaussianSpot, RejectsBadInput) {
   EXPECT_THROW(AddGaussianSpot({{NAN, 3}, 1.0, 1.0}, &signal), std::invalid_argument);
   cv::Mat wrong(8, 8, CV_8UC1);
   EXPECT_THROW(AddGaussianSpot({{3, 3}, 1.0, 1.0}, &wrong), std::invalid_argument);
-  // A spot far outside the image adds nothing and does not fail.
+  // A spot far outside the image adds nothing and does not fail, however far.
   AddGaussianSpot({{-100.0, 4.0}, 1.0, 1e6}, &signal);
+  AddGaussianSpot({{1e300, -1e300}, 1.0, 1e6}, &signal);
   EXPECT_EQ(cv::countNonZero(signal), 0);
+  EXPECT_THROW(AddBrightRectangle({0.0, 0.0, INFINITY, 3.0, 1.0}, &signal), std::invalid_argument);
+  EXPECT_THROW(AddBrightEllipse({{3.0, 3.0}, 0.0, 2.0, 0.0, 1.0}, &signal), std::invalid_argument);
+  // A window larger than the image covers it all.
+  AddBrightRectangle({-1e300, -1e300, 1e300, 1e300, 2.0}, &signal);
+  EXPECT_EQ(cv::sum(signal)[0], 2.0 * 64);
 }
 
 // The requirement: at zero noise the plain centroid of a rendered beacon lands within

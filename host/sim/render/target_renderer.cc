@@ -1,6 +1,7 @@
 #include "host/sim/render/target_renderer.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
 #include <opencv2/imgproc.hpp>
@@ -16,10 +17,17 @@ constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 constexpr int kMaxClipCells = 64;
 constexpr int kFallbackSamples = 4;
 
-// A convex polygon with room for a quadrilateral clipped by 4 half-planes (one vertex more
-// per clip).
+// A point of the target plane (x, y), NaN where a ray misses it.
+struct PlanePoint {
+  double x, y;
+};
+
+// A polygon with room for a quadrilateral clipped by 4 half-planes: 8 vertices when it is
+// convex (one more per clip); a footprint twisted by a distortion fold can need more, up to
+// 20; Clip never writes past the end.
 struct Polygon {
-  std::array<Eigen::Vector2d, 10> v;
+  static constexpr int kCapacity = 32;
+  std::array<Eigen::Vector2d, kCapacity> v;
   int n = 0;
 };
 
@@ -33,6 +41,7 @@ Polygon Clip(const Polygon& in, int axis, double bound, bool keep_above) {
     const Eigen::Vector2d& a = in.v[static_cast<std::size_t>(i)];
     const Eigen::Vector2d& b = in.v[static_cast<std::size_t>((i + 1) % in.n)];
     const bool ia = inside(a), ib = inside(b);
+    if (out.n + 2 > Polygon::kCapacity) break;
     if (ia) out.v[static_cast<std::size_t>(out.n++)] = a;
     if (ia != ib) {  // the edge crosses the bound (so the bound is finite)
       const double t = (bound - a[axis]) / (b[axis] - a[axis]);
@@ -79,29 +88,33 @@ class Shader {
     return Cell(CellIndex(t_.x_edges(), p.x()), CellIndex(t_.y_edges(), p.y()));
   }
 
-  // Mean reflectance over the footprint quadrilateral q (4 points on the plane, in order).
-  double Footprint(const Polygon& q) const {
-    double x_min = q.v[0].x(), x_max = x_min, y_min = q.v[0].y(), y_max = y_min;
-    for (int i = 1; i < 4; ++i) {
-      const Eigen::Vector2d& p = q.v[static_cast<std::size_t>(i)];
-      x_min = std::min(x_min, p.x());
-      x_max = std::max(x_max, p.x());
-      y_min = std::min(y_min, p.y());
-      y_max = std::max(y_max, p.y());
-    }
-    const int ix0 = CellIndex(t_.x_edges(), x_min), ix1 = CellIndex(t_.x_edges(), x_max);
-    const int iy0 = CellIndex(t_.y_edges(), y_min), iy1 = CellIndex(t_.y_edges(), y_max);
+  // Mean reflectance over the footprint quadrilateral a, b, c, d (points on the plane, in
+  // order around the pixel). Plain doubles on the common path: it runs for every pixel.
+  double Footprint(const PlanePoint& a, const PlanePoint& b, const PlanePoint& c, const PlanePoint& d) {
+    const double x_min = std::min(std::min(a.x, b.x), std::min(c.x, d.x));
+    const double x_max = std::max(std::max(a.x, b.x), std::max(c.x, d.x));
+    const double y_min = std::min(std::min(a.y, b.y), std::min(c.y, d.y));
+    const double y_max = std::max(std::max(a.y, b.y), std::max(c.y, d.y));
+    int ix0, ix1, iy0, iy1;
+    Range(t_.x_edges(), x_min, x_max, &last_ix_, &ix0, &ix1);
+    Range(t_.y_edges(), y_min, y_max, &last_iy_, &iy0, &iy1);
     if (ix0 == ix1 && iy0 == iy1) return Cell(ix0, iy0);
+    Polygon q;
+    q.n = 4;
+    q.v[0] = {a.x, a.y};
+    q.v[1] = {b.x, b.y};
+    q.v[2] = {c.x, c.y};
+    q.v[3] = {d.x, d.y};
     if ((ix1 - ix0 + 1) * (iy1 - iy0 + 1) > kMaxClipCells) return Sampled(q);
     double weighted = 0.0, total = 0.0;
     for (int ix = ix0; ix <= ix1; ++ix) {
       const Polygon strip = Clip(Clip(q, 0, CellLow(t_.x_edges(), ix), true), 0, CellHigh(t_.x_edges(), ix), false);
       if (strip.n < 3) continue;
       for (int iy = iy0; iy <= iy1; ++iy) {
-        const double a =
+        const double area =
             Area(Clip(Clip(strip, 1, CellLow(t_.y_edges(), iy), true), 1, CellHigh(t_.y_edges(), iy), false));
-        weighted += a * Cell(ix, iy);
-        total += a;
+        weighted += area * Cell(ix, iy);
+        total += area;
       }
     }
     return total > 0.0 ? weighted / total : Point(q.v[0]);
@@ -121,9 +134,22 @@ class Shader {
     return sum / (kFallbackSamples * kFallbackSamples);
   }
 
+  // Cells [first, last] spanned by [lo, hi] along one axis. Neighbouring pixels mostly fall in
+  // the same cell, so the last single cell is tried before the binary search.
+  static void Range(const std::vector<double>& edges, double lo, double hi, int* hint, int* first, int* last) {
+    if (CellLow(edges, *hint) <= lo && hi < CellHigh(edges, *hint)) {
+      *first = *last = *hint;
+      return;
+    }
+    *first = CellIndex(edges, lo);
+    *last = CellIndex(edges, hi);
+    if (*first == *last) *hint = *first;
+  }
+
   const CalibrationTarget& t_;
   const TargetPhotometry& ph_;
   bool facing_;
+  int last_ix_ = -1, last_iy_ = -1;
 };
 
 double VignettingFactor(const TargetPhotometry& ph, const Eigen::Vector2d& x_n) {
@@ -190,49 +216,60 @@ cv::Mat TargetRenderer::RenderSignal(const CalibrationTarget& target, const Came
                                      const TargetPhotometry& photometry) const {
   ValidatePose(pose);
   ValidatePhotometry(photometry);
-  const Shader shader(target, photometry, pose.r_w_wk.z() > 0.0);
+  Shader shader(target, photometry, pose.r_w_wk.z() > 0.0);
   const Eigen::Matrix3d C_w_k = pose.C_k_w.transpose();
-  const Eigen::Vector3d& o = pose.r_w_wk;
+  const double ox = pose.r_w_wk.x(), oy = pose.r_w_wk.y(), oz = pose.r_w_wk.z();
   const int w = cam_.width + 1;
 
-  // Where one row of pixel-corner rays meets the plane z = 0 (NaN where it does not).
-  auto intersect_row = [&](int v, std::vector<Eigen::Vector2d>* out) {
-    for (int u = 0; u < w; ++u) {
-      const Eigen::Vector2d& x_n = corner_rays_[static_cast<std::size_t>(v * w + u)];
-      const Eigen::Vector3d d = C_w_k * Eigen::Vector3d(x_n.x(), x_n.y(), 1.0);
-      const double lambda = -o.z() / d.z();
-      (*out)[static_cast<std::size_t>(u)] =
-          lambda > 0.0 && std::isfinite(lambda) ? Eigen::Vector2d(o.x() + lambda * d.x(), o.y() + lambda * d.y())
-                                                : Eigen::Vector2d(kNaN, kNaN);
+  // Where one row of pixel-corner rays meets the plane z = 0 (NaN where it does not): the
+  // ray C_w_k (x, y, 1) from the camera centre o reaches z = 0 at o + lambda ray.
+  auto intersect_row = [&](int v, std::vector<PlanePoint>* out) {
+    const Eigen::Vector2d* rays = &corner_rays_[static_cast<std::size_t>(v) * static_cast<std::size_t>(w)];
+    for (std::size_t u = 0; u < static_cast<std::size_t>(w); ++u) {
+      const double x = rays[u].x(), y = rays[u].y();
+      const double dx = C_w_k(0, 0) * x + C_w_k(0, 1) * y + C_w_k(0, 2);
+      const double dy = C_w_k(1, 0) * x + C_w_k(1, 1) * y + C_w_k(1, 2);
+      const double dz = C_w_k(2, 0) * x + C_w_k(2, 1) * y + C_w_k(2, 2);
+      const double lambda = -oz / dz;
+      (*out)[u] = lambda > 0.0 && std::isfinite(lambda) ? PlanePoint{ox + lambda * dx, oy + lambda * dy}
+                                                        : PlanePoint{kNaN, kNaN};
     }
   };
+  auto hits = [](const PlanePoint& p) { return !std::isnan(p.x); };  // finite whenever not NaN
 
   cv::Mat signal(cam_.height, cam_.width, CV_64FC1);
-  std::vector<Eigen::Vector2d> top(static_cast<std::size_t>(w)), bottom(static_cast<std::size_t>(w));
+  std::vector<PlanePoint> top(static_cast<std::size_t>(w)), bottom(static_cast<std::size_t>(w));
   intersect_row(0, &top);
   for (int v = 0; v < cam_.height; ++v) {
     intersect_row(v + 1, &bottom);
     double* row = signal.ptr<double>(v);
     for (int u = 0; u < cam_.width; ++u) {
       const std::size_t i = static_cast<std::size_t>(u);
-      Polygon q;
-      q.n = 4;
-      q.v = {top[i], top[i + 1], bottom[i + 1], bottom[i]};
-      const bool hits = q.v[0].allFinite() && q.v[1].allFinite() && q.v[2].allFinite() && q.v[3].allFinite();
-      const double reflectance = hits ? shader.Footprint(q) : photometry.background_reflectance;
-      // The pixel centre's ray, for vignetting: the mean of its corners' rays.
-      const std::size_t c = static_cast<std::size_t>(v * w + u);
-      Eigen::Vector2d x_n = 0.25 * (corner_rays_[c] + corner_rays_[c + 1] + corner_rays_[c + static_cast<std::size_t>(w)] +
-                                    corner_rays_[c + static_cast<std::size_t>(w) + 1]);
-      if (!x_n.allFinite()) x_n.setZero();
-      row[u] = photometry.illumination_e * reflectance * VignettingFactor(photometry, x_n);
+      const bool all_hit = hits(top[i]) && hits(top[i + 1]) && hits(bottom[i + 1]) && hits(bottom[i]);
+      row[u] = photometry.illumination_e *
+               (all_hit ? shader.Footprint(top[i], top[i + 1], bottom[i + 1], bottom[i]) : photometry.background_reflectance);
     }
     std::swap(top, bottom);
   }
+  if (photometry.vignetting != Vignetting::kNone) ApplyVignetting(photometry, &signal);
   if (photometry.blur_sigma_px > 0.0)
     cv::GaussianBlur(signal, signal, cv::Size(0, 0), photometry.blur_sigma_px, photometry.blur_sigma_px,
                      cv::BORDER_REPLICATE);
   return signal;
+}
+
+void TargetRenderer::ApplyVignetting(const TargetPhotometry& photometry, cv::Mat* signal) const {
+  const std::size_t w = static_cast<std::size_t>(cam_.width) + 1;
+  for (int v = 0; v < cam_.height; ++v) {
+    double* row = signal->ptr<double>(v);
+    for (int u = 0; u < cam_.width; ++u) {
+      // The pixel centre's ray: the mean of its corners' rays (exact to second order).
+      const std::size_t c = static_cast<std::size_t>(v) * w + static_cast<std::size_t>(u);
+      Eigen::Vector2d x_n = 0.25 * (corner_rays_[c] + corner_rays_[c + 1] + corner_rays_[c + w] + corner_rays_[c + w + 1]);
+      if (!x_n.allFinite()) x_n.setZero();
+      row[u] *= VignettingFactor(photometry, x_n);
+    }
+  }
 }
 
 cv::Mat TargetRenderer::Render(const CalibrationTarget& target, const CameraPose& pose,

@@ -28,13 +28,13 @@ const TargetRenderer& PaperRenderer() {
 // brute-force reference renders.
 CameraIntrinsics SmallCamera() {
   CameraIntrinsics cam;
-  cam.width = 64;
-  cam.height = 48;
-  cam.alpha_x = 70.0;
-  cam.alpha_y = 69.0;
+  cam.width = 48;
+  cam.height = 36;
+  cam.alpha_x = 52.0;
+  cam.alpha_y = 51.0;
   cam.skew = 0.3;
-  cam.u0 = 30.7;
-  cam.v0 = 24.2;
+  cam.u0 = 22.7;
+  cam.v0 = 18.2;
   cam.kc = PaperRig().cameras[0].intrinsics.kc;
   return cam;
 }
@@ -110,7 +110,7 @@ TEST(TargetRenderer, AreaSamplingMatchesBruteForceReference) {
       {&grid, View({0.05, 0.05, 0}, 0.12, DegToRad(40), DegToRad(-60), DegToRad(10), {0.05, 0.05, 0})},
       {&board, LookAt({0.1, 0.1, -0.3}, {0.1, 0.05, 0.0})},  // from behind
   };
-  constexpr int kSamples = 24;
+  constexpr int kSamples = 16;
   for (const Case& c : cases) {
     const cv::Mat got = renderer.RenderSignal(*c.target, c.pose, UnitPhotometry());
     const cv::Mat want = ReferenceRender(cam, *c.target, c.pose, kSamples);
@@ -127,12 +127,15 @@ TEST(TargetRenderer, AreaSamplingMatchesBruteForceReference) {
         }
       }
     }
-    // Stratified sampling leaves ~0.5 / n^1.5 = 0.004 per edge pixel.
-    EXPECT_LT(max_error, 0.025);
-    EXPECT_LT(sum_error / std::max(mixed, 1), 0.005);
+    // Stratified sampling leaves ~0.5 / n^1.5 = 0.008 per edge pixel (a footprint error of
+    // 0.05 px along an edge would show as 0.05).
+    EXPECT_LT(max_error, 0.04);
+    EXPECT_LT(sum_error / std::max(mixed, 1), 0.01);
     if (&c != &cases[3]) {
-      EXPECT_GT(mixed, 100);  // many edges were tested
+      EXPECT_GT(mixed, 80);  // many edges were tested
     }
+    std::printf("reference case %td: max %.4f mean %.4f over %d edge pixels\n", &c - cases, max_error,
+                sum_error / std::max(mixed, 1), mixed);
   }
 }
 
@@ -264,8 +267,8 @@ TagResult DetectTags(const cv::Mat& image) {
 // image at truncated pixel positions, so an edge aligned with the pixel grid keeps one
 // sub-pixel bias along its whole length (frontal view: RMS 0.18, max 0.34 px; the same with
 // no distortion, so it is the detector's); edges at a generic angle average it out (rolled
-// views: RMS 0.05-0.06, max 0.12-0.14 px; tilted: RMS 0.09, max 0.23 px). On a 2x upsampled
-// image (cv::resize, linear) a rolled view comes within RMS 0.03, max 0.08 px.
+// views: RMS 0.05-0.06, max 0.14 px; tilted: RMS 0.09, max 0.23 px). On a 2x upsampled
+// image (cv::resize, linear) a rolled view comes within RMS 0.03, max 0.07 px.
 TEST(TargetRenderer, AprilGridTagsFromLibapriltag) {
   const TargetRenderer& renderer = PaperRenderer();
   AprilGridSpec spec;  // 6 x 6 tags of 4 cm, spacing 0.3
@@ -281,7 +284,6 @@ TEST(TargetRenderer, AprilGridTagsFromLibapriltag) {
   const Case cases[] = {
       {View(centre, 0.6, 0.0, 0.0, 0.0, centre), 0.25, 0.45, 1},  // frontal, edges on the pixel grid
       {View(centre, 0.7, 0.0, 0.0, std::atan(0.5), centre + offset), 0.08, 0.18, 1},
-      {View(centre, 0.75, 0.0, 0.0, std::atan(0.5), centre), 0.08, 0.18, 1},
       {View(centre, 0.9, 0.0, 0.0, std::atan(0.2), centre), 0.08, 0.18, 1},
       {View(centre, 0.75, DegToRad(25), DegToRad(30), DegToRad(25), centre + Eigen::Vector3d(0.05, 0.03, 0)), 0.12, 0.3, 1},
       {View(centre, 0.9, 0.0, 0.0, std::atan(0.2), centre), 0.045, 0.1, 2},
@@ -397,6 +399,7 @@ TEST(TargetRenderer, BlurSpreadsAnEdgeAsAGaussian) {
   CameraIntrinsics cam = SmallCamera();
   cam.kc = {};
   cam.skew = 0.0;
+  cam.alpha_x = cam.alpha_y = 100.0;  // squares of 20 px: the other edges are far
   const TargetRenderer renderer(cam);
   const CalibrationTarget board = CalibrationTarget::Checkerboard({3, 3, 0.1, 0.1});
   // Corner (0, 0) on the axis at 0.5 m: the edge x = 0 runs down the image through u0 for
@@ -429,7 +432,8 @@ TEST(TargetRenderer, LookAtBuildsARightHandedCameraThroughTheTarget) {
   EXPECT_THROW(LookAt({0, 0, 1}, {0, 0, 0}, {0, 0, 1}), std::invalid_argument);
   CameraPose bad = pose;
   bad.C_k_w(0, 0) += 0.1;
-  EXPECT_THROW(PaperRenderer().Corners(CalibrationTarget::Checkerboard({}), bad, 0.0), std::invalid_argument);
+  EXPECT_THROW(TargetRenderer(SmallCamera()).Corners(CalibrationTarget::Checkerboard({}), bad, 0.0),
+               std::invalid_argument);
 }
 
 }  // namespace
