@@ -24,6 +24,9 @@ inline constexpr std::size_t kMaxImageBytes =
 
 // Parameter blob (common/blob): the whole encoded blob never exceeds this.
 inline constexpr std::size_t kMaxBlobBytes = 16384;
+// Parameter store (firmware/modules/params): inotify reads drained per Changed() poll; a
+// queue still not empty after this many reads counts as "changed" anyway.
+inline constexpr int kMaxStoreEventReads = 16;
 
 // Detection and identification (firmware).
 inline constexpr int kMaxBlobsPerFrame = 256;
@@ -56,9 +59,11 @@ inline constexpr int kMaxMatches = kMaxCameras * kMaxBeacons;
 inline constexpr int kMaxOutlierRounds = 8;      // solver: drop-worst-and-re-solve rounds
 inline constexpr int kMaxLisBlobs = 16;          // lost-in-space: brightest blobs used for triples
 inline constexpr int kMaxLisHypotheses = 20000;  // lost-in-space: beacon-triple P3P solves per frame set
-inline constexpr int kMaxLisCandidates = 8;      // lost-in-space: distinct poses kept for refinement
+inline constexpr int kMaxLisCandidates = 256;    // lost-in-space: distinct poses kept (and tracked when ambiguous)
+inline constexpr int kMaxLisCandidateMatches = 32;  // lost-in-space: matches kept per candidate pose
 inline constexpr int kMaxP3pScanSteps = 512;     // generalized P3P: depth samples of its 1-D scan
 inline constexpr int kMaxP3pSolutions = 16;      // generalized P3P: 4 branch pairs x 4 roots
 inline constexpr int kMaxBisectionIterations = 64;
+inline constexpr int kMaxTrackHistory = 16;      // tracker: recent poses kept for the velocity
 
 }  // namespace mfns::limits

@@ -62,6 +62,8 @@ const char* ToString(NavReason r) {
     case NavReason::kAmbiguous: return "ambiguous identification";
     case NavReason::kSolveFailed: return "solve failed";
     case NavReason::kNoFrames: return "no frames";
+    case NavReason::kAcquiring: return "acquiring";
+    case NavReason::kNoHypothesis: return "no hypothesis";
     case NavReason::kCount: break;
   }
   return "unknown";

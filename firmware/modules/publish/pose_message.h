@@ -53,6 +53,8 @@ enum class NavReason : std::uint8_t {
   kAmbiguous,         // identification could not decide (lost)
   kSolveFailed,       // the solver gave no pose (lost)
   kNoFrames,          // no camera delivered a frame (lost)
+  kAcquiring,         // several poses explain the blobs; following them over frames (lost)
+  kNoHypothesis,      // no pose explains the blobs, or the hypothesis budget ran out (lost)
   kCount
 };
 const char* ToString(NavReason r);
