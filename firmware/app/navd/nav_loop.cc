@@ -1,0 +1,206 @@
+#include "firmware/app/navd/nav_loop.h"
+
+#include <time.h>
+
+#include <algorithm>
+#include <cmath>
+
+#include "common/rotation/rotation.h"
+
+namespace mfns::fw {
+
+std::uint64_t MonotonicNs() {
+  timespec ts{};
+  clock_gettime(CLOCK_MONOTONIC, &ts);
+  return static_cast<std::uint64_t>(ts.tv_sec) * 1000000000ull + static_cast<std::uint64_t>(ts.tv_nsec);
+}
+
+NavLoop::NavLoop(const Rig& rig, FrameSource* source, GpioTrigger* trigger, UdpPublisher* udp, PoseLog* log)
+    : rig_(&rig), source_(source), trigger_(trigger), udp_(udp), log_(log) {}
+
+bool NavLoop::Configure(const NavLoopConfig& config, const char** why) {
+  const char* reason = nullptr;
+  if (!config.detect.IsValid(&reason)) {
+  } else if (config.timeout_ms < 1 || !(config.deadline_ms > 0) || !(config.sigma_px > 0) ||
+             config.camera_timeouts_to_set_aside < 1 || config.camera_retry_every < 1 || config.health_every < 1) {
+    reason = "timeout, deadline, sigma and counts must be positive";
+  } else if (source_ == nullptr || source_->num_cameras() != rig_->num_cameras) {
+    reason = "the frame source's cameras do not match the rig's";
+  }
+  if (reason != nullptr) {
+    if (why != nullptr) *why = reason;
+    return false;
+  }
+  config_ = config;
+  config_.navigator.track.solve.sigma_px = config.sigma_px;
+  config_.navigator.track.lis.solve.sigma_px = config.sigma_px;
+  for (BlobDetector& d : detectors_) d = BlobDetector(config_.detect);
+  return navigator_.Init(*rig_, config_.navigator, why);
+}
+
+bool NavLoop::Reload(const Rig& rig, std::uint64_t generation, const char** why) {
+  if (rig.num_cameras != rig_->num_cameras) {
+    if (why != nullptr) *why = "the new parameters have a different number of cameras";
+    return false;
+  }
+  const Rig* old = rig_;
+  rig_ = &rig;
+  if (!navigator_.Init(rig, config_.navigator, why)) {
+    rig_ = old;
+    navigator_.Init(*old, config_.navigator, nullptr);
+    return false;
+  }
+  config_.param_generation = generation;
+  return true;
+}
+
+bool NavLoop::AcquireAll(std::uint64_t* t_capture_ns, bool* all_ended) {
+  num_obs_ = 0;
+  *t_capture_ns = 0;
+  int ended = 0, delivered = 0;
+  for (int k = 0; k < rig_->num_cameras; ++k) {
+    const auto ks = static_cast<std::size_t>(k);
+    CameraSupervision& sup = supervision_[ks];
+    lists_[ks].count = 0;
+    if (sup.set_aside) {
+      // Retry a set-aside camera every camera_retry_every frame sets; the others go on.
+      if ((counters_.frame_sets - sup.set_aside_at) % static_cast<std::uint64_t>(config_.camera_retry_every) != 0) continue;
+      ++sup.resets;
+      if (source_->Reset(k) != SourceStatus::kOk) {
+        ++sup.reset_failures;
+        continue;
+      }
+      sup.set_aside = false;
+      sup.consecutive_failures = 0;
+    }
+    FrameView view;
+    const SourceStatus s = source_->Acquire(k, config_.timeout_ms, &view);
+    if (s == SourceStatus::kEndOfStream) {
+      ++ended;
+      continue;
+    }
+    if (s != SourceStatus::kOk) {
+      if (++sup.consecutive_failures >= config_.camera_timeouts_to_set_aside && !sup.set_aside) {
+        sup.set_aside = true;
+        sup.set_aside_at = counters_.frame_sets;
+        ++sup.set_asides;
+      }
+      continue;
+    }
+    sup.consecutive_failures = 0;
+    ++delivered;
+    *t_capture_ns = (*t_capture_ns == 0) ? view.t_capture_ns : std::min(*t_capture_ns, view.t_capture_ns);
+    const DetectStatus d = detectors_[ks].Detect(view, &rig_->cameras[ks].intrinsics, &lists_[ks]);
+    source_->Release(k);
+    if (d != DetectStatus::kOk && d != DetectStatus::kBlobLimit) ++counters_.detect_errors;
+    const BlobList& list = lists_[ks];
+    sup.blobs_last = static_cast<std::uint16_t>(list.count);
+    for (int i = 0; i < list.count && num_obs_ < limits::kMaxObservations; ++i) {
+      const Blob& b = list.blobs[static_cast<std::size_t>(i)];
+      if (!b.normalised_ok) continue;
+      BlobObs& o = obs_[static_cast<std::size_t>(num_obs_++)];
+      o.camera = k;
+      o.uv_px = b.uv_px;
+      o.x_n = b.x_n;
+      o.flux = static_cast<float>(b.flux_dn);
+    }
+  }
+  *all_ended = ended > 0 && delivered == 0;
+  return delivered > 0;
+}
+
+void NavLoop::Publish(const NavOutput& nav, std::uint64_t t_capture_ns, PoseRecord* out) {
+  PoseRecord r;
+  r.sequence = pose_sequence_++;
+  r.frame_set = static_cast<std::uint32_t>(counters_.frame_sets);
+  r.t_capture_ns = t_capture_ns;
+  r.param_generation = config_.param_generation;
+  r.status = nav.status;
+  r.reason = nav.reason;
+  r.num_cameras = static_cast<std::uint8_t>(rig_->num_cameras);
+  r.num_beacons = static_cast<std::uint8_t>(std::min(nav.num_beacons, 255));
+  for (int k = 0; k < rig_->num_cameras; ++k)
+    r.beacons_per_camera[static_cast<std::size_t>(k)] =
+        static_cast<std::uint8_t>(std::min(nav.beacons_per_camera[static_cast<std::size_t>(k)], 255));
+  r.r_w_wb = nav.pose.r_w_wb;
+  r.q_w_b = Eigen::Quaterniond(nav.pose.C_w_b).normalized();
+  const EulerAngles e = MatrixToEuler(nav.pose.C_w_b.transpose());
+  r.euler_deg = Eigen::Vector3f(static_cast<float>(RadToDeg(e.phi)), static_cast<float>(RadToDeg(e.theta)),
+                                static_cast<float>(RadToDeg(e.psi)));
+  r.residual_rms_px = static_cast<float>(nav.rms_px);
+  r.covariance = nav.covariance;
+  r.t_publish_ns = MonotonicNs();
+  if (udp_ != nullptr && udp_->is_open()) {
+    EncodePose(r, pose_bytes_);
+    udp_->Send(pose_bytes_);
+  }
+  if (log_ != nullptr && log_->is_open()) log_->Write(r);
+  if (out != nullptr) *out = r;
+}
+
+HealthRecord NavLoop::Health() const {
+  HealthRecord h;
+  h.sequence = health_sequence_;
+  h.frame_sets = static_cast<std::uint32_t>(counters_.frame_sets);
+  h.t_ns = MonotonicNs();
+  h.param_generation = config_.param_generation;
+  h.fixes = static_cast<std::uint32_t>(counters_.fixes);
+  h.degraded = static_cast<std::uint32_t>(counters_.degraded);
+  h.lost = static_cast<std::uint32_t>(counters_.lost);
+  h.deadline_slips = static_cast<std::uint32_t>(counters_.deadline_slips);
+  h.worst_frame_set_us = static_cast<std::uint32_t>(std::min<std::uint64_t>(counters_.worst_frame_set_ns / 1000, 0xFFFFFFFFu));
+  h.num_cameras = static_cast<std::uint8_t>(rig_->num_cameras);
+  for (int k = 0; k < rig_->num_cameras; ++k) {
+    const auto ks = static_cast<std::size_t>(k);
+    const SourceCounters& c = source_->counters(k);
+    CameraHealth& ch = h.cameras[ks];
+    ch.state = supervision_[ks].set_aside ? 1 : 0;
+    ch.frames = static_cast<std::uint32_t>(c.frames);
+    ch.drops = static_cast<std::uint32_t>(c.drops + c.error_buffers + c.short_buffers + c.unknown_clock + c.missing_files);
+    ch.timeouts = static_cast<std::uint32_t>(c.timeouts);
+    ch.errors = static_cast<std::uint32_t>(c.driver_errors);
+    ch.blobs_last = supervision_[ks].blobs_last;
+  }
+  return h;
+}
+
+StepStatus NavLoop::Step(PoseRecord* out) {
+  if (trigger_ != nullptr && trigger_->enabled()) {
+    const TriggerStatus t = trigger_->Fire();
+    if (t != TriggerStatus::kOk) ++counters_.trigger_errors;
+  }
+  std::uint64_t t_capture_ns = 0;
+  bool all_ended = false;
+  const bool any = AcquireAll(&t_capture_ns, &all_ended);
+  if (all_ended) return StepStatus::kEndOfStream;
+  const std::uint64_t t_start = MonotonicNs();
+  bool cameras_down = false;
+  for (int k = 0; k < rig_->num_cameras; ++k) cameras_down = cameras_down || supervision_[static_cast<std::size_t>(k)].set_aside;
+  if (any) {
+    navigator_.Step(obs_.data(), num_obs_, t_capture_ns, cameras_down, &nav_);
+  } else {
+    nav_.status = NavStatus::kLost;
+    nav_.reason = NavReason::kNoFrames;
+    nav_.num_beacons = 0;
+    nav_.beacons_per_camera.fill(0);
+  }
+  Publish(nav_, t_capture_ns, out);
+  switch (nav_.status) {
+    case NavStatus::kFix: ++counters_.fixes; break;
+    case NavStatus::kDegraded: ++counters_.degraded; break;
+    case NavStatus::kLost: ++counters_.lost; break;
+  }
+  ++counters_.by_reason[static_cast<std::size_t>(nav_.reason)];
+  const std::uint64_t elapsed = MonotonicNs() - t_start;
+  counters_.worst_frame_set_ns = std::max(counters_.worst_frame_set_ns, elapsed);
+  if (static_cast<double>(elapsed) > config_.deadline_ms * 1e6) ++counters_.deadline_slips;
+  ++counters_.frame_sets;
+  if (counters_.frame_sets % static_cast<std::uint64_t>(config_.health_every) == 0 && udp_ != nullptr && udp_->is_open()) {
+    EncodeHealth(Health(), health_bytes_);
+    ++health_sequence_;
+    udp_->Send(health_bytes_);
+  }
+  return StepStatus::kOk;
+}
+
+}  // namespace mfns::fw

@@ -1,0 +1,100 @@
+// The frame-set loop of mfns-navd: trigger, acquire every camera, detect blobs in place,
+// navigate, publish pose and health, keep the per-camera and timing counters. Everything is
+// reserved by the constructor and Start (construct it at start, e.g. with std::make_unique);
+// Step() never allocates, never throws and is bounded.
+//
+// Health (DESIGN.md "Time"): a camera whose Acquire fails camera_timeouts_to_set_aside times in
+// a row is set aside (the others go on, status degraded) and retried with Reset every
+// camera_retry_every frame sets. Each frame set has a processing deadline (from the end of
+// acquisition to the publish); a miss counts a slip and the worst time is kept.
+#pragma once
+
+#include <array>
+#include <cstdint>
+
+#include "common/rig/rig.h"
+#include "firmware/drivers/gpio/gpio_trigger.h"
+#include "firmware/lib/frame_source.h"
+#include "firmware/modules/detect/detect.h"
+#include "firmware/app/navd/navigator.h"
+#include "firmware/modules/publish/publishers.h"
+
+namespace mfns::fw {
+
+struct NavLoopConfig {
+  int timeout_ms = 160;
+  double deadline_ms = 53.8;
+  double sigma_px = 0.15;
+  int camera_timeouts_to_set_aside = 3;
+  int camera_retry_every = 19;
+  int health_every = 19;
+  std::uint64_t param_generation = 0;
+  DetectOptions detect;
+  NavigatorOptions navigator;
+};
+
+enum class StepStatus : unsigned char { kOk = 0, kEndOfStream, kNotStarted };
+
+struct CameraSupervision {
+  int consecutive_failures = 0;
+  bool set_aside = false;
+  std::uint64_t set_aside_at = 0;  // frame set index
+  std::uint64_t set_asides = 0, resets = 0, reset_failures = 0;
+  std::uint16_t blobs_last = 0;
+};
+
+struct LoopCounters {
+  std::uint64_t frame_sets = 0;
+  std::uint64_t fixes = 0, degraded = 0, lost = 0;
+  std::uint64_t deadline_slips = 0;
+  std::uint64_t worst_frame_set_ns = 0;
+  std::uint64_t detect_errors = 0;
+  std::uint64_t trigger_errors = 0;
+  std::array<std::uint64_t, static_cast<std::size_t>(NavReason::kCount)> by_reason{};
+};
+
+class NavLoop {
+ public:
+  // rig must outlive the loop. source is driven by the loop; trigger, udp and log may be null.
+  NavLoop(const Rig& rig, FrameSource* source, GpioTrigger* trigger, UdpPublisher* udp, PoseLog* log);
+
+  // Checks the configuration and sizes everything; *why names a problem.
+  bool Configure(const NavLoopConfig& config, const char** why);
+  // Switches to a new rig (parameter reload) between frame sets; the track is reset.
+  bool Reload(const Rig& rig, std::uint64_t generation, const char** why);
+
+  // One frame set. *out (optional) receives the published pose record.
+  StepStatus Step(PoseRecord* out = nullptr);
+
+  const LoopCounters& counters() const { return counters_; }
+  const CameraSupervision& supervision(int k) const { return supervision_[static_cast<std::size_t>(k)]; }
+  const Navigator& navigator() const { return navigator_; }
+  HealthRecord Health() const;
+
+ private:
+  bool AcquireAll(std::uint64_t* t_capture_ns, bool* all_ended);
+  void Publish(const NavOutput& nav, std::uint64_t t_capture_ns, PoseRecord* out);
+
+  const Rig* rig_;
+  FrameSource* source_;
+  GpioTrigger* trigger_;
+  UdpPublisher* udp_;
+  PoseLog* log_;
+  NavLoopConfig config_;
+  std::array<BlobDetector, limits::kMaxCameras> detectors_;
+  std::array<BlobList, limits::kMaxCameras> lists_{};
+  std::array<BlobObs, limits::kMaxObservations> obs_{};
+  int num_obs_ = 0;
+  Navigator navigator_;
+  NavOutput nav_;
+  std::array<CameraSupervision, limits::kMaxCameras> supervision_{};
+  LoopCounters counters_;
+  std::uint32_t pose_sequence_ = 0, health_sequence_ = 0;
+  std::array<std::uint8_t, kPoseMessageBytes> pose_bytes_{};
+  std::array<std::uint8_t, kHealthMessageBytes> health_bytes_{};
+};
+
+// CLOCK_MONOTONIC now, ns.
+std::uint64_t MonotonicNs();
+
+}  // namespace mfns::fw

@@ -1,0 +1,189 @@
+// mfns-navd: the flyer's navigation program (DESIGN.md "Firmware"; docs/navd.md).
+// Start: parse options, load parameters (refuse to navigate without a valid blob, saying
+// why), open the source, trigger and outputs, reserve everything. Then one Step per frame set
+// until the source ends, --frames is reached, or SIGINT/SIGTERM.
+#include <signal.h>
+#include <sys/stat.h>
+
+#include <cstdio>
+#include <cstring>
+#include <memory>
+
+#include "common/blob/param_blob.h"
+#include "firmware/app/navd/nav_loop.h"
+#include "firmware/app/navd/navd_options.h"
+#include "firmware/drivers/gpio/gpio_line_io.h"
+#include "firmware/drivers/replay/replay_source.h"
+#include "firmware/drivers/v4l2/v4l2_io.h"
+#include "firmware/drivers/v4l2/v4l2_source.h"
+#include "firmware/modules/params/param_loader.h"
+#include "firmware/modules/params/reload_signal.h"
+
+namespace mfns::fw {
+namespace {
+
+volatile sig_atomic_t g_stop = 0;
+volatile sig_atomic_t g_reload = 0;
+void OnStop(int) { g_stop = 1; }
+void OnReload(int) { g_reload = 1; }
+
+int Run(int argc, char** argv) {
+  static NavdOptions opt;
+  char why[512] = {};
+  const OptionsStatus os = ParseNavdOptions(argc, argv, &opt, why, sizeof(why));
+  if (os == OptionsStatus::kHelp) {
+    std::fputs(NavdUsage(), stdout);
+    return 0;
+  }
+  if (os == OptionsStatus::kError) {
+    std::fprintf(stderr, "mfns-navd: %s\n", why);
+    return 1;
+  }
+
+  // Parameters: a blob file or a store directory (newest valid slot). Two rig buffers so a
+  // reload can be decoded beside the rig in use and switched between frame sets.
+  static std::array<Rig, 2> rigs;
+  static ParamLoader loader;
+  int active = 0;
+  Rig& rig = rigs[0];
+  BlobInfo info;
+  if (loader.Open(opt.params.data(), nullptr, &rig, &info) != StoreStatus::kOk) {
+    loader.Describe(why, sizeof(why));
+    std::fprintf(stderr, "mfns-navd: refusing to navigate: %s\n", why);
+    return 1;
+  }
+
+  // Source.
+  std::unique_ptr<FrameSource> source;
+  static LinuxV4l2Io v4l2_io;
+  static std::array<NavdOptions::Path, limits::kMaxCameras> default_paths{};
+  if (opt.source == SourceKind::kReplay) {
+    source = std::make_unique<ReplaySource>(
+        ReplayConfigFromRig(rig, opt.replay_dir.data(), opt.rate_given ? opt.rate_hz : 0.0));
+  } else {
+    std::array<const char*, limits::kMaxCameras> paths{};
+    for (int k = 0; k < rig.num_cameras; ++k) {
+      const auto ks = static_cast<std::size_t>(k);
+      std::snprintf(default_paths[ks].data(), default_paths[ks].size(), "/dev/video%d", k);
+      paths[ks] = default_paths[ks].data();
+      for (int d = 0; d < opt.num_devices; ++d)
+        if (std::strcmp(opt.device_camera[static_cast<std::size_t>(d)].data(), rig.cameras[ks].name.data()) == 0)
+          paths[ks] = opt.device_path[static_cast<std::size_t>(d)].data();
+    }
+    source = std::make_unique<V4l2Source>(&v4l2_io, V4l2ConfigFromRig(rig, paths, opt.y16 ? PixelFormat::kMono16 : PixelFormat::kMono8));
+  }
+  const SourceStatus ss = source->Start();
+  if (ss != SourceStatus::kOk) {
+    std::fprintf(stderr, "mfns-navd: frame source did not start: %s\n", ToString(ss));
+    if (opt.source == SourceKind::kReplay) return 1;
+    // V4L2: the cameras that started keep streaming; the loop retries the others.
+  }
+
+  // Trigger.
+  static LibgpiodLineIo gpio_io;
+  TriggerConfig tc;
+  tc.enabled = opt.trigger_chip[0] != '\0';
+  tc.chip = opt.trigger_chip.data();
+  tc.line_offset = static_cast<unsigned>(opt.trigger_line < 0 ? 0 : opt.trigger_line);
+  tc.pulse_width_ns = static_cast<std::int64_t>(opt.trigger_pulse_us) * 1000;
+  GpioTrigger trigger(tc.enabled ? &gpio_io : nullptr, tc);
+  if (tc.enabled) {
+    const TriggerStatus ts = trigger.Start();
+    if (ts != TriggerStatus::kOk) {
+      std::fprintf(stderr, "mfns-navd: trigger %s:%d did not start: %s\n", tc.chip, opt.trigger_line, ToString(ts));
+      return 1;
+    }
+  }
+
+  // Outputs.
+  static UdpPublisher udp;
+  static PoseLog log;
+  if (opt.output[0] != '\0') {
+    const PublishStatus ps = udp.Open(opt.output.data());
+    if (ps != PublishStatus::kOk) {
+      std::fprintf(stderr, "mfns-navd: --output %s: %s\n", opt.output.data(), ToString(ps));
+      return 1;
+    }
+  }
+  if (opt.log[0] != '\0' && log.Open(opt.log.data()) != PublishStatus::kOk) {
+    std::fprintf(stderr, "mfns-navd: cannot write the log %s.partial\n", opt.log.data());
+    return 1;
+  }
+
+  NavLoopConfig config;
+  config.timeout_ms = opt.timeout_ms;
+  config.deadline_ms = opt.deadline_ms;
+  config.sigma_px = opt.sigma_px;
+  config.camera_timeouts_to_set_aside = opt.camera_timeouts_to_set_aside;
+  config.camera_retry_every = opt.camera_retry_every;
+  config.health_every = opt.health_every;
+  config.param_generation = info.generation;
+  auto loop = std::make_unique<NavLoop>(rig, source.get(), &trigger, &udp, &log);
+  const char* reason = nullptr;
+  if (!loop->Configure(config, &reason)) {
+    std::fprintf(stderr, "mfns-navd: %s\n", reason != nullptr ? reason : "bad configuration");
+    return 1;
+  }
+  std::fprintf(stderr, "mfns-navd: rig %s, parameters generation %llu, %d cameras, %d beacons\n", rig.rig_id.data(),
+               static_cast<unsigned long long>(info.generation), rig.num_cameras, rig.num_beacons);
+
+  struct sigaction sa {};
+  sa.sa_handler = OnStop;
+  sigaction(SIGINT, &sa, nullptr);
+  sigaction(SIGTERM, &sa, nullptr);
+  struct sigaction sh {};
+  sh.sa_handler = OnReload;
+  sigaction(SIGHUP, &sh, nullptr);
+  // mfns-paramctl signals this pid after an install or rollback (the store is also watched).
+  if (opt.pid_file[0] != '\0' && !WritePidFile(opt.pid_file.data()))
+    std::fprintf(stderr, "mfns-navd: warning: cannot write the pid file %s (reload still follows the store)\n",
+                 opt.pid_file.data());
+
+  // ---- Start is over: from here on, no heap. ----
+  const int per_second = opt.health_every;
+  for (std::int64_t n = 0; !g_stop && (opt.frames == 0 || n < opt.frames); ++n) {
+    if (g_reload || loader.Changed()) {
+      // Between frame sets: decode the newest valid parameters beside the ones in use.
+      g_reload = 0;
+      BlobInfo next_info;
+      Rig& next = rigs[static_cast<std::size_t>(1 - active)];
+      if (loader.Reload(&next, &next_info) == StoreStatus::kOk && !SameBlob(next_info, info)) {
+        const char* reason = nullptr;
+        if (loop->Reload(next, next_info.generation, &reason)) {
+          active = 1 - active;
+          info = next_info;
+          std::fprintf(stderr, "mfns-navd: parameters reloaded: generation %llu\n",
+                       static_cast<unsigned long long>(info.generation));
+        } else {
+          std::fprintf(stderr, "mfns-navd: new parameters refused (%s); generation %llu stays\n",
+                       reason != nullptr ? reason : "?", static_cast<unsigned long long>(info.generation));
+        }
+      }
+    }
+    if (loop->Step() == StepStatus::kEndOfStream) break;
+    const LoopCounters& c = loop->counters();
+    if (!opt.quiet && c.frame_sets % static_cast<std::uint64_t>(per_second) == 0)
+      std::fprintf(stderr, "mfns-navd: %llu frame sets: fix %llu, degraded %llu, lost %llu, slips %llu\n",
+                   static_cast<unsigned long long>(c.frame_sets), static_cast<unsigned long long>(c.fixes),
+                   static_cast<unsigned long long>(c.degraded), static_cast<unsigned long long>(c.lost),
+                   static_cast<unsigned long long>(c.deadline_slips));
+  }
+  source->Stop();
+  const LoopCounters& c = loop->counters();
+  std::fprintf(stderr,
+               "mfns-navd: done: %llu frame sets, fix %llu, degraded %llu, lost %llu; deadline slips %llu, worst %.2f ms\n",
+               static_cast<unsigned long long>(c.frame_sets), static_cast<unsigned long long>(c.fixes),
+               static_cast<unsigned long long>(c.degraded), static_cast<unsigned long long>(c.lost),
+               static_cast<unsigned long long>(c.deadline_slips), static_cast<double>(c.worst_frame_set_ns) * 1e-6);
+  if (opt.pid_file[0] != '\0') RemovePidFile(opt.pid_file.data());
+  if (log.is_open() && log.Close() != PublishStatus::kOk) {
+    std::fprintf(stderr, "mfns-navd: could not finish the log %s\n", opt.log.data());
+    return 1;
+  }
+  return 0;
+}
+
+}  // namespace
+}  // namespace mfns::fw
+
+int main(int argc, char** argv) { return mfns::fw::Run(argc, argv); }

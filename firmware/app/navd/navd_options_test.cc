@@ -1,0 +1,92 @@
+#include "firmware/app/navd/navd_options.h"
+
+#include <gtest/gtest.h>
+
+#include <string>
+#include <vector>
+
+namespace mfns::fw {
+namespace {
+
+struct Args {
+  std::vector<std::string> s;
+  std::vector<char*> p;
+  explicit Args(std::vector<std::string> a) : s(std::move(a)) {
+    s.insert(s.begin(), "mfns-navd");
+    for (auto& x : s) p.push_back(x.data());
+    p.push_back(nullptr);
+  }
+  int argc() const { return static_cast<int>(s.size()); }
+};
+
+OptionsStatus Parse(std::vector<std::string> a, NavdOptions* o, std::string* why) {
+  Args args(std::move(a));
+  char buf[256] = {};
+  const OptionsStatus s = ParseNavdOptions(args.argc(), args.p.data(), o, buf, sizeof(buf));
+  *why = buf;
+  return s;
+}
+
+TEST(NavdOptions, TheDesignCommandLine) {
+  NavdOptions o;
+  std::string why;
+  ASSERT_EQ(Parse({"--params", "/var/lib/mfns/params", "--source", "replay:/data/run1", "--output", "udp://127.0.0.1:14550",
+                   "--log", "poses.csv", "--frames", "360"},
+                  &o, &why),
+            OptionsStatus::kOk)
+      << why;
+  EXPECT_STREQ(o.params.data(), "/var/lib/mfns/params");
+  EXPECT_EQ(o.source, SourceKind::kReplay);
+  EXPECT_STREQ(o.replay_dir.data(), "/data/run1");
+  EXPECT_STREQ(o.output.data(), "udp://127.0.0.1:14550");
+  EXPECT_STREQ(o.log.data(), "poses.csv");
+  EXPECT_EQ(o.frames, 360);
+  // Rate-derived defaults: 18.6 Hz -> 53.8 ms period.
+  EXPECT_EQ(o.timeout_ms, 161);
+  EXPECT_NEAR(o.deadline_ms, 53.763, 1e-3);
+  EXPECT_EQ(o.health_every, 19);
+}
+
+TEST(NavdOptions, V4l2DevicesAndTrigger) {
+  NavdOptions o;
+  std::string why;
+  ASSERT_EQ(Parse({"--params", "p.bin", "--source", "v4l2", "--device", "x=/dev/video2", "--device", "z=/dev/video0",
+                   "--trigger", "gpiochip1:17", "--y16", "--rate-hz", "30", "--buffers", "6"},
+                  &o, &why),
+            OptionsStatus::kOk)
+      << why;
+  EXPECT_EQ(o.source, SourceKind::kV4l2);
+  ASSERT_EQ(o.num_devices, 2);
+  EXPECT_STREQ(o.device_camera[1].data(), "z");
+  EXPECT_STREQ(o.device_path[0].data(), "/dev/video2");
+  EXPECT_STREQ(o.trigger_chip.data(), "gpiochip1");
+  EXPECT_EQ(o.trigger_line, 17);
+  EXPECT_TRUE(o.y16);
+  EXPECT_EQ(o.buffers, 6);
+  EXPECT_EQ(o.timeout_ms, 100);
+}
+
+TEST(NavdOptions, OneLineReasons) {
+  NavdOptions o;
+  std::string why;
+  EXPECT_EQ(Parse({"--source", "v4l2"}, &o, &why), OptionsStatus::kError);
+  EXPECT_EQ(why, "--params FILE|DIR is required");
+  EXPECT_EQ(Parse({"--params", "p"}, &o, &why), OptionsStatus::kError);
+  EXPECT_EQ(why, "--source v4l2|replay:DIR is required");
+  EXPECT_EQ(Parse({"--params", "p", "--source", "usb"}, &o, &why), OptionsStatus::kError);
+  EXPECT_EQ(why, "--source: expected v4l2 or replay:DIR, got 'usb'");
+  EXPECT_EQ(Parse({"--params", "p", "--source", "v4l2", "--frames", "-3"}, &o, &why), OptionsStatus::kError);
+  EXPECT_EQ(why, "--frames: expected a positive count, got '-3'");
+  EXPECT_EQ(Parse({"--params", "p", "--source", "v4l2", "--output", "tcp://x:1"}, &o, &why), OptionsStatus::kError);
+  EXPECT_EQ(why, "--output: expected udp://HOST:PORT, got 'tcp://x:1'");
+  EXPECT_EQ(Parse({"--params", "p", "--source", "v4l2", "--trigger", "gpiochip0"}, &o, &why), OptionsStatus::kError);
+  EXPECT_EQ(Parse({"--params", "p", "--source", "v4l2", "--bogus"}, &o, &why), OptionsStatus::kError);
+  EXPECT_EQ(why, "unknown option or missing value: '--bogus' (see --help)");
+  EXPECT_EQ(Parse({"--params", "p", "--source", "v4l2", "stray"}, &o, &why), OptionsStatus::kError);
+  EXPECT_EQ(why, "unexpected argument 'stray' (see --help)");
+  EXPECT_EQ(Parse({"--params", std::string(300, 'a'), "--source", "v4l2"}, &o, &why), OptionsStatus::kError);
+  EXPECT_EQ(Parse({"--help"}, &o, &why), OptionsStatus::kHelp);
+}
+
+}  // namespace
+}  // namespace mfns::fw

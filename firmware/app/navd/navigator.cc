@@ -1,0 +1,64 @@
+#include "firmware/app/navd/navigator.h"
+
+namespace mfns::fw {
+
+NavReason ToNavReason(TrackReason r) {
+  switch (r) {
+    case TrackReason::kNone: return NavReason::kNone;
+    case TrackReason::kFewBeacons: return NavReason::kFewBeacons;
+    case TrackReason::kLargeResidual: return NavReason::kLargeResidual;
+    case TrackReason::kLargeCovariance: return NavReason::kLargeCovariance;
+    case TrackReason::kTooFewBlobs:
+    case TrackReason::kTooFewBeacons: return NavReason::kTooFewBeacons;
+    case TrackReason::kAcquiring: return NavReason::kAcquiring;
+    case TrackReason::kAmbiguous: return NavReason::kAmbiguous;
+    case TrackReason::kBudgetExhausted:
+    case TrackReason::kNoHypothesis: return NavReason::kNoHypothesis;
+    case TrackReason::kBadInput: return NavReason::kSolveFailed;
+  }
+  return NavReason::kSolveFailed;
+}
+
+bool Navigator::Init(const Rig& rig, const NavigatorOptions& options, const char** why) {
+  if (!options.IsValid(why)) return false;
+  if (ValidateRig(rig) != RigStatus::kOk || rig.num_beacons < 3) {
+    if (why != nullptr) *why = "the rig is invalid or has fewer than 3 beacons";
+    return false;
+  }
+  if (!tracker_.Reset(rig)) {
+    if (why != nullptr) *why = "the tracker cannot use this rig";
+    return false;
+  }
+  options_ = options;
+  return true;
+}
+
+void Navigator::Step(const BlobObs* blobs, int num_blobs, std::uint64_t t_ns, bool cameras_down, NavOutput* out) {
+  const TrackStatus s = tracker_.Track(blobs, num_blobs, t_ns, options_.track, &result_);
+  out->source = result_.source;
+  out->reason = ToNavReason(result_.reason);
+  out->num_matches = 0;
+  out->num_beacons = 0;
+  out->beacons_per_camera.fill(0);
+  out->rms_px = 0.0;
+  if (s == TrackStatus::kLost) {
+    out->status = NavStatus::kLost;
+    return;
+  }
+  out->status = s == TrackStatus::kFix ? NavStatus::kFix : NavStatus::kDegraded;
+  if (out->status == NavStatus::kFix && cameras_down) {
+    out->status = NavStatus::kDegraded;
+    out->reason = NavReason::kCameraDown;
+  }
+  const SolveResult& r = result_.solve;
+  out->pose = result_.pose;
+  out->covariance = r.has_covariance ? r.covariance : Eigen::Matrix<double, 6, 6>::Zero();
+  out->num_beacons = r.num_beacons;
+  out->beacons_per_camera = r.inliers_per_camera;
+  out->rms_px = r.rms_px;
+  out->num_matches = result_.matches.num_matches;
+  for (int i = 0; i < out->num_matches; ++i)
+    out->matches[static_cast<std::size_t>(i)] = result_.matches.matches[static_cast<std::size_t>(i)];
+}
+
+}  // namespace mfns::fw

@@ -1,0 +1,54 @@
+// mfns-navd's navigation step: blobs of a frame set -> identities, pose, covariance, status,
+// through the tracker of firmware/modules/identify/tracker.h (tracking with a constant-velocity
+// prediction, lost-in-space re-identification, acquisition over frames when lost-in-space is
+// ambiguous). This adapter adds what the loop knows and the tracker does not (a camera set
+// aside degrades a fix) and maps the result to the published status and reason.
+// No heap after Init; bounded work per frame set.
+#pragma once
+
+#include <cstdint>
+
+#include "common/rig/rig.h"
+#include "firmware/modules/identify/tracker.h"
+#include "firmware/modules/publish/pose_message.h"
+#include "firmware/modules/solve/observation.h"
+
+namespace mfns::fw {
+
+struct NavigatorOptions {
+  TrackOptions track;
+  bool IsValid(const char** why = nullptr) const { return track.IsValid(why); }
+};
+
+struct NavOutput {
+  NavStatus status = NavStatus::kLost;
+  NavReason reason = NavReason::kNoFrames;
+  BodyPose pose;
+  Eigen::Matrix<double, 6, 6> covariance = Eigen::Matrix<double, 6, 6>::Zero();
+  int num_beacons = 0;
+  std::array<int, limits::kMaxCameras> beacons_per_camera{};
+  double rms_px = 0.0;
+  TrackSource source = TrackSource::kNone;
+  int num_matches = 0;
+  std::array<Match, limits::kMaxMatches> matches{};
+};
+
+// The published reason of a tracker outcome.
+NavReason ToNavReason(TrackReason r);
+
+class Navigator {
+ public:
+  // Keeps a reference to rig (alive and unchanged until the next Init). False on bad options or
+  // rig; *why names the problem.
+  bool Init(const Rig& rig, const NavigatorOptions& options, const char** why = nullptr);
+  // One frame set's blobs (sample time t_ns). cameras_down: a camera is set aside.
+  void Step(const BlobObs* blobs, int num_blobs, std::uint64_t t_ns, bool cameras_down, NavOutput* out);
+  const TrackCounters& counters() const { return tracker_.counters(); }
+
+ private:
+  NavigatorOptions options_;
+  Tracker tracker_;
+  TrackResult result_;
+};
+
+}  // namespace mfns::fw

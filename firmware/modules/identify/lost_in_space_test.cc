@@ -1,0 +1,285 @@
+#include "firmware/modules/identify/lost_in_space.h"
+
+#include <gtest/gtest.h>
+
+#include <cstdio>
+#include <random>
+
+#include "common/rig/paper_rig.h"
+#include "common/rotation/rotation.h"
+#include "firmware/modules/solve/synthetic_scene.h"
+#include "firmware/modules/solve/testing_alloc.h"
+
+namespace mfns::fw {
+namespace {
+
+using testing::AngleBetween;
+using testing::Scene;
+
+// Big objects live in static storage, as on the flyer.
+LostInSpace g_lis;
+LisResult g_res;
+Scene g_scene;
+
+// Every identity of the result is the truth of its blob.
+bool IdentitiesRight(const Scene& s, const MatchSet& m) {
+  for (int i = 0; i < m.num_matches; ++i) {
+    const Match& x = m.matches[static_cast<std::size_t>(i)];
+    if (s.truth_beacon[static_cast<std::size_t>(x.blob)] != x.beacon) return false;
+  }
+  return true;
+}
+
+struct Tally {
+  int frames = 0;
+  int eligible = 0;     // >= 3 visible beacons
+  int eligible5 = 0;    // >= 5 visible beacons
+  int fixes = 0;
+  int eligible_fixes = 0;
+  int eligible5_fixes = 0;
+  int wrong = 0;
+  int ambiguous = 0;
+  int budget = 0;
+  int no_hypothesis = 0;
+  int complete = 0;
+  long hypotheses = 0;
+  int max_hypotheses = 0;
+
+  void Print(const char* what) const {
+    std::printf("%s: %d frames; >= 3 beacons: %d, fix %d (%.0f%%); >= 5 beacons: %d, fix %d; ambiguous %d "
+                "(list complete in %d frames), budget out %d, no pose %d; WRONG %d; P3P solves mean %.0f max %d\n",
+                what, frames, eligible, eligible_fixes, eligible > 0 ? 100.0 * eligible_fixes / eligible : 0.0, eligible5,
+                eligible5_fixes, ambiguous, complete, budget, no_hypothesis, wrong,
+                frames > 0 ? static_cast<double>(hypotheses) / frames : 0.0, max_hypotheses);
+  }
+};
+
+// Runs lost-in-space on one frame set; a fix must have the true identities and a pose
+// consistent with the truth (5 cm, 2 deg: far beyond the noise used).
+void IdentifyAndCheck(const Scene& s, const LisOptions& o, Tally* t) {
+  ++t->frames;
+  const int visible = s.NumVisibleBeacons();
+  t->eligible += visible >= 3;
+  t->eligible5 += visible >= 5;
+  const LisStatus st = g_lis.Identify(s.blobs.data(), s.num_blobs, o, &g_res);
+  t->hypotheses += g_res.hypotheses;
+  t->max_hypotheses = std::max(t->max_hypotheses, g_res.hypotheses);
+  t->complete += g_res.complete;
+  switch (st) {
+    case LisStatus::kFix: {
+      ++t->fixes;
+      t->eligible_fixes += visible >= 3;
+      t->eligible5_fixes += visible >= 5;
+      const bool right = IdentitiesRight(s, g_res.matches) && (g_res.pose.r_w_wb - s.pose.r_w_wb).norm() < 0.05 &&
+                         AngleBetween(g_res.pose.C_w_b, s.pose.C_w_b) < DegToRad(2.0);
+      t->wrong += !right;
+      EXPECT_TRUE(right) << "wrong fix: frame " << t->frames << ", " << g_res.matches.num_beacons
+                         << " beacons, position error " << (g_res.pose.r_w_wb - s.pose.r_w_wb).norm() << " m";
+      EXPECT_GE(g_res.matches.num_beacons, 3);
+      EXPECT_TRUE(g_res.solve.has_covariance);
+      EXPECT_EQ(g_res.solve.status, SolveStatus::kOk);
+      break;
+    }
+    case LisStatus::kAmbiguous: ++t->ambiguous; break;
+    case LisStatus::kBudgetExhausted: ++t->budget; break;
+    case LisStatus::kNoHypothesis: ++t->no_hypothesis; break;
+    default: break;
+  }
+  // A complete list always holds the true pose when >= 3 beacons are in view.
+  if (g_res.complete && visible >= 3 && (st == LisStatus::kAmbiguous || st == LisStatus::kFix)) {
+    bool found = false;
+    for (int i = 0; i < g_res.num_consistent && !found; ++i) {
+      const BodyPose& p = g_res.consistent_poses[static_cast<std::size_t>(i)];
+      found = (p.r_w_wb - s.pose.r_w_wb).norm() < 0.05 && AngleBetween(p.C_w_b, s.pose.C_w_b) < DegToRad(2.0);
+    }
+    EXPECT_TRUE(found) << "frame " << t->frames << ": the true pose is missing from a complete list";
+  }
+}
+
+// The paper rig's yaw sweep (body at the origin, 1 deg steps), 0.2 px centroid noise, with 0-3
+// spurious blobs as bright as beacons anywhere in any image.
+TEST(LostInSpaceTest, PaperYawSweepNeverWrong) {
+  const Rig rig = PaperRig();
+  ASSERT_TRUE(g_lis.Reset(rig));
+  for (int spurious = 0; spurious <= 3; ++spurious) {
+    // (Spurious blobs multiply the hypotheses: fewer frames for them.)
+    const int stride = spurious < 2 ? testing::Trials(8, 60) : testing::Trials(16, 120);
+    std::mt19937_64 rng(100 + static_cast<std::uint64_t>(spurious));
+    Tally t;
+    for (int step = spurious; step < 360; step += stride) {
+      testing::Observe(rig, testing::YawPose(DegToRad(step)), 0.2, &rng, &g_scene);
+      testing::AddSpurious(rig, spurious, &rng, &g_scene);
+      IdentifyAndCheck(g_scene, LisOptions{}, &t);
+    }
+    char what[64];
+    std::snprintf(what, sizeof what, "paper yaw sweep, %d spurious", spurious);
+    t.Print(what);
+    EXPECT_EQ(t.wrong, 0);
+  }
+}
+
+// Random 6-DOF poses in a 2 x 2 x 2 m module with 10-20 beacons on its walls.
+TEST(LostInSpaceTest, RandomPosesAndLayoutsNeverWrong) {
+  std::mt19937_64 rng(200);
+  std::uniform_int_distribution<int> n_beacons(10, 20);
+  LisOptions o;
+  o.max_hypotheses = 5000;  // keeps the test fast; a cut search reports kBudgetExhausted
+  for (int spurious = 0; spurious <= 3; spurious += 3) {
+    Tally t;
+    for (int trial = 0; trial < testing::Trials(30, 3); ++trial) {
+      static Rig rig;
+      rig = testing::RandomBoxRig(n_beacons(rng), &rng);
+      ASSERT_TRUE(g_lis.Reset(rig));
+      // Poses that see at least 3 beacons (as the requirement is stated for those).
+      for (int tries = 0; tries < 50; ++tries) {
+        testing::Observe(rig, testing::RandomBoxPose(&rng), 0.2, &rng, &g_scene);
+        if (g_scene.NumVisibleBeacons() >= 3) break;
+      }
+      testing::AddSpurious(rig, spurious, &rng, &g_scene);
+      IdentifyAndCheck(g_scene, o, &t);
+    }
+    char what[64];
+    std::snprintf(what, sizeof what, "random module poses, %d spurious", spurious);
+    t.Print(what);
+    EXPECT_EQ(t.wrong, 0);
+  }
+}
+
+// With many beacons in view the identification is unique and immediate.
+TEST(LostInSpaceTest, FixesWhenManyBeaconsAreInView) {
+  Rig rig = PaperRig();
+  const BodyPose truth = testing::YawPose(DegToRad(40.0));
+  // Two extra beacons in each camera, at 0.6-0.9 m.
+  const Eigen::Vector2d spots[] = {{300, 300}, {950, 700}};
+  for (int k = 0; k < 3; ++k) {
+    for (int j = 0; j < 2; ++j) {
+      BlobObs b;
+      b.camera = k;
+      ASSERT_EQ(Unproject(rig.cameras[static_cast<std::size_t>(k)].intrinsics, spots[j], &b.x_n), UnprojectStatus::kOk);
+      const BodyRay ray = RayOfBlob(rig, b);
+      rig.beacons_w[static_cast<std::size_t>(rig.num_beacons++)] =
+          truth.C_w_b * (ray.o_b + (0.6 + 0.3 * j) * ray.d_b) + truth.r_w_wb;
+    }
+  }
+  ASSERT_TRUE(g_lis.Reset(rig));
+  std::mt19937_64 rng(7);
+  testing::Observe(rig, truth, 0.2, &rng, &g_scene);
+  ASSERT_GE(g_scene.NumVisibleBeacons(), 6);
+  for (int spurious = 0; spurious <= 2; ++spurious) {
+    if (spurious > 0) testing::AddSpurious(rig, 1, &rng, &g_scene);
+    ASSERT_EQ(g_lis.Identify(g_scene.blobs.data(), g_scene.num_blobs, LisOptions{}, &g_res), LisStatus::kFix)
+        << spurious << " spurious";
+    EXPECT_TRUE(IdentitiesRight(g_scene, g_res.matches));
+    EXPECT_EQ(g_res.matches.num_beacons, g_scene.NumVisibleBeacons());
+    EXPECT_LT((g_res.pose.r_w_wb - truth.r_w_wb).norm(), 0.01);
+  }
+}
+
+// A map symmetric under a 90 degree turn about z, seen from its axis: every identification
+// is as good as three others. Lost-in-space must say so, not pick one.
+TEST(LostInSpaceTest, SymmetricMapIsAmbiguous) {
+  Rig rig = PaperRig();
+  rig.num_beacons = 0;
+  for (int q = 0; q < 4; ++q) {
+    const Eigen::Matrix3d R = R3(q * kPi / 2.0).transpose();
+    rig.beacons_w[static_cast<std::size_t>(rig.num_beacons++)] = R * Eigen::Vector3d(0.8, 0.2, 0.1);
+    rig.beacons_w[static_cast<std::size_t>(rig.num_beacons++)] = R * Eigen::Vector3d(0.7, -0.3, 0.4);
+    rig.beacons_w[static_cast<std::size_t>(rig.num_beacons++)] = R * Eigen::Vector3d(0.9, 0.1, -0.3);
+  }
+  ASSERT_TRUE(g_lis.Reset(rig));
+  std::mt19937_64 rng(8);
+  int seen = 0;
+  for (int step = 0; step < 360; step += 10) {
+    testing::Observe(rig, testing::YawPose(DegToRad(step)), 0.1, &rng, &g_scene);
+    if (g_scene.NumVisibleBeacons() < 3) continue;
+    ++seen;
+    const LisStatus st = g_lis.Identify(g_scene.blobs.data(), g_scene.num_blobs, LisOptions{}, &g_res);
+    EXPECT_NE(st, LisStatus::kFix) << "step " << step;
+    if (st == LisStatus::kAmbiguous && g_res.complete) {
+      EXPECT_GE(g_res.num_consistent, 4);
+    }
+  }
+  EXPECT_GT(seen, 0);
+}
+
+TEST(LostInSpaceTest, StatusesForFewBlobsAndBadInput) {
+  const Rig rig = PaperRig();
+  LostInSpace& lis = g_lis;
+  LostInSpace fresh;  // never Reset
+  EXPECT_EQ(fresh.Identify(nullptr, 0, LisOptions{}, &g_res), LisStatus::kBadInput);
+  ASSERT_TRUE(lis.Reset(rig));
+  std::mt19937_64 rng(9);
+  testing::Observe(rig, testing::YawPose(DegToRad(30.0)), 0.2, &rng, &g_scene);
+  ASSERT_GE(g_scene.num_blobs, 3);
+  EXPECT_EQ(lis.Identify(g_scene.blobs.data(), 2, LisOptions{}, &g_res), LisStatus::kTooFewBlobs);
+  Scene bad = g_scene;
+  bad.blobs[1].camera = 7;
+  EXPECT_EQ(lis.Identify(bad.blobs.data(), bad.num_blobs, LisOptions{}, &g_res), LisStatus::kBadInput);
+  bad = g_scene;
+  bad.blobs[0].x_n.x() = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_EQ(lis.Identify(bad.blobs.data(), bad.num_blobs, LisOptions{}, &g_res), LisStatus::kBadInput);
+  LisOptions o;
+  const char* why = nullptr;
+  EXPECT_TRUE(o.IsValid(&why));
+  o.max_hypotheses = limits::kMaxLisHypotheses + 1;
+  EXPECT_FALSE(o.IsValid(&why));
+  EXPECT_STREQ(why, "max_hypotheses");
+  EXPECT_EQ(lis.Identify(g_scene.blobs.data(), g_scene.num_blobs, o, &g_res), LisStatus::kBadInput);
+  o = {};
+  o.min_score_margin = 0.0;
+  EXPECT_FALSE(o.IsValid(&why));
+  o = {};
+  o.solve.sigma_px = -1.0;
+  EXPECT_FALSE(o.IsValid(&why));
+  EXPECT_STREQ(why, "sigma_px");
+  Rig broken = rig;
+  broken.cameras[0].C_k_b(0, 0) = 3.0;
+  EXPECT_FALSE(fresh.Reset(broken));
+  // A tiny budget is reported, never turned into a guess.
+  o = {};
+  o.max_hypotheses = 5;
+  const LisStatus st = lis.Identify(g_scene.blobs.data(), g_scene.num_blobs, o, &g_res);
+  EXPECT_TRUE(st == LisStatus::kBudgetExhausted || st == LisStatus::kAmbiguous) << ToString(st);
+  EXPECT_EQ(g_res.hypotheses, 5);
+  EXPECT_FALSE(g_res.complete);
+  for (int i = 0; i < kNumLisStatus; ++i)
+    EXPECT_STRNE(ToString(static_cast<LisStatus>(i)), "unknown lost-in-space status");
+}
+
+// A prior restricts the search to poses near it; the true pose is found there.
+TEST(LostInSpaceTest, PriorKeepsOnlyNearbyPoses) {
+  const Rig rig = PaperRig();
+  ASSERT_TRUE(g_lis.Reset(rig));
+  std::mt19937_64 rng(10);
+  testing::Observe(rig, testing::YawPose(DegToRad(100.0)), 0.2, &rng, &g_scene);
+  ASSERT_GE(g_scene.NumVisibleBeacons(), 3);
+  BodyPose near = testing::YawPose(DegToRad(103.0));
+  LisPrior prior;
+  prior.poses = &near;
+  prior.num_poses = 1;
+  prior.max_m = 0.05;
+  prior.max_rad = DegToRad(5.0);
+  g_lis.Identify(g_scene.blobs.data(), g_scene.num_blobs, LisOptions{}, &g_res, &prior);
+  ASSERT_GE(g_res.num_consistent, 1);
+  for (int i = 0; i < g_res.num_consistent; ++i)
+    EXPECT_LT(AngleBetween(g_res.consistent_poses[static_cast<std::size_t>(i)].C_w_b, near.C_w_b), DegToRad(5.1));
+  EXPECT_LT(AngleBetween(g_res.consistent_poses[0].C_w_b, g_scene.pose.C_w_b), DegToRad(0.5));
+}
+
+TEST(LostInSpaceTest, NoHeapAllocation) {
+  const Rig rig = PaperRig();
+  std::mt19937_64 rng(11);
+  const long before = testing_alloc::Count();
+  ASSERT_TRUE(g_lis.Reset(rig));
+  int fixes = 0;
+  for (int step = 0; step < 360; step += testing::Trials(12, 120)) {
+    testing::Observe(rig, testing::YawPose(DegToRad(step)), 0.2, &rng, &g_scene);
+    testing::AddSpurious(rig, 1, &rng, &g_scene);
+    fixes += g_lis.Identify(g_scene.blobs.data(), g_scene.num_blobs, LisOptions{}, &g_res) == LisStatus::kFix;
+  }
+  EXPECT_EQ(testing_alloc::Count() - before, 0);
+  (void)fixes;
+}
+
+}  // namespace
+}  // namespace mfns::fw

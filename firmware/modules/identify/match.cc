@@ -1,0 +1,134 @@
+#include "firmware/modules/identify/match.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "common/camera/camera.h"
+
+namespace mfns::fw {
+
+bool MatchOptions::IsValid(const char** why) const {
+  const char* bad = nullptr;
+  if (!(gate_px > 0.0) || !std::isfinite(gate_px)) bad = "gate_px";
+  else if (!(miss_margin_px >= 0.0) || !std::isfinite(miss_margin_px)) bad = "miss_margin_px";
+  if (why != nullptr) *why = bad != nullptr ? bad : "ok";
+  return bad == nullptr;
+}
+
+void BeaconMatcher::Reset(const Rig& rig) {
+  rig_ = &rig;
+  blobs_ = nullptr;
+  count_.fill(0);
+  for (int k = 0; k < rig.num_cameras && k < limits::kMaxCameras; ++k) {
+    const CameraIntrinsics& in = rig.cameras[static_cast<std::size_t>(k)].intrinsics;
+    double r2 = 0.0;
+    const double us[2] = {-0.5, in.width - 0.5}, vs[2] = {-0.5, in.height - 0.5};
+    for (double u : us) {
+      for (double v : vs) {
+        Eigen::Vector2d x_n;
+        if (Unproject(in, Eigen::Vector2d(u, v), &x_n) != UnprojectStatus::kOk)
+          x_n = Eigen::Vector2d((u - in.u0) / in.alpha_x, (v - in.v0) / in.alpha_y);  // pinhole
+        r2 = std::max(r2, x_n.squaredNorm());
+      }
+    }
+    max_tan_sq_[static_cast<std::size_t>(k)] = 1.21 * r2;  // 10% beyond the corners
+  }
+}
+
+int BeaconMatcher::SetBlobs(const BlobObs* blobs, int num_blobs) {
+  blobs_ = blobs;
+  count_.fill(0);
+  int indexed = 0;
+  for (int i = 0; i < num_blobs && rig_ != nullptr; ++i) {
+    const int k = blobs[i].camera;
+    if (k < 0 || k >= rig_->num_cameras || k >= limits::kMaxCameras) continue;
+    auto& c = count_[static_cast<std::size_t>(k)];
+    if (c >= limits::kMaxBlobsPerFrame) continue;
+    index_[static_cast<std::size_t>(k)][static_cast<std::size_t>(c++)] = static_cast<short>(i);
+    ++indexed;
+  }
+  return indexed;
+}
+
+bool BeaconMatcher::Predict(int k, const BodyPose& pose, const Eigen::Vector3d& P_w, double grow_px,
+                            double margin_px, Eigen::Vector2d* uv_px, bool* inner) const {
+  const RigCamera& cam = rig_->cameras[static_cast<std::size_t>(k)];
+  const Eigen::Vector3d p_k = WorldToCamera(cam, pose, P_w);
+  if (!(p_k.z() > 0.0) ||
+      p_k.head<2>().squaredNorm() > max_tan_sq_[static_cast<std::size_t>(k)] * p_k.z() * p_k.z())
+    return false;
+  if (Project(cam.intrinsics, p_k, uv_px) != ProjectStatus::kOk) return false;
+  if (!InImage(cam.intrinsics, *uv_px, -grow_px)) return false;
+  *inner = InImage(cam.intrinsics, *uv_px, margin_px);
+  return true;
+}
+
+void BeaconMatcher::MatchPose(const BodyPose& pose, const MatchOptions& o, MatchSet* out) const {
+  out->num_matches = 0;
+  out->beacons = 0;
+  out->num_beacons = 0;
+  out->num_predicted = 0;
+  out->num_missing = 0;
+  out->sum_sq_px = 0.0;
+  if (rig_ == nullptr || blobs_ == nullptr) return;
+  struct Candidate {
+    double d;
+    int beacon;
+    int slot;  // blob slot within the camera
+  };
+  const double gate_sq = o.gate_px * o.gate_px;
+  for (int k = 0; k < rig_->num_cameras; ++k) {
+    const auto sk = static_cast<std::size_t>(k);
+    std::array<Candidate, 2 * limits::kMaxBeacons> cand;
+    int n_cand = 0;
+    std::uint64_t inner_set = 0;
+    for (int m = 0; m < rig_->num_beacons; ++m) {
+      Eigen::Vector2d uv;
+      bool inner = false;
+      if (!Predict(k, pose, rig_->beacons_w[static_cast<std::size_t>(m)], o.gate_px, o.miss_margin_px, &uv, &inner))
+        continue;
+      if (InImage(rig_->cameras[sk].intrinsics, uv)) ++out->num_predicted;
+      if (inner) inner_set |= std::uint64_t{1} << m;
+      // Nearest and second-nearest blob of this camera.
+      double d1 = gate_sq * 4.0 + 1.0, d2 = d1;
+      int j1 = -1, j2 = -1;
+      for (int j = 0; j < count_[sk]; ++j) {
+        const double d = (blobs_[index_[sk][static_cast<std::size_t>(j)]].uv_px - uv).squaredNorm();
+        if (d < d1) {
+          d2 = d1;
+          j2 = j1;
+          d1 = d;
+          j1 = j;
+        } else if (d < d2) {
+          d2 = d;
+          j2 = j;
+        }
+      }
+      if (j1 < 0 || d1 > gate_sq) continue;
+      if (o.reject_ambiguous && j2 >= 0 && d2 <= gate_sq) continue;
+      cand[static_cast<std::size_t>(n_cand++)] = Candidate{d1, m, j1};
+      if (j2 >= 0 && d2 <= gate_sq) cand[static_cast<std::size_t>(n_cand++)] = Candidate{d2, m, j2};
+    }
+    std::sort(cand.begin(), cand.begin() + n_cand, [](const Candidate& a, const Candidate& b) {
+      return a.d < b.d || (a.d == b.d && (a.beacon < b.beacon || (a.beacon == b.beacon && a.slot < b.slot)));
+    });
+    std::array<bool, limits::kMaxBlobsPerFrame> used{};
+    std::uint64_t matched = 0;
+    for (int c = 0; c < n_cand; ++c) {
+      const Candidate& cd = cand[static_cast<std::size_t>(c)];
+      const std::uint64_t bit = std::uint64_t{1} << cd.beacon;
+      if ((matched & bit) != 0 || used[static_cast<std::size_t>(cd.slot)] || out->num_matches >= limits::kMaxMatches)
+        continue;
+      matched |= bit;
+      used[static_cast<std::size_t>(cd.slot)] = true;
+      out->matches[static_cast<std::size_t>(out->num_matches++)] =
+          Match{index_[sk][static_cast<std::size_t>(cd.slot)], cd.beacon, k};
+      out->sum_sq_px += cd.d;
+    }
+    out->beacons |= matched;
+    for (std::uint64_t miss = inner_set & ~matched; miss != 0; miss &= miss - 1) ++out->num_missing;
+  }
+  for (std::uint64_t b = out->beacons; b != 0; b &= b - 1) ++out->num_beacons;
+}
+
+}  // namespace mfns::fw

@@ -1,0 +1,117 @@
+// Beacon map reprojection and gated one-to-one matching of predicted beacons to blobs, shared
+// by lost-in-space (hypothesis scoring) and tracking.
+//
+// Visibility model: beacon m is predicted in camera k when it is in front of the camera,
+// inside the camera's view cone (the cone through the image corners, so that the distortion
+// polynomial is never used where it may fold back) and its image falls inside the image grown
+// by the gate. It is predicted "well inside" when its image is at least miss_margin_px inside
+// the image; such a beacon with no blob matched counts as missing.
+//
+// Matching: each predicted beacon takes its nearest blob of that camera within gate_px;
+// conflicts are resolved greedily by distance so that every blob and every (camera, beacon)
+// is used at most once. With reject_ambiguous, a beacon with a second blob inside the gate is
+// not matched at all.
+//
+// No heap; work bounded by beacons x blobs per camera.
+#pragma once
+
+#include <Eigen/Core>
+#include <array>
+#include <cstdint>
+
+#include "common/limits.h"
+#include "common/rig/rig.h"
+#include "firmware/modules/solve/observation.h"
+
+namespace mfns::fw {
+
+struct MatchOptions {
+  double gate_px = 10.0;          // largest blob-to-prediction distance of a match (> 0)
+  double miss_margin_px = 15.0;   // "well inside the image" margin for missing beacons (>= 0)
+  bool reject_ambiguous = false;  // drop beacons with two blobs inside the gate
+
+  bool IsValid(const char** why = nullptr) const;
+};
+
+// The matches of one pose hypothesis and how well it explains the blobs; kCapacity matches
+// at most (MatchSet: every possible one; lost-in-space keeps many hypotheses in shorter lists).
+template <int kCapacity>
+struct MatchList {
+  int num_matches = 0;
+  std::array<Match, kCapacity> matches{};
+  std::uint64_t beacons = 0;  // bit m: beacon m matched in some camera
+  int num_beacons = 0;        // distinct matched beacons
+  int num_predicted = 0;      // (camera, beacon) pairs predicted inside the image
+  int num_missing = 0;        // predicted well inside with no blob matched
+  double sum_sq_px = 0.0;     // sum of squared match distances
+
+  // Matched observations minus miss_weight per missing beacon.
+  double Score(double miss_weight) const { return num_matches - miss_weight * num_missing; }
+  // Beacon of blob i in this set, or -1.
+  int BeaconOfBlob(int blob) const {
+    for (int i = 0; i < num_matches; ++i)
+      if (matches[static_cast<std::size_t>(i)].blob == blob) return matches[static_cast<std::size_t>(i)].beacon;
+    return -1;
+  }
+  // Copies another list, truncated to this capacity (the statistics are kept as they were).
+  template <int kOther>
+  void CopyFrom(const MatchList<kOther>& o) {
+    num_matches = o.num_matches < kCapacity ? o.num_matches : kCapacity;
+    for (int i = 0; i < num_matches; ++i) matches[static_cast<std::size_t>(i)] = o.matches[static_cast<std::size_t>(i)];
+    beacons = o.beacons;
+    num_beacons = o.num_beacons;
+    num_predicted = o.num_predicted;
+    num_missing = o.num_missing;
+    sum_sq_px = o.sum_sq_px;
+  }
+};
+using MatchSet = MatchList<limits::kMaxMatches>;
+
+// Identities of a and b never contradict: no blob named two beacons, no beacon of a camera
+// named two blobs. *shared counts the identical identities.
+template <int kA, int kB>
+bool Compatible(const MatchList<kA>& a, const MatchList<kB>& b, int* shared) {
+  *shared = 0;
+  for (int i = 0; i < a.num_matches; ++i) {
+    const Match& x = a.matches[static_cast<std::size_t>(i)];
+    for (int j = 0; j < b.num_matches; ++j) {
+      const Match& y = b.matches[static_cast<std::size_t>(j)];
+      const bool same_blob = x.blob == y.blob;
+      const bool same_beacon = x.beacon == y.beacon && x.camera == y.camera;
+      if (same_blob && same_beacon) ++*shared;
+      else if (same_blob || same_beacon) return false;
+    }
+  }
+  return true;
+}
+
+class BeaconMatcher {
+ public:
+  // Precomputes each camera's view cone. The rig must stay alive and unchanged while in use.
+  void Reset(const Rig& rig);
+
+  // Indexes a frame set's blobs by camera (blobs with a camera outside the rig, or beyond
+  // limits::kMaxBlobsPerFrame in a camera, are ignored). The list must stay alive while
+  // matching. Returns the number of blobs indexed.
+  int SetBlobs(const BlobObs* blobs, int num_blobs);
+
+  // Predicts every beacon at `pose` and matches. out->matches come camera by camera.
+  void MatchPose(const BodyPose& pose, const MatchOptions& options, MatchSet* out) const;
+
+  // Whether beacon P_w is predicted in camera k at `pose`; *uv_px its image; *inner whether
+  // it is margin_px inside the image.
+  bool Predict(int k, const BodyPose& pose, const Eigen::Vector3d& P_w, double grow_px, double margin_px,
+               Eigen::Vector2d* uv_px, bool* inner) const;
+
+  int BlobsInCamera(int k) const { return count_[static_cast<std::size_t>(k)]; }
+  int BlobOfCamera(int k, int j) const { return index_[static_cast<std::size_t>(k)][static_cast<std::size_t>(j)]; }
+
+ private:
+  const Rig* rig_ = nullptr;
+  std::array<double, limits::kMaxCameras> max_tan_sq_{};  // view cone: (x^2 + y^2) / z^2 bound
+  const BlobObs* blobs_ = nullptr;
+  std::array<int, limits::kMaxCameras> count_{};
+  std::array<std::array<short, limits::kMaxBlobsPerFrame>, limits::kMaxCameras> index_{};
+};
+
+}  // namespace mfns::fw

@@ -1,0 +1,507 @@
+#include "firmware/modules/identify/tracker.h"
+
+#include <algorithm>
+#include <bit>
+#include <cmath>
+
+#include "common/rotation/rotation.h"
+
+namespace mfns::fw {
+namespace {
+
+double Seconds(std::uint64_t later_ns, std::uint64_t earlier_ns) {
+  return later_ns >= earlier_ns ? static_cast<double>(later_ns - earlier_ns) * 1e-9
+                                : -static_cast<double>(earlier_ns - later_ns) * 1e-9;
+}
+
+}  // namespace
+
+const char* ToString(TrackStatus s) {
+  switch (s) {
+    case TrackStatus::kFix: return "fix";
+    case TrackStatus::kDegraded: return "degraded";
+    case TrackStatus::kLost: return "lost";
+  }
+  return "unknown track status";
+}
+
+const char* ToString(TrackReason r) {
+  switch (r) {
+    case TrackReason::kNone: return "none";
+    case TrackReason::kFewBeacons: return "few beacons";
+    case TrackReason::kLargeResidual: return "large residual";
+    case TrackReason::kLargeCovariance: return "large covariance";
+    case TrackReason::kTooFewBlobs: return "too few blobs";
+    case TrackReason::kTooFewBeacons: return "too few beacons matched";
+    case TrackReason::kAcquiring: return "acquiring: several poses explain the blobs";
+    case TrackReason::kAmbiguous: return "ambiguous";
+    case TrackReason::kBudgetExhausted: return "hypothesis budget exhausted";
+    case TrackReason::kNoHypothesis: return "no pose explains the blobs";
+    case TrackReason::kBadInput: return "bad input";
+  }
+  return "unknown track reason";
+}
+
+const char* ToString(TrackSource s) {
+  switch (s) {
+    case TrackSource::kNone: return "none";
+    case TrackSource::kTracked: return "tracked";
+    case TrackSource::kLostInSpace: return "lost-in-space";
+    case TrackSource::kAcquired: return "acquired";
+  }
+  return "unknown track source";
+}
+
+bool TrackOptions::IsValid(const char** why) const {
+  const char* bad = nullptr;
+  const char* sub = nullptr;
+  auto positive = [](double x) { return x > 0.0 && std::isfinite(x); };
+  if (!lis.IsValid(&sub)) bad = sub;
+  else if (!positive(gate_px)) bad = "gate_px";
+  else if (!positive(hold_gate_px)) bad = "hold_gate_px";
+  else if (!(gate_growth_px_per_s >= 0.0) || !std::isfinite(gate_growth_px_per_s)) bad = "gate_growth_px_per_s";
+  else if (!positive(max_gate_px) || max_gate_px < gate_px || max_gate_px < hold_gate_px) bad = "max_gate_px";
+  else if (!positive(refine_gate_px)) bad = "refine_gate_px";
+  else if (!(miss_margin_px >= 0.0) || !std::isfinite(miss_margin_px)) bad = "miss_margin_px";
+  else if (max_missing < 0) bad = "max_missing";
+  else if (!positive(max_rms_px)) bad = "max_rms_px";
+  else if (!positive(max_coast_s)) bad = "max_coast_s";
+  else if (!positive(velocity_window_s)) bad = "velocity_window_s";
+  else if (!(gate_sigmas >= 0.0) || !std::isfinite(gate_sigmas)) bad = "gate_sigmas";
+  else if (!positive(gate_depth_m)) bad = "gate_depth_m";
+  else if (!positive(max_seed_s)) bad = "max_seed_s";
+  else if (fix_min_beacons < 3) bad = "fix_min_beacons";
+  else if (!positive(degraded_rms_px)) bad = "degraded_rms_px";
+  else if (!positive(max_position_sigma_m)) bad = "max_position_sigma_m";
+  else if (!positive(max_attitude_sigma_rad)) bad = "max_attitude_sigma_rad";
+  else if (!positive(max_speed_m_s)) bad = "max_speed_m_s";
+  else if (!positive(max_rate_rad_s)) bad = "max_rate_rad_s";
+  else if (!positive(max_accel_m_s2)) bad = "max_accel_m_s2";
+  else if (!positive(max_angular_accel_rad_s2)) bad = "max_angular_accel_rad_s2";
+  else if (!(chain_slack_m >= 0.0) || !(chain_slack_rad >= 0.0)) bad = "chain_slack";
+  else if (min_acquire_frames < 2) bad = "min_acquire_frames";
+  else if (!positive(chain_stale_s)) bad = "chain_stale_s";
+  else if (!positive(twin_m) || !positive(twin_rad)) bad = "twin";
+  else if (!positive(innovation_m) || !positive(innovation_rad)) bad = "innovation";
+  else if (!solve.IsValid(&sub)) bad = sub;
+  if (why != nullptr) *why = bad != nullptr ? bad : "ok";
+  return bad == nullptr;
+}
+
+bool Tracker::Reset(const Rig& rig) {
+  rig_ = nullptr;
+  has_pose_ = has_velocity_ = has_seed_ = false;
+  chain_n_ = chain_frames_ = 0;
+  counters_ = TrackCounters{};
+  if (!lis_.Reset(rig)) return false;
+  matcher_.Reset(rig);
+  rig_ = &rig;
+  hist_n_ = 0;
+  px_per_rad_ = 0.0;
+  for (int k = 0; k < rig.num_cameras; ++k)
+    px_per_rad_ = std::max({px_per_rad_, rig.cameras[static_cast<std::size_t>(k)].intrinsics.alpha_x,
+                            rig.cameras[static_cast<std::size_t>(k)].intrinsics.alpha_y});
+  return true;
+}
+
+void Tracker::SetPose(const BodyPose& pose, std::uint64_t t_ns) {
+  has_pose_ = has_seed_ = true;
+  has_velocity_ = false;
+  last_pose_ = pose;
+  last_t_ns_ = t_ns;
+  last_sigma_m_ = last_sigma_rad_ = 0.0;
+  hist_n_ = 1;
+  hist_[0] = pose;
+  hist_t_ns_[0] = t_ns;
+  chain_n_ = 0;
+}
+
+BodyPose Tracker::Predict(std::uint64_t t_ns) const {
+  if (!has_velocity_) return last_pose_;
+  const double dt = Seconds(t_ns, last_t_ns_);
+  BodyPose p;
+  p.r_w_wb = last_pose_.r_w_wb + v_w_ * dt;
+  p.C_w_b = last_pose_.C_w_b * ExpSO3(omega_b_ * dt);
+  return p;
+}
+
+// Solve from `start` with the identities in set_, then re-match with the tight gate and solve
+// again while they change (bounded). r->matches and r->solve hold the outcome.
+bool Tracker::SolveAt(const BodyPose& start, const TrackOptions& o, TrackResult* r) {
+  BodyPose pose = start;
+  const MatchOptions tight{o.refine_gate_px, o.miss_margin_px, false};
+  for (int round = 0; round < 3; ++round) {
+    const SolveStatus s =
+        SolvePose(*rig_, blobs_, num_blobs_, set_.matches.data(), set_.num_matches, pose, o.solve, &r->solve);
+    counters_.solve.Record(r->solve);
+    if (s != SolveStatus::kOk) return false;
+    pose = r->solve.pose;
+    matcher_.MatchPose(pose, tight, &r->matches);
+    int shared = 0;
+    const bool stable = r->matches.num_matches == set_.num_matches && Compatible(r->matches, set_, &shared) &&
+                        shared == set_.num_matches;
+    set_ = r->matches;
+    if (stable) break;
+  }
+  // The identities the last solve used, inliers only.
+  int n = 0;
+  r->matches.beacons = 0;
+  for (int i = 0; i < r->matches.num_matches; ++i) {
+    if (!r->solve.inlier[static_cast<std::size_t>(i)]) continue;
+    r->matches.matches[static_cast<std::size_t>(n)] = r->matches.matches[static_cast<std::size_t>(i)];
+    r->matches.beacons |= std::uint64_t{1} << r->matches.matches[static_cast<std::size_t>(n)].beacon;
+    ++n;
+  }
+  r->matches.num_matches = n;
+  r->matches.num_beacons = std::popcount(r->matches.beacons);
+  r->pose = r->solve.pose;
+  return r->matches.num_beacons >= 3 && r->matches.num_missing <= o.max_missing && r->solve.rms_px <= o.max_rms_px &&
+         !NearbyTwin(o, r);
+}
+
+// Three observations fit a pose exactly, and so do up to three other poses (the P3P's other
+// roots). Far apart, the prediction tells them apart; near one another (near-degenerate
+// geometry), the solver may have settled on the wrong one and its covariance does not say
+// so. True when another consistent root lies within twin_m / twin_rad.
+bool Tracker::NearbyTwin(const TrackOptions& o, const TrackResult* r) {
+  if (r->matches.num_matches != 3) return false;
+  std::array<BodyRay, 3> rays;
+  std::array<Eigen::Vector3d, 3> P;
+  for (std::size_t i = 0; i < 3; ++i) {
+    const Match& m = r->matches.matches[i];
+    rays[i] = RayOfBlob(*rig_, blobs_[m.blob]);
+    P[i] = rig_->beacons_w[static_cast<std::size_t>(m.beacon)];
+  }
+  P3pOptions p3p = o.lis.p3p;
+  if (p3p.max_depth_m <= 0.0) p3p.max_depth_m = 10.0;
+  if (!twin_.Set(rays, p3p)) return false;
+  const int n = twin_.Solve(P, &twin_poses_);
+  for (int i = 0; i < n; ++i) {
+    const BodyPose& q = twin_poses_[static_cast<std::size_t>(i)];
+    const double dr = (q.r_w_wb - r->pose.r_w_wb).norm();
+    const double da = LogSO3(r->pose.C_w_b.transpose() * q.C_w_b).norm();
+    if (dr < 1e-3 && da < 1e-3) continue;  // the solution itself (the noise moves it a little)
+    if (dr > o.twin_m || da > o.twin_rad) continue;
+    matcher_.MatchPose(q, MatchOptions{o.refine_gate_px, o.miss_margin_px, false}, &twin_set_);
+    if (twin_set_.num_missing <= o.max_missing) return true;
+  }
+  return false;
+}
+
+bool Tracker::TrackFrom(const BodyPose& predicted, double since_s, double gate_px, const TrackOptions& o,
+                        TrackResult* r, bool* refuted) {
+  *refuted = false;
+  matcher_.MatchPose(predicted, MatchOptions{gate_px, o.miss_margin_px, true}, &set_);
+  if (set_.num_beacons < 3) return false;
+  if (!SolveAt(predicted, o, r)) {
+    *refuted = r->matches.num_missing > o.max_missing || r->solve.rms_px > o.max_rms_px;
+    return false;
+  }
+  // Innovation test: the solved pose must be where the motion model allows. Three matches
+  // fit any pose exactly, so one wrong match (a spurious blob in a beacon's gate) shows only
+  // here, as a jump.
+  const double lead = has_velocity_ ? 1.0 + since_s / velocity_baseline_s_ : 1.0;
+  double max_m = o.innovation_m + o.gate_sigmas * last_sigma_m_ * lead;
+  double max_rad = o.innovation_rad + o.gate_sigmas * last_sigma_rad_ * lead;
+  if (has_velocity_) {
+    max_m += 0.5 * o.max_accel_m_s2 * since_s * since_s;
+    max_rad += 0.5 * o.max_angular_accel_rad_s2 * since_s * since_s;
+  } else {
+    max_m += o.max_speed_m_s * since_s;
+    max_rad += o.max_rate_rad_s * since_s;
+  }
+  if ((r->pose.r_w_wb - predicted.r_w_wb).norm() > max_m ||
+      LogSO3(predicted.C_w_b.transpose() * r->pose.C_w_b).norm() > max_rad) {
+    ++counters_.innovation_refused;
+    *refuted = true;
+    return false;
+  }
+  return true;
+}
+
+// Readies the followed poses for frame t_ns: drops them all when one has gone unconfirmed too
+// long, seeds them with the pose predicted from the last accepted one, and sets each one's
+// motion bounds since its last confirmation.
+void Tracker::PrepareChain(std::uint64_t t_ns, const TrackOptions& o) {
+  for (int i = 0; i < chain_n_; ++i)
+    if (Seconds(t_ns, chain_t_[static_cast<std::size_t>(i)]) > o.chain_stale_s) chain_n_ = 0;
+  bool seeded = false;
+  if (chain_n_ == 0 && has_seed_ && Seconds(t_ns, last_t_ns_) <= o.max_seed_s) {
+    // The true pose is within the acceleration bounds of the constant-velocity prediction
+    // (or the speed bounds of a held pose).
+    chain_n_ = 1;
+    chain_[0] = Predict(t_ns);
+    chain_t_[0] = last_t_ns_;
+    chain_frames_ = 1;
+    seeded = chain_seeded_ = true;
+  }
+  prior_max_m_ = prior_max_rad_ = 0.0;
+  for (int i = 0; i < chain_n_; ++i) {
+    const auto si = static_cast<std::size_t>(i);
+    const double dt = std::max(0.0, Seconds(t_ns, chain_t_[si]));
+    chain_max_m_[si] = o.max_speed_m_s * dt + o.chain_slack_m;
+    chain_max_rad_[si] = o.max_rate_rad_s * dt + o.chain_slack_rad;
+    if (seeded && has_velocity_) {
+      chain_max_m_[si] = std::min(chain_max_m_[si], 0.5 * o.max_accel_m_s2 * dt * dt + o.chain_slack_m);
+      chain_max_rad_[si] = std::min(chain_max_rad_[si], 0.5 * o.max_angular_accel_rad_s2 * dt * dt + o.chain_slack_rad);
+    }
+    prior_max_m_ = std::max(prior_max_m_, chain_max_m_[si]);
+    prior_max_rad_ = std::max(prior_max_rad_, chain_max_rad_[si]);
+  }
+}
+
+bool Tracker::ChainPrior(std::uint64_t t_ns, const TrackOptions& o, LisPrior* prior) {
+  PrepareChain(t_ns, o);
+  if (chain_n_ == 0) return false;
+  prior->poses = chain_.data();
+  prior->num_poses = chain_n_;
+  prior->max_m = prior_max_m_;
+  prior->max_rad = prior_max_rad_;
+  return true;
+}
+
+// Beacons that `pose` predicts at least margin_px inside an image (over all cameras).
+int Tracker::SurelyVisible(const BodyPose& pose, double margin_px) const {
+  int n = 0;
+  for (int k = 0; k < rig_->num_cameras; ++k) {
+    for (int m = 0; m < rig_->num_beacons; ++m) {
+      Eigen::Vector2d uv;
+      bool inner = false;
+      if (matcher_.Predict(k, pose, rig_->beacons_w[static_cast<std::size_t>(m)], 0.0, margin_px, &uv, &inner) && inner)
+        ++n;
+    }
+  }
+  return n;
+}
+
+// Follows the poses kept so far with lost-in-space's (complete) consistent poses of this frame
+// set: every consistent pose within the motion bounds of a kept one is kept (confirmed). A
+// kept pose with none is dropped only when it should have been found (three beacons surely
+// in view); otherwise its true self may just lack beacons this frame set, and dropping it
+// could leave only wrong poses: it coasts, unconfirmed, until chain_stale_s restarts all.
+bool Tracker::Acquire(std::uint64_t t_ns, const TrackOptions& o, TrackResult* r) {
+  const LisResult& l = lis_res_;
+  if (!l.complete) {
+    r->acquisition_poses = chain_n_;
+    return false;  // no information this frame: the followed poses coast
+  }
+  if (chain_n_ == 0) {
+    chain_n_ = l.num_consistent;
+    for (int i = 0; i < chain_n_; ++i) {
+      chain_[static_cast<std::size_t>(i)] = l.consistent_poses[static_cast<std::size_t>(i)];
+      chain_t_[static_cast<std::size_t>(i)] = t_ns;
+    }
+    chain_frames_ = 1;
+    chain_seeded_ = false;
+    r->acquisition_poses = chain_n_;
+    return false;
+  }
+  // Every consistent pose within the bounds of a followed one is followed on (any of them may
+  // be the truth); a followed pose with none is kept unless refuted.
+  int n = 0, confirmed = 0;
+  std::array<bool, limits::kMaxLisCandidates> reached{};
+  for (int i = 0; i < l.num_consistent && n < limits::kMaxLisCandidates; ++i) {
+    const BodyPose& p = l.consistent_poses[static_cast<std::size_t>(i)];
+    bool near = false;
+    for (int j = 0; j < chain_n_; ++j) {
+      const auto sj = static_cast<std::size_t>(j);
+      const BodyPose& q = chain_[sj];
+      if ((p.r_w_wb - q.r_w_wb).norm() <= chain_max_m_[sj] && LogSO3(q.C_w_b.transpose() * p.C_w_b).norm() <= chain_max_rad_[sj]) {
+        reached[sj] = true;
+        near = true;
+      }
+    }
+    if (!near) continue;
+    chain_next_[static_cast<std::size_t>(n)] = p;
+    chain_next_t_[static_cast<std::size_t>(n)] = t_ns;
+    ++n;
+    ++confirmed;
+  }
+  for (int j = 0; j < chain_n_ && n < limits::kMaxLisCandidates; ++j) {
+    const auto sj = static_cast<std::size_t>(j);
+    if (reached[sj]) continue;
+    // Not found. Had it three beacons surely in view (deeper inside the images than its
+    // motion bounds could carry them out), complete lost-in-space would have found it: it is
+    // not the truth. Otherwise its true self may simply lack beacons this frame set: it
+    // coasts, unconfirmed.
+    const BodyPose& q = chain_[sj];
+    const double motion_px = px_per_rad_ * (chain_max_rad_[sj] + chain_max_m_[sj] / o.gate_depth_m);
+    if (SurelyVisible(q, o.miss_margin_px + motion_px) >= 3) continue;
+    chain_next_[static_cast<std::size_t>(n)] = q;
+    chain_next_t_[static_cast<std::size_t>(n)] = chain_t_[sj];
+    ++n;
+  }
+  if (n == 0) {
+    // Every followed pose refuted: none was the truth, or the motion broke the bounds. Start
+    // over at the next frame set, without a prior.
+    chain_n_ = 0;
+    has_seed_ = false;
+    r->acquisition_poses = 0;
+    return false;
+  }
+  chain_n_ = n;
+  for (int i = 0; i < n; ++i) {
+    chain_[static_cast<std::size_t>(i)] = chain_next_[static_cast<std::size_t>(i)];
+    chain_t_[static_cast<std::size_t>(i)] = chain_next_t_[static_cast<std::size_t>(i)];
+  }
+  ++chain_frames_;
+  r->acquisition_poses = chain_n_;
+  // A chain seeded by an accepted pose holds the truth; one started from lost-in-space alone
+  // may not (the first frame set may have had fewer than 3 true beacons), so it must outlive
+  // min_acquire_frames frame sets. The last pose must be confirmed by this frame set.
+  if (chain_n_ != 1 || confirmed != 1 || chain_frames_ < (chain_seeded_ ? 2 : o.min_acquire_frames)) return false;
+  // One pose left: its identities, solved.
+  matcher_.MatchPose(chain_[0], o.lis.refine_match, &set_);
+  if (set_.num_beacons < 3 || !SolveAt(chain_[0], o, r)) return false;
+  chain_n_ = 0;
+  return true;
+}
+
+void Tracker::Accept(std::uint64_t t_ns, const TrackOptions& o, TrackResult* r) {
+  // Velocity from the oldest pose of the history within velocity_window_s (a longer baseline
+  // averages the noise of single poses), else the newest.
+  if (!has_pose_) hist_n_ = 0;
+  int from = -1;
+  for (int i = 0; i < hist_n_; ++i) {
+    const double age = Seconds(t_ns, hist_t_ns_[static_cast<std::size_t>(i)]);
+    if (age > 0.0 && (from < 0 || age <= o.velocity_window_s)) from = i;
+  }
+  has_velocity_ = false;
+  if (from >= 0) {
+    const double age = Seconds(t_ns, hist_t_ns_[static_cast<std::size_t>(from)]);
+    const BodyPose& old = hist_[static_cast<std::size_t>(from)];
+    v_w_ = (r->pose.r_w_wb - old.r_w_wb) / age;
+    omega_b_ = LogSO3(old.C_w_b.transpose() * r->pose.C_w_b) / age;
+    velocity_baseline_s_ = age;
+    has_velocity_ = true;
+  }
+  // History: newest first, bounded.
+  hist_n_ = std::min(hist_n_ + 1, limits::kMaxTrackHistory);
+  for (int i = hist_n_ - 1; i > 0; --i) {
+    hist_[static_cast<std::size_t>(i)] = hist_[static_cast<std::size_t>(i - 1)];
+    hist_t_ns_[static_cast<std::size_t>(i)] = hist_t_ns_[static_cast<std::size_t>(i - 1)];
+  }
+  hist_[0] = r->pose;
+  hist_t_ns_[0] = t_ns;
+  has_pose_ = has_seed_ = true;
+  last_pose_ = r->pose;
+  last_t_ns_ = t_ns;
+  const Eigen::Matrix<double, 6, 6>& P = r->solve.covariance;
+  last_sigma_m_ = r->solve.has_covariance ? std::sqrt(std::max({P(0, 0), P(1, 1), P(2, 2)})) : 0.0;
+  last_sigma_rad_ = r->solve.has_covariance ? std::sqrt(std::max({P(3, 3), P(4, 4), P(5, 5)})) : 0.0;
+  chain_n_ = 0;
+  // Fix or degraded.
+  const double sigma_r = last_sigma_m_, sigma_a = last_sigma_rad_;
+  r->status = TrackStatus::kDegraded;
+  if (r->matches.num_beacons < o.fix_min_beacons) r->reason = TrackReason::kFewBeacons;
+  else if (r->solve.rms_px > o.degraded_rms_px) r->reason = TrackReason::kLargeResidual;
+  else if (!r->solve.has_covariance || sigma_r > o.max_position_sigma_m || sigma_a > o.max_attitude_sigma_rad)
+    r->reason = TrackReason::kLargeCovariance;
+  else {
+    r->status = TrackStatus::kFix;
+    r->reason = TrackReason::kNone;
+  }
+  switch (r->source) {
+    case TrackSource::kTracked: ++counters_.tracked; break;
+    case TrackSource::kLostInSpace: ++counters_.lost_in_space_fixes; break;
+    case TrackSource::kAcquired: ++counters_.acquired; break;
+    case TrackSource::kNone: break;
+  }
+}
+
+TrackStatus Tracker::Lost(TrackReason why, TrackResult* r) {
+  r->status = TrackStatus::kLost;
+  r->reason = why;
+  r->source = TrackSource::kNone;
+  r->matches.num_matches = 0;
+  r->matches.num_beacons = 0;
+  ++counters_.by_status[static_cast<std::size_t>(r->status)];
+  ++counters_.by_reason[static_cast<std::size_t>(r->reason)];
+  return r->status;
+}
+
+TrackStatus Tracker::Track(const BlobObs* blobs, int num_blobs, std::uint64_t t_ns, const TrackOptions& o,
+                           TrackResult* r) {
+  ++counters_.frames;
+  r->t_ns = t_ns;
+  r->lis_run = false;
+  r->lis_status = LisStatus::kBadInput;
+  r->acquisition_poses = 0;
+  r->source = TrackSource::kNone;
+  if (rig_ == nullptr || !o.IsValid() || num_blobs < 0 || num_blobs > limits::kMaxObservations ||
+      (num_blobs > 0 && blobs == nullptr))
+    return Lost(TrackReason::kBadInput, r);
+  for (int i = 0; i < num_blobs; ++i)
+    if (blobs[i].camera < 0 || blobs[i].camera >= rig_->num_cameras || !blobs[i].uv_px.allFinite() ||
+        !blobs[i].x_n.allFinite())
+      return Lost(TrackReason::kBadInput, r);
+  blobs_ = blobs;
+  num_blobs_ = num_blobs;
+  matcher_.SetBlobs(blobs, num_blobs);
+
+  // 1. Tracking from the last pose.
+  if (has_pose_ && Seconds(t_ns, last_t_ns_) > o.max_coast_s) has_pose_ = has_velocity_ = false;
+  TrackReason why = TrackReason::kTooFewBeacons;
+  if (has_pose_) {
+    const double since = std::max(0.0, Seconds(t_ns, last_t_ns_));
+    // The gate grows with the time since the last pose and with that pose's attitude
+    // uncertainty, carried forward by the velocity estimate's baseline.
+    const double lead = has_velocity_ ? 1.0 + since / velocity_baseline_s_ : 1.0;
+    const double gate = std::min(o.max_gate_px, (has_velocity_ ? o.gate_px : o.hold_gate_px) +
+                                                    o.gate_growth_px_per_s * since +
+                                                    o.gate_sigmas * px_per_rad_ * (last_sigma_rad_ + last_sigma_m_ / o.gate_depth_m) * lead);
+    bool refuted = false;
+    if (TrackFrom(Predict(t_ns), since, gate, o, r, &refuted)) {
+      r->source = TrackSource::kTracked;
+      Accept(t_ns, o, r);
+      ++counters_.by_status[static_cast<std::size_t>(r->status)];
+      ++counters_.by_reason[static_cast<std::size_t>(r->reason)];
+      return r->status;
+    }
+    if (refuted) {
+      ++counters_.track_refuted;
+      has_pose_ = has_velocity_ = has_seed_ = false;  // the prior disagrees with the blobs: forget it
+    }
+  }
+  // 2. Re-identification.
+  if (num_blobs < 3) return Lost(has_pose_ ? TrackReason::kTooFewBeacons : TrackReason::kTooFewBlobs, r);
+  r->lis_run = true;
+  ++counters_.lis_runs;
+  // While poses are being followed (or a recent pose can seed them), lost-in-space only looks
+  // near them: cheaper, and complete far more often when spurious blobs multiply the poses.
+  LisPrior prior;
+  const bool use_prior = ChainPrior(t_ns, o, &prior);
+  r->lis_status = lis_.Identify(blobs, num_blobs, o.lis, &lis_res_, use_prior ? &prior : nullptr);
+  // A fix found without a prior stands on its own; under a prior it only says which of the
+  // followed poses are left, like any other outcome.
+  if (r->lis_status == LisStatus::kFix && !use_prior) {
+    set_ = lis_res_.matches;
+    if (SolveAt(lis_res_.pose, o, r)) {
+      r->source = TrackSource::kLostInSpace;
+      Accept(t_ns, o, r);
+      ++counters_.by_status[static_cast<std::size_t>(r->status)];
+      ++counters_.by_reason[static_cast<std::size_t>(r->reason)];
+      return r->status;
+    }
+    return Lost(TrackReason::kNoHypothesis, r);
+  }
+  if (r->lis_status == LisStatus::kFix || r->lis_status == LisStatus::kAmbiguous ||
+      r->lis_status == LisStatus::kNoHypothesis) {
+    if (Acquire(t_ns, o, r)) {
+      r->source = TrackSource::kAcquired;
+      Accept(t_ns, o, r);
+      ++counters_.by_status[static_cast<std::size_t>(r->status)];
+      ++counters_.by_reason[static_cast<std::size_t>(r->reason)];
+      return r->status;
+    }
+    if (chain_n_ > 0) why = TrackReason::kAcquiring;
+    else if (r->lis_status == LisStatus::kNoHypothesis) why = has_pose_ ? TrackReason::kTooFewBeacons : TrackReason::kNoHypothesis;
+    else why = TrackReason::kAmbiguous;
+    return Lost(why, r);
+  }
+  if (r->lis_status == LisStatus::kBudgetExhausted) return Lost(TrackReason::kBudgetExhausted, r);
+  if (r->lis_status == LisStatus::kTooFewBlobs) return Lost(TrackReason::kTooFewBlobs, r);
+  return Lost(TrackReason::kBadInput, r);
+}
+
+}  // namespace mfns::fw

@@ -1,0 +1,269 @@
+#include "host/calib/app/calib_commands.h"
+
+#include <chrono>
+#include <cmath>
+#include <filesystem>
+#include <iostream>
+#include <memory>
+#include <opencv2/imgcodecs.hpp>
+#include <sstream>
+
+#include "common/rotation/rotation.h"
+#include "host/calib/report/compare.h"
+#include "host/calib/report/outputs.h"
+#include "host/sim/render/image.h"
+#include "host/util/atomic_file.h"
+
+namespace mfns::host {
+namespace {
+
+std::uint64_t NowSeconds() {
+  return static_cast<std::uint64_t>(
+      std::chrono::duration_cast<std::chrono::seconds>(std::chrono::system_clock::now().time_since_epoch()).count());
+}
+
+cv::Mat ReadAnyImage(const std::string& path) {
+  if (std::filesystem::path(path).extension() == ".pgm") return ReadPgm(path);
+  cv::Mat m = cv::imread(path, cv::IMREAD_ANYDEPTH | cv::IMREAD_GRAYSCALE);
+  if (m.empty()) throw PgmError(path + ": cannot read the image");
+  return m;
+}
+
+void PrintSummary(const RigCalibration& rig, const CalibDataset& ds, std::ostream& log) {
+  std::ostringstream o;
+  o.precision(6);
+  o << "rig (" << rig.method << "): RMS " << rig.rms_px << " px\n";
+  for (const CameraResult& c : rig.cameras) {
+    const EulerAngles e = MatrixToEuler(c.C_k_b);
+    o << "  camera " << c.name << ": alpha (" << c.intrinsics.alpha_x << ", " << c.intrinsics.alpha_y << ") pp ("
+      << c.intrinsics.u0 << ", " << c.intrinsics.v0 << ") euler_deg (" << RadToDeg(e.phi) << ", " << RadToDeg(e.theta)
+      << ", " << RadToDeg(e.psi) << ") r_b_bk_mm (" << c.r_b_bk.x() * 1e3 << ", " << c.r_b_bk.y() * 1e3 << ", "
+      << c.r_b_bk.z() * 1e3 << ") RMS " << c.rms_px << " px\n";
+  }
+  if (ds.truth.has_rig) {
+    const RigErrors e = CompareRig(rig, ds.truth.rig, ds.truth.has_mount ? &ds.truth.mount : nullptr);
+    o << "against truth:";
+    for (const CameraError& c : e.cameras) o << " " << c.name << " " << c.rotation_deg << " deg " << c.position_mm << " mm;";
+    int within = 0, total = 0;
+    for (const ParamError& p : e.params)
+      if (p.sigma > 0) {
+        ++total;
+        within += std::abs(p.error) <= 3 * p.sigma ? 1 : 0;
+      }
+    if (total > 0) o << " " << within << "/" << total << " parameters within 3 sigma";
+    o << "\n";
+  }
+  log << o.str();
+}
+
+// --compare: every method on the same corners, errors against the truth side by side.
+void Compare(const CalibInput& in, const IntrinsicsStage& stage, RigOptions ro, const RigCalibration& main_result,
+             const CalibDataset& ds, const std::string& out_dir, std::ostream& log) {
+  if (!ds.truth.has_rig) throw UserError("--compare needs the dataset's truth-rig.yaml");
+  std::ostringstream csv, table;
+  csv.precision(8);
+  table.precision(4);
+  csv << "method,camera,rotation_error_deg,position_error_mm,within_3_sigma,parameters\n";
+  table << "compare (error against truth: C_k_b deg / r_b_bk mm):\n";
+  ro.progress = nullptr;
+  const RigMethod chosen = ro.method;
+  for (RigMethod m : {RigMethod::kMl, RigMethod::kPaper, RigMethod::kOpenCvHandEye}) {
+    ro.method = m;
+    const RigCalibration r = m == chosen ? main_result : SolveRig(in, stage, ro);
+    const RigErrors e = CompareRig(r, ds.truth.rig, ds.truth.has_mount ? &ds.truth.mount : nullptr);
+    int within = 0, total = 0;
+    for (const ParamError& p : e.params) {
+      ++total;
+      within += p.sigma > 0 && std::abs(p.error) <= 3 * p.sigma ? 1 : 0;
+    }
+    table << "  " << ToString(m) << ":";
+    for (const CameraError& c : e.cameras) {
+      csv << ToString(m) << "," << c.name << "," << c.rotation_deg << "," << c.position_mm << "," << within << ","
+          << total << "\n";
+      table << " " << c.name << " " << c.rotation_deg << " / " << c.position_mm << ";";
+    }
+    table << "\n";
+  }
+  log << table.str();
+  std::error_code ec;
+  std::filesystem::create_directories(out_dir, ec);
+  WriteFileAtomic(std::filesystem::path(out_dir) / "compare.csv", csv.str());
+}
+
+}  // namespace
+
+RigCalibration RunRigCommand(const RigCommandOptions& o, std::ostream& log) {
+  if (o.out_dir.empty()) throw UserError("--out DIR is required");
+  if (!(o.huber_px >= 0)) throw UserError("--huber-px must not be negative");
+  if (!(o.angle_sigma_arcsec > 0)) throw UserError("--angle-sigma-arcsec must be positive");
+  if (o.jobs < 1 || o.jobs > 64) throw UserError("--jobs must be 1..64");
+  RigOptions ro;
+  ro.method = ParseRigMethod(o.method);
+  ro.fix_k3 = !o.free_k3;
+  ro.huber_px = o.huber_px;
+  ro.reference_camera = o.reference_camera;
+  ro.paper_rows_only = !o.all_a10_rows;
+  ro.covariance = !o.no_covariance;
+  ro.progress = &log;
+  const CalibDataset ds = ReadCalibDataset(o.dataset);
+  log << "mfns-calib rig: " << ds.images.size() << " images of " << ds.cameras.size() << " cameras in " << o.dataset
+      << ", method " << ToString(ro.method) << "\n";
+  DetectOptions det;
+  det.sb_accuracy = !o.fast_detect;
+  det.min_corners = ro.min_corners;
+  CalibInput in = DetectDataset(ds, det, o.jobs, &log);
+  const double angle_arcsec =
+      !o.angle_sigma_set && ds.truth.angle_sigma_arcsec > 0 ? ds.truth.angle_sigma_arcsec : o.angle_sigma_arcsec;
+  in.angle_sigma = DegToRad(angle_arcsec / 3600.0);
+  log << "turntable angle prior: " << angle_arcsec << " arcsec 1-sigma\n";
+  std::string mount_note;
+  if (!o.mount_mm.empty()) {
+    if (o.mount_mm.size() != 3) throw UserError("--mount-mm: expected 3 numbers X Y Z");
+    in.r_p_pb = Eigen::Vector3d(o.mount_mm[0], o.mount_mm[1], o.mount_mm[2]) * 1e-3;
+    mount_note = "mount r_p_pb from --mount-mm";
+  } else if (ds.truth.has_mount) {
+    in.C_p_b = ds.truth.mount.C_p_b;
+    in.r_p_pb = ds.truth.mount.r_p_pb;
+    mount_note = "mount C_p_b, r_p_pb from the dataset's truth.yaml (the measured mount)";
+  } else {
+    mount_note = "mount r_p_pb = 0: body origin at Ot (no --mount-mm, no truth.yaml)";
+  }
+  log << mount_note << "\n";
+  const IntrinsicsStage stage = PrepareViews(&in, ro);
+  RigCalibration rig = SolveRig(in, stage, ro);
+  rig.notes.insert(rig.notes.begin(), mount_note);
+  if (o.compare) Compare(in, stage, ro, rig, ds, o.out_dir, log);
+
+  ReportContext ctx;
+  ctx.dataset = o.dataset;
+  ctx.command_line = "mfns-calib rig " + o.dataset + " --out " + o.out_dir + " --method " + o.method;
+  ctx.rig_id = !o.rig_id.empty() ? o.rig_id : ds.truth.has_rig ? std::string(ds.truth.rig.rig_id.data()) : "mfns-calibrated";
+  ctx.generation = o.generation_set ? o.generation : NowSeconds();
+  ctx.truth_rig = ds.truth.has_rig ? &ds.truth.rig : nullptr;
+  ctx.truth_mount = ds.truth.has_mount ? &ds.truth.mount : nullptr;
+  WriteRigOutputs(o.out_dir, rig, in, ctx);
+  PrintSummary(rig, ds, log);
+  log << "mfns-calib rig: wrote rig.yaml, calibration.bin, camchain.yaml, camera-*.yaml, report.html in " << o.out_dir
+      << " (" << in.skipped.size() << " images skipped)\n";
+  return rig;
+}
+
+ZhangResult RunIntrinsicsCommand(const IntrinsicsCommandOptions& o, std::ostream& log) {
+  if (o.out_dir.empty()) throw UserError("--out DIR is required");
+  if (o.target.empty()) throw UserError("--target is required");
+  if (o.images.empty()) throw UserError("no images given");
+  const CalibrationTarget target = ParseTargetSpec(o.target);
+  const std::vector<Eigen::Vector3d> pts = TargetPoints(target);
+  DetectOptions det;
+  det.sb_accuracy = !o.fast_detect;
+  std::vector<std::vector<CornerObs>> views;
+  std::vector<std::string> used;
+  std::vector<SkippedImage> skipped;
+  int width = 0, height = 0;
+  for (const std::string& path : o.images) {
+    cv::Mat image;
+    try {
+      image = ReadAnyImage(path);
+    } catch (const PgmError& e) {
+      skipped.push_back({o.camera, path, std::string("unreadable: ") + e.what()});
+      log << "intrinsics: " << path << " skipped: unreadable\n";
+      continue;
+    }
+    if (width == 0) {
+      width = image.cols;
+      height = image.rows;
+    }
+    DetectResult d;
+    if (image.cols != width || image.rows != height)
+      d.reason = "size differs from the first image's";
+    else
+      d = DetectTarget(image, target, det);
+    if (!d.ok) {
+      skipped.push_back({o.camera, path, d.reason});
+      log << "intrinsics: " << path << " skipped: " << d.reason << "\n";
+      continue;
+    }
+    log << "intrinsics: " << path << ": " << d.corners.size() << " corners\n";
+    views.push_back(std::move(d.corners));
+    used.push_back(path);
+  }
+  ZhangOptions zo;
+  zo.fix_k3 = !o.free_k3;
+  const ZhangResult z = CalibrateZhang(views, pts, width, height, zo);
+  CameraResult c;
+  c.name = o.camera;
+  c.intrinsics = z.camera;
+  c.sigma_intrinsics = z.sigma;
+  c.rms_px = z.rms_px;
+  std::vector<double> rms;
+  for (const ZhangView& v : z.views) rms.push_back(v.rms_px);
+  std::error_code ec;
+  std::filesystem::create_directories(o.out_dir, ec);
+  if (!std::filesystem::is_directory(o.out_dir)) throw UserError(o.out_dir + ": cannot create the output directory");
+  const std::filesystem::path yaml = std::filesystem::path(o.out_dir) / ("camera-" + o.camera + ".yaml");
+  WriteFileAtomic(yaml, FormatOpenCvCameraYaml(c, used, rms, false));
+  std::ostringstream r;
+  r.precision(6);
+  r << "mfns-calib intrinsics: camera " << o.camera << ", target " << o.target << ", " << width << "x" << height << "\n"
+    << "images used " << used.size() << ", skipped " << skipped.size() << ", corners " << z.num_corners << ", RMS "
+    << z.rms_px << " px\n";
+  const char* names[kNumCameraParams] = {"alpha_x", "alpha_y", "skew", "u0", "v0", "kc1", "kc2", "kc3", "kc4", "kc5"};
+  const CameraParamVector v = z.camera.ToVector();
+  for (int i = 0; i < kNumCameraParams; ++i)
+    r << "  " << names[i] << " = " << v[i] << (z.sigma[i] > 0 ? " +- " + std::to_string(z.sigma[i]) : " (fixed)") << "\n";
+  r << "per-view RMS (px):\n";
+  for (std::size_t i = 0; i < used.size(); ++i) r << "  " << used[i] << " " << rms[i] << "\n";
+  if (!skipped.empty()) r << "skipped:\n";
+  for (const SkippedImage& s : skipped) r << "  " << s.image << ": " << s.reason << "\n";
+  WriteFileAtomic(std::filesystem::path(o.out_dir) / "report.txt", r.str());
+  log << r.str() << "wrote " << yaml.string() << " and report.txt\n";
+  return z;
+}
+
+void AddRigCommand(CLI::App& app) {
+  auto o = std::make_shared<RigCommandOptions>();
+  CLI::App* cmd = app.add_subcommand("rig", "Calibrate the rig (intrinsics, C_k_b, r_b_bk with sigma) from a turntable "
+                                            "dataset (docs/calib-dataset.md)");
+  cmd->add_option("dataset", o->dataset, "Dataset directory")->required();
+  cmd->add_option("--out", o->out_dir, "Output directory (created if missing)")->required();
+  cmd->add_option("--method", o->method, "ml (joint maximum likelihood), paper (CPC, Appendix A) or opencv-handeye")
+      ->capture_default_str();
+  cmd->add_flag("--free-k3", o->free_k3, "Estimate kc5 (k3); default fixed at 0 as the paper's Table 2");
+  cmd->add_option("--huber-px", o->huber_px, "ml: Huber loss scale in px (0: plain least squares)")->capture_default_str();
+  cmd->add_option("--mount-mm", o->mount_mm,
+                  "Body origin in the platform frame r_p_pb X Y Z in mm (the measured mount; default: truth.yaml's, "
+                  "else 0 0 0)")
+      ->expected(3);
+  cmd->add_option("--angle-sigma-arcsec", o->angle_sigma_arcsec, "Turntable angle accuracy, 1-sigma")->capture_default_str();
+  cmd->add_option("--reference-camera", o->reference_camera, "paper: the camera of eq. A10")->capture_default_str();
+  cmd->add_flag("--all-a10-rows", o->all_a10_rows, "paper: use all nine elements of every image in A10");
+  cmd->add_option("--jobs", o->jobs, "Detection threads")->capture_default_str();
+  cmd->add_flag("--fast-detect", o->fast_detect, "findChessboardCornersSB without CALIB_CB_ACCURACY (4x faster, less exact)");
+  cmd->add_option("--rig-id", o->rig_id, "Rig id of the blob (default: the truth rig's, else mfns-calibrated)");
+  cmd->add_option("--generation", o->generation, "Blob generation (default: UTC seconds now)");
+  cmd->add_flag("--no-covariance", o->no_covariance, "ml: skip the covariance (sigma 0)");
+  cmd->add_flag("--compare", o->compare,
+                "Also run every other method on the same corners and write compare.csv (errors against the dataset's "
+                "truth)");
+  cmd->callback([o, cmd]() {
+    o->generation_set = cmd->count("--generation") > 0;
+    o->angle_sigma_set = cmd->count("--angle-sigma-arcsec") > 0;
+    RunRigCommand(*o, std::cerr);
+  });
+}
+
+void AddIntrinsicsCommand(CLI::App& app) {
+  auto o = std::make_shared<IntrinsicsCommandOptions>();
+  CLI::App* cmd = app.add_subcommand("intrinsics", "Zhang's intrinsics of one camera from plain target images");
+  cmd->add_option("--target", o->target,
+                  "checkerboard:COLSxROWS:SQUARE_MM (inner corners) or aprilgrid:COLSxROWS:TAG_MM:SPACING[:FIRST_ID]")
+      ->required();
+  cmd->add_option("images", o->images, "Images (PGM, PNG, ...)")->required();
+  cmd->add_option("--out", o->out_dir, "Output directory (created if missing)")->required();
+  cmd->add_option("--camera", o->camera, "Camera name in the outputs")->capture_default_str();
+  cmd->add_flag("--free-k3", o->free_k3, "Estimate kc5 (k3); default fixed at 0");
+  cmd->add_flag("--fast-detect", o->fast_detect, "findChessboardCornersSB without CALIB_CB_ACCURACY");
+  cmd->callback([o]() { RunIntrinsicsCommand(*o, std::cerr); });
+}
+
+}  // namespace mfns::host

@@ -1,0 +1,60 @@
+// The calibration subcommands of mfns-calib (DESIGN.md, "User-facing interfaces"):
+//   mfns-calib rig DATASET_DIR --out DIR [--method ml|paper|opencv-handeye] [options]
+//     detection, Zhang per camera, the chosen method; writes rig.yaml, calibration.bin,
+//     camchain.yaml, camera-<name>.yaml and report.html (report/outputs.h). Progress on stderr.
+//   mfns-calib intrinsics --target checkerboard:COLSxROWS:SQUARE_MM IMAGE... --out DIR
+//     Zhang's method on plain images of one camera; writes camera-<name>.yaml (OpenCV
+//     FileStorage) and report.txt.
+// Errors propagate out of app.parse() as UserError (one line; the tool prints it, exits 1).
+#pragma once
+
+#include <CLI/CLI.hpp>
+
+#include <cstdint>
+#include <iosfwd>
+#include <string>
+#include <vector>
+
+#include "host/calib/app/calibrate.h"
+
+namespace mfns::host {
+
+struct RigCommandOptions {
+  std::string dataset;
+  std::string out_dir;
+  std::string method = "ml";
+  bool free_k3 = false;
+  double huber_px = 1.0;
+  std::vector<double> mount_mm;  // r_p_pb (3 numbers); default: truth.yaml's, else 0
+  double angle_sigma_arcsec = 8.0;  // default: truth.yaml's turntable_angle_sigma_arcsec when > 0
+  bool angle_sigma_set = false;
+  std::string reference_camera = "z";
+  bool all_a10_rows = false;
+  int jobs = 2;
+  bool fast_detect = false;
+  std::string rig_id;  // default: truth-rig.yaml's rig id, else "mfns-calibrated"
+  std::uint64_t generation = 0;
+  bool generation_set = false;
+  bool no_covariance = false;
+  bool compare = false;  // also run the other methods on the same corners; compare.csv against the truth
+};
+
+// Runs the rig calibration and writes the outputs; summary and progress go to `log`.
+RigCalibration RunRigCommand(const RigCommandOptions& o, std::ostream& log);
+
+struct IntrinsicsCommandOptions {
+  std::string target;
+  std::vector<std::string> images;
+  std::string out_dir;
+  std::string camera = "camera";
+  bool free_k3 = false;
+  bool fast_detect = false;
+};
+
+// Zhang's method on the images; writes camera-<camera>.yaml and report.txt into out_dir.
+ZhangResult RunIntrinsicsCommand(const IntrinsicsCommandOptions& o, std::ostream& log);
+
+void AddRigCommand(CLI::App& app);
+void AddIntrinsicsCommand(CLI::App& app);
+
+}  // namespace mfns::host

@@ -1,0 +1,287 @@
+#include "host/calib/app/calibrate.h"
+
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+#include <mutex>
+#include <ostream>
+#include <sstream>
+#include <thread>
+
+#include "common/rotation/rotation.h"
+#include "host/calib/cpc/cpc.h"
+#include "host/calib/ml/hand_eye.h"
+#include "host/calib/ml/joint.h"
+#include "host/calib/ml/orientation.h"
+#include "host/sim/render/image.h"
+#include "host/util/atomic_file.h"
+
+namespace mfns::host {
+namespace {
+
+std::vector<HandEyeView> TurntableViews(const CalibInput& in, const std::vector<Transform>& T, int only_camera = -1) {
+  std::vector<HandEyeView> hv;
+  for (std::size_t v = 0; v < in.views.size(); ++v) {
+    const ViewObservation& view = in.views[v];
+    if (view.kind != ImageKind::kTurntable || (only_camera >= 0 && view.camera != only_camera)) continue;
+    hv.push_back({view.camera, view.main_cmd, view.aux_cmd, T[v]});
+  }
+  return hv;
+}
+
+RigCalibration FromHandEye(const CalibInput& in, const IntrinsicsStage& st, const HandEyeResult& he, const char* method) {
+  RigCalibration rig;
+  rig.method = method;
+  rig.C_p_b = in.C_p_b;
+  rig.r_p_pb = in.r_p_pb;
+  rig.C_w_t = he.C_w_t;
+  rig.r_w_wt = he.r_w_wt;
+  for (std::size_t k = 0; k < in.cameras.size(); ++k) {
+    CameraResult c;
+    c.name = in.cameras[k].name;
+    c.intrinsics = st.zhang[k].camera;
+    c.sigma_intrinsics = st.zhang[k].sigma;
+    c.C_k_b = he.C_k_b[k];
+    c.r_b_bk = he.r_b_bk[k];
+    rig.cameras.push_back(c);
+  }
+  rig.residuals = RigResiduals(in, rig, st.view_T_w_k);
+  std::vector<double> sum2(in.cameras.size(), 0.0), n(in.cameras.size(), 0.0);
+  double all2 = 0, alln = 0;
+  for (const ViewResidual& r : rig.residuals) {
+    const std::size_t k = static_cast<std::size_t>(in.views[static_cast<std::size_t>(r.view)].camera);
+    for (const Eigen::Vector2d& e : r.residual)
+      if (e.allFinite()) {
+        sum2[k] += e.squaredNorm();
+        n[k] += 1;
+      }
+  }
+  for (std::size_t k = 0; k < in.cameras.size(); ++k) {
+    rig.cameras[k].rms_px = n[k] > 0 ? std::sqrt(sum2[k] / n[k]) : 0.0;
+    all2 += sum2[k];
+    alln += n[k];
+  }
+  rig.rms_px = alln > 0 ? std::sqrt(all2 / alln) : 0.0;
+  for (std::size_t v = 0; v < in.views.size(); ++v)
+    if (in.views[v].kind == ImageKind::kTurntable) {
+      AngleResult a;
+      a.view = static_cast<int>(v);
+      a.main_cmd = a.main_est = in.views[v].main_cmd;
+      a.aux_cmd = a.aux_est = in.views[v].aux_cmd;
+      rig.angles.push_back(a);
+    }
+  return rig;
+}
+
+}  // namespace
+
+const char* ToString(RigMethod m) {
+  switch (m) {
+    case RigMethod::kMl: return "ml";
+    case RigMethod::kPaper: return "paper";
+    case RigMethod::kOpenCvHandEye: return "opencv-handeye";
+  }
+  return "?";
+}
+
+RigMethod ParseRigMethod(const std::string& s) {
+  if (s == "ml") return RigMethod::kMl;
+  if (s == "paper") return RigMethod::kPaper;
+  if (s == "opencv-handeye") return RigMethod::kOpenCvHandEye;
+  throw UserError("--method \"" + s + "\": expected ml, paper or opencv-handeye");
+}
+
+CalibInput DetectDataset(const CalibDataset& ds, const DetectOptions& detect, int jobs, std::ostream* progress) {
+  CalibInput in;
+  in.target_points = TargetPoints(ds.target);
+  for (const std::string& name : ds.cameras) in.cameras.push_back({name, 0, 0});
+  struct Slot {
+    bool read_ok = false;
+    int width = 0, height = 0;
+    DetectResult det;
+  };
+  std::vector<Slot> slots(ds.images.size());
+  std::atomic<std::size_t> next{0};
+  std::mutex mu;
+  std::size_t done = 0;
+  const auto work = [&]() {
+    for (std::size_t i = next++; i < ds.images.size(); i = next++) {
+      Slot& s = slots[i];
+      try {
+        const cv::Mat image = ReadPgm(ds.images[i].path.string());
+        s.read_ok = true;
+        s.width = image.cols;
+        s.height = image.rows;
+        s.det = DetectTarget(image, ds.target, detect);
+      } catch (const PgmError& e) {
+        s.det.reason = std::string("unreadable image: ") + e.what();
+      }
+      std::lock_guard<std::mutex> lock(mu);
+      ++done;
+      if (progress != nullptr)
+        *progress << "detect: " << done << "/" << ds.images.size() << " " << ds.images[i].camera << "/"
+                  << ds.images[i].image << (s.det.ok ? " ok, " + std::to_string(s.det.corners.size()) + " corners"
+                                                      : " skipped: " + s.det.reason)
+                  << "\n";
+    }
+  };
+  std::vector<std::thread> threads;
+  for (int t = 1; t < std::max(1, jobs); ++t) threads.emplace_back(work);
+  work();
+  for (std::thread& t : threads) t.join();
+
+  for (std::size_t i = 0; i < ds.images.size(); ++i) {
+    const DatasetImage& im = ds.images[i];
+    const int k = static_cast<int>(std::find(ds.cameras.begin(), ds.cameras.end(), im.camera) - ds.cameras.begin());
+    CameraInfo& cam = in.cameras[static_cast<std::size_t>(k)];
+    Slot& s = slots[i];
+    if (s.read_ok && cam.width == 0) {
+      cam.width = s.width;
+      cam.height = s.height;
+    }
+    if (s.read_ok && (s.width != cam.width || s.height != cam.height)) {
+      s.det.ok = false;
+      s.det.reason = "image size " + std::to_string(s.width) + "x" + std::to_string(s.height) + " differs from the camera's " +
+                     std::to_string(cam.width) + "x" + std::to_string(cam.height);
+    }
+    if (!s.det.ok) {
+      in.skipped.push_back({im.camera, im.image, s.det.reason});
+      continue;
+    }
+    ViewObservation v;
+    v.camera = k;
+    v.image = im.image;
+    v.kind = im.kind;
+    v.main_cmd = im.main_cmd;
+    v.aux_cmd = im.aux_cmd;
+    v.corners = std::move(s.det.corners);
+    v.orientation_ambiguous = s.det.orientation_ambiguous;
+    in.views.push_back(std::move(v));
+  }
+  return in;
+}
+
+IntrinsicsStage PrepareViews(CalibInput* in, const RigOptions& o) {
+  // Views with too few corners cannot carry a pose.
+  std::vector<ViewObservation> kept;
+  for (ViewObservation& v : in->views) {
+    if (static_cast<int>(v.corners.size()) < std::max(4, o.min_corners)) {
+      in->skipped.push_back({in->cameras[static_cast<std::size_t>(v.camera)].name, v.image,
+                             "only " + std::to_string(v.corners.size()) + " corners"});
+      continue;
+    }
+    kept.push_back(std::move(v));
+  }
+  in->views = std::move(kept);
+
+  IntrinsicsStage st;
+  st.view_T_w_k.resize(in->views.size());
+  ZhangOptions zo;
+  zo.fix_k3 = o.fix_k3;
+  for (std::size_t k = 0; k < in->cameras.size(); ++k) {
+    std::vector<std::vector<CornerObs>> views;
+    std::vector<std::size_t> index;
+    for (std::size_t v = 0; v < in->views.size(); ++v)
+      if (in->views[v].camera == static_cast<int>(k)) {
+        views.push_back(in->views[v].corners);
+        index.push_back(v);
+      }
+    if (views.size() < 3)
+      throw UserError("camera " + in->cameras[k].name + ": " + std::to_string(views.size()) +
+                      " usable images, at least 3 needed for its intrinsics");
+    ZhangResult z = CalibrateZhang(views, in->target_points, in->cameras[k].width, in->cameras[k].height, zo);
+    for (std::size_t n = 0; n < index.size(); ++n) st.view_T_w_k[index[n]] = {z.views[n].C_k_w.transpose(), z.views[n].r_w_wk};
+    if (o.progress != nullptr)
+      *o.progress << "zhang: camera " << in->cameras[k].name << ": " << views.size() << " images, RMS " << z.rms_px
+                  << " px, alpha (" << z.camera.alpha_x << ", " << z.camera.alpha_y << ")\n";
+    st.zhang.push_back(std::move(z));
+  }
+  const OrientationReport orient = ResolveOrientation(in, &st.view_T_w_k);
+  st.notes = orient.notes;
+  if (o.progress != nullptr)
+    for (const std::string& n : orient.notes) *o.progress << n << "\n";
+  return st;
+}
+
+RigCalibration CalibrateRig(CalibInput* in, const RigOptions& o) {
+  const IntrinsicsStage st = PrepareViews(in, o);
+  return SolveRig(*in, st, o);
+}
+
+RigCalibration SolveRig(const CalibInput& input, const IntrinsicsStage& st, const RigOptions& o) {
+  const CalibInput* in = &input;
+  RigCalibration rig;
+  const std::vector<HandEyeView> hv = TurntableViews(*in, st.view_T_w_k);
+  switch (o.method) {
+    case RigMethod::kMl: {
+      const HandEyeResult he = SolveHandEyeLinear(hv, static_cast<int>(in->cameras.size()), in->C_p_b, in->r_p_pb);
+      if (o.progress != nullptr)
+        *o.progress << "ml: closed-form start: rotation RMS " << RadToDeg(he.rotation_rms) << " deg, position RMS "
+                    << he.position_rms * 1e3 << " mm\n";
+      MlStart s;
+      for (const ZhangResult& z : st.zhang) {
+        s.intrinsics.push_back(z.camera);
+        s.sigma_px.push_back(std::max(0.02, z.rms_px / std::sqrt(2.0)));
+      }
+      s.C_k_b = he.C_k_b;
+      s.r_b_bk = he.r_b_bk;
+      s.C_w_t = he.C_w_t;
+      s.r_w_wt = he.r_w_wt;
+      s.view_T_w_k = st.view_T_w_k;
+      MlOptions mo;
+      mo.fix_k3 = o.fix_k3;
+      mo.huber_px = o.huber_px;
+      mo.covariance = o.covariance;
+      mo.progress = o.progress;
+      rig = SolveJointMl(*in, s, mo);
+      break;
+    }
+    case RigMethod::kPaper: {
+      // The nominal axis-aligned frames (the paper's after its alignment of A.3) from the closed form.
+      const HandEyeResult he = SolveHandEyeLinear(hv, static_cast<int>(in->cameras.size()), in->C_p_b, in->r_p_pb);
+      CpcStart s;
+      for (const ZhangResult& z : st.zhang) {
+        s.intrinsics.push_back(z.camera);
+        s.sigma_intrinsics.push_back(z.sigma);
+      }
+      s.view_T_w_k = st.view_T_w_k;
+      s.C0_w_t = NearestAxisAligned(he.C_w_t);
+      int ref = 0;
+      for (std::size_t k = 0; k < in->cameras.size(); ++k)
+        if (in->cameras[k].name == o.reference_camera) ref = static_cast<int>(k);
+      s.B0_b_ref = NearestAxisAligned(he.C_k_b[static_cast<std::size_t>(ref)].transpose());
+      CpcOptions co;
+      co.reference_camera = o.reference_camera;
+      co.paper_rows_only = o.paper_rows_only;
+      rig = SolveCpc(*in, s, co);
+      break;
+    }
+    case RigMethod::kOpenCvHandEye: {
+      // One cv::calibrateRobotWorldHandEye per camera; C_w_t, r_w_wt from the camera with most images.
+      HandEyeResult all;
+      all.C_k_b.assign(in->cameras.size(), Eigen::Matrix3d::Identity());
+      all.r_b_bk.assign(in->cameras.size(), Eigen::Vector3d::Zero());
+      std::size_t most = 0;
+      for (std::size_t k = 0; k < in->cameras.size(); ++k) {
+        const std::vector<HandEyeView> one = TurntableViews(*in, st.view_T_w_k, static_cast<int>(k));
+        if (one.size() < 3) continue;
+        const HandEyeResult he = SolveHandEyeOpenCv(one, static_cast<int>(in->cameras.size()), in->C_p_b, in->r_p_pb);
+        all.C_k_b[k] = he.C_k_b[k];
+        all.r_b_bk[k] = he.r_b_bk[k];
+        if (one.size() > most) {
+          most = one.size();
+          all.C_w_t = he.C_w_t;
+          all.r_w_wt = he.r_w_wt;
+        }
+      }
+      rig = FromHandEye(*in, st, all, "opencv-handeye");
+      rig.notes.push_back("opencv-handeye: cv::calibrateRobotWorldHandEye (Shah) per camera on Zhang's extrinsics; "
+                          "no sigma");
+      break;
+    }
+  }
+  rig.notes.insert(rig.notes.begin(), st.notes.begin(), st.notes.end());
+  return rig;
+}
+
+}  // namespace mfns::host

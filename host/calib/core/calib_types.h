@@ -1,0 +1,111 @@
+// The data every calibration method shares: what was observed (corners per image, turntable
+// angles) and what a method returns (the rig, the turntable-world transform, 1-sigma,
+// residuals). Frames and kinematics: docs/calib-dataset.md and core/kinematics.h.
+//
+// Units: SI inside (m, rad); files carry mm and deg. Frames: w target (world), t turntable,
+// p platform, b body, k camera. C_a_b maps b coordinates to a; r_c_ab is a -> b in frame c.
+#pragma once
+
+#include <Eigen/Core>
+#include <string>
+#include <vector>
+
+#include "common/camera/camera.h"
+
+namespace mfns::host {
+
+enum class ImageKind : unsigned char { kTurntable, kFree };
+const char* ToString(ImageKind k);
+
+// One detected target corner: its id (docs/calib-dataset.md) and image position (px, pixel
+// centres at integers).
+struct CornerObs {
+  int id = 0;
+  Eigen::Vector2d uv = Eigen::Vector2d::Zero();
+};
+
+// The usable corners of one image.
+struct ViewObservation {
+  int camera = 0;          // index into CalibInput::cameras
+  std::string image;       // file stem, e.g. "003"
+  ImageKind kind = ImageKind::kTurntable;
+  double main_cmd = 0.0;   // commanded turntable angles (rad), turntable images only
+  double aux_cmd = 0.0;
+  std::vector<CornerObs> corners;
+  // True when the target's symmetry leaves the corner ids defined only up to the 180-degree
+  // rotation of the board (id -> N - 1 - id); core/orientation.h resolves it.
+  bool orientation_ambiguous = false;
+};
+
+struct CameraInfo {
+  std::string name;  // "x", "y", "z", ...
+  int width = 0;     // px
+  int height = 0;
+};
+
+// An image that no method uses, and why.
+struct SkippedImage {
+  std::string camera;
+  std::string image;
+  std::string reason;
+};
+
+// Everything a method needs. target_points[id] is corner id's position in w (m, z = 0).
+struct CalibInput {
+  std::vector<CameraInfo> cameras;
+  std::vector<Eigen::Vector3d> target_points;
+  std::vector<ViewObservation> views;
+  std::vector<SkippedImage> skipped;
+  // The mount (the gauge, docs/calib-dataset.md): body in the platform frame. Images cannot
+  // tell r_p_pb from a common shift of every r_b_bk, so it is given (measured), not solved.
+  Eigen::Matrix3d C_p_b = Eigen::Matrix3d::Identity();
+  Eigen::Vector3d r_p_pb = Eigen::Vector3d::Zero();
+  double angle_sigma = 8.0 / 3600.0 * 3.14159265358979323846 / 180.0;  // turntable, rad 1-sigma
+};
+
+// Reprojection residuals of one image under a method's final model.
+struct ViewResidual {
+  int view = 0;  // index into CalibInput::views
+  std::vector<int> ids;
+  std::vector<Eigen::Vector2d> uv;        // observed (px)
+  std::vector<Eigen::Vector2d> residual;  // predicted - observed (px)
+  double rms_px = 0.0;                    // sqrt(mean |residual|^2)
+};
+
+// A turntable image's angles as the method estimated them (ml) or used them (others).
+struct AngleResult {
+  int view = 0;
+  double main_cmd = 0.0, aux_cmd = 0.0;  // rad
+  double main_est = 0.0, aux_est = 0.0;  // rad
+  double main_sigma = 0.0, aux_sigma = 0.0;
+};
+
+struct CameraResult {
+  std::string name;
+  CameraIntrinsics intrinsics;
+  Eigen::Matrix3d C_k_b = Eigen::Matrix3d::Identity();
+  Eigen::Vector3d r_b_bk = Eigen::Vector3d::Zero();
+  // 1-sigma; zero where a parameter is fixed or the method gives none.
+  CameraParamVector sigma_intrinsics = CameraParamVector::Zero();  // CameraParam order
+  Eigen::Vector3d sigma_rotation = Eigen::Vector3d::Zero();  // rad, small rotations about body axes
+  Eigen::Vector3d sigma_euler = Eigen::Vector3d::Zero();     // rad, of C_k_b's 2-1-3 Euler angles
+  Eigen::Vector3d sigma_r_b_bk = Eigen::Vector3d::Zero();    // m
+  double rms_px = 0.0;  // over all of the camera's residuals
+};
+
+struct RigCalibration {
+  std::string method;  // "ml", "paper", "opencv-handeye"
+  std::vector<CameraResult> cameras;  // CalibInput::cameras order
+  Eigen::Matrix3d C_w_t = Eigen::Matrix3d::Identity();
+  Eigen::Vector3d r_w_wt = Eigen::Vector3d::Zero();
+  Eigen::Vector3d sigma_C_w_t = Eigen::Vector3d::Zero();  // rad, small rotations about w axes
+  Eigen::Vector3d sigma_r_w_wt = Eigen::Vector3d::Zero();  // m
+  Eigen::Matrix3d C_p_b = Eigen::Matrix3d::Identity();  // the gauge used (fixed)
+  Eigen::Vector3d r_p_pb = Eigen::Vector3d::Zero();
+  std::vector<ViewResidual> residuals;
+  std::vector<AngleResult> angles;
+  double rms_px = 0.0;
+  std::vector<std::string> notes;  // what was fixed and why, warnings
+};
+
+}  // namespace mfns::host

@@ -1,0 +1,276 @@
+#include "host/calib/core/dataset.h"
+
+#include <yaml-cpp/yaml.h>
+
+#include <algorithm>
+#include <charconv>
+#include <cmath>
+#include <sstream>
+
+#include "common/rotation/rotation.h"
+#include "host/rigio/rig_yaml.h"
+#include "host/rigio/yaml_fields.h"
+#include "host/util/atomic_file.h"
+
+namespace mfns::host {
+namespace {
+
+constexpr double kMm = 1e-3;
+
+std::string Trim(const std::string& s) {
+  std::size_t b = 0, e = s.size();
+  while (b < e && std::isspace(static_cast<unsigned char>(s[b]))) ++b;
+  while (e > b && std::isspace(static_cast<unsigned char>(s[e - 1]))) --e;
+  return s.substr(b, e - b);
+}
+
+std::vector<std::string> SplitCsv(const std::string& line) {
+  std::vector<std::string> out;
+  std::string cell;
+  std::istringstream in(line);
+  while (std::getline(in, cell, ',')) out.push_back(Trim(cell));
+  if (!line.empty() && line.back() == ',') out.emplace_back();
+  return out;
+}
+
+bool ParseDouble(const std::string& s, double* v) {
+  const char* b = s.data();
+  const char* e = s.data() + s.size();
+  if (b != e && *b == '+') ++b;
+  const auto r = std::from_chars(b, e, *v);
+  return r.ec == std::errc() && r.ptr == e && std::isfinite(*v);
+}
+
+bool ParseInt(const std::string& s, int* v) {
+  const auto r = std::from_chars(s.data(), s.data() + s.size(), *v);
+  return !s.empty() && r.ec == std::errc() && r.ptr == s.data() + s.size();
+}
+
+Eigen::Matrix3d Matrix9(const YAML::Node& n, const YamlCtx& ctx) {
+  const std::array<double, 9> a = Numbers<9>(n, ctx);
+  Eigen::Matrix3d C;
+  for (int i = 0; i < 9; ++i) C(i / 3, i % 3) = a[static_cast<std::size_t>(i)];
+  if (!IsRotation(C, 1e-6)) ctx.Fail(n, "not a rotation matrix (orthonormal, det +1, 1e-6)");
+  return C;
+}
+
+Eigen::Vector3d Vector3Mm(const YAML::Node& n, const YamlCtx& ctx) {
+  const std::array<double, 3> a = Numbers<3>(n, ctx);
+  return Eigen::Vector3d(a[0], a[1], a[2]) * kMm;
+}
+
+std::vector<DatasetImage> ReadImagesCsv(const std::filesystem::path& path) {
+  const std::string text = ReadFile(path);
+  const std::string src = path.string();
+  std::istringstream in(text);
+  std::string line;
+  int line_no = 0;
+  bool header = false;
+  std::vector<DatasetImage> images;
+  const auto fail = [&](const std::string& what) { throw UserError(src + ":" + std::to_string(line_no) + ": " + what); };
+  while (std::getline(in, line)) {
+    ++line_no;
+    if (!line.empty() && line.back() == '\r') line.pop_back();
+    if (Trim(line).empty()) continue;
+    const std::vector<std::string> f = SplitCsv(line);
+    if (!header) {
+      std::string joined;
+      for (std::size_t i = 0; i < f.size(); ++i) joined += (i ? "," : "") + f[i];
+      if (joined != kImagesCsvHeader) fail(std::string("expected the header \"") + kImagesCsvHeader + "\"");
+      header = true;
+      continue;
+    }
+    if (f.size() != 5) fail("expected 5 fields (" + std::string(kImagesCsvHeader) + "), got " + std::to_string(f.size()));
+    DatasetImage im;
+    im.camera = f[0];
+    im.image = f[1];
+    if (im.camera.empty() || im.camera.size() > static_cast<std::size_t>(limits::kMaxCameraNameChars))
+      fail("camera: expected a name of 1.." + std::to_string(limits::kMaxCameraNameChars) + " characters");
+    if (im.image.empty() || im.image.find('/') != std::string::npos) fail("image: expected a file stem");
+    if (f[2] == "turntable") {
+      im.kind = ImageKind::kTurntable;
+      double m = 0, a = 0;
+      if (!ParseDouble(f[3], &m)) fail("main_deg: expected a number, got \"" + f[3] + "\"");
+      if (!ParseDouble(f[4], &a)) fail("aux_deg: expected a number, got \"" + f[4] + "\"");
+      im.main_cmd = DegToRad(m);
+      im.aux_cmd = DegToRad(a);
+    } else if (f[2] == "free") {
+      im.kind = ImageKind::kFree;
+      if (!f[3].empty() || !f[4].empty()) fail("a free image has no turntable angles");
+    } else {
+      fail("kind: expected turntable or free, got \"" + f[2] + "\"");
+    }
+    for (const DatasetImage& other : images)
+      if (other.camera == im.camera && other.image == im.image) fail("image " + im.camera + "/" + im.image + " listed twice");
+    images.push_back(im);
+  }
+  if (!header) throw UserError(src + ": empty (expected the header \"" + kImagesCsvHeader + "\")");
+  if (images.empty()) throw UserError(src + ": lists no images");
+  return images;
+}
+
+void ReadTruth(const std::filesystem::path& path, DatasetTruth* truth) {
+  const std::string src = path.string();
+  const YAML::Node root = LoadYaml(ReadFile(path), src);
+  const YamlCtx ctx{src, ""};
+  truth->mount.C_w_t = Matrix9(Require(root, "C_w_t", ctx), ctx.Sub("C_w_t"));
+  truth->mount.r_w_wt = Vector3Mm(Require(root, "r_w_wt_mm", ctx), ctx.Sub("r_w_wt_mm"));
+  truth->mount.C_p_b = Has(root, "C_p_b") ? Matrix9(root["C_p_b"], ctx.Sub("C_p_b")) : Eigen::Matrix3d::Identity();
+  truth->mount.r_p_pb =
+      Has(root, "r_p_pb_mm") ? Vector3Mm(root["r_p_pb_mm"], ctx.Sub("r_p_pb_mm")) : Eigen::Vector3d::Zero();
+  truth->has_mount = true;
+  truth->angle_sigma_arcsec = NumberOr(root, "turntable_angle_sigma_arcsec", -1.0, ctx);
+  if (!Has(root, "images")) return;
+  const YAML::Node list = root["images"];
+  const YamlCtx lctx = ctx.Sub("images");
+  if (!list.IsSequence()) lctx.Fail(list, "expected a list");
+  for (std::size_t i = 0; i < list.size(); ++i) {
+    const YAML::Node n = list[i];
+    const YamlCtx c = lctx.Index(i);
+    DatasetTruth::Image im;
+    const std::string key = String(Require(n, "camera", c), c.Sub("camera")) + "/" + String(Require(n, "image", c), c.Sub("image"));
+    const std::string kind = String(Require(n, "kind", c), c.Sub("kind"));
+    if (kind == "turntable") {
+      im.kind = ImageKind::kTurntable;
+      im.main_true = DegToRad(Number(Require(n, "main_true_deg", c), c.Sub("main_true_deg")));
+      im.aux_true = DegToRad(Number(Require(n, "aux_true_deg", c), c.Sub("aux_true_deg")));
+    } else if (kind == "free") {
+      im.kind = ImageKind::kFree;
+      im.C_k_w = Matrix9(Require(n, "C_k_w", c), c.Sub("C_k_w"));
+      im.r_w_wk = Vector3Mm(Require(n, "r_w_wk_mm", c), c.Sub("r_w_wk_mm"));
+    } else {
+      c.Sub("kind").Fail(n["kind"], "expected turntable or free");
+    }
+    truth->images[key] = im;
+  }
+}
+
+}  // namespace
+
+const char* ToString(ImageKind k) { return k == ImageKind::kTurntable ? "turntable" : "free"; }
+
+CalibrationTarget ParseTargetYaml(const std::string& text, const std::string& source) {
+  const YAML::Node root = LoadYaml(text, source);
+  const YamlCtx ctx{source, ""};
+  const std::string type = String(Require(root, "type", ctx), ctx.Sub("type"));
+  try {
+    if (type == "checkerboard") {
+      RejectUnknownKeys(root, {"type", "cols", "rows", "square_mm", "border_mm"}, ctx);
+      CheckerboardSpec s;
+      s.cols = Integer(Require(root, "cols", ctx), ctx.Sub("cols"));
+      s.rows = Integer(Require(root, "rows", ctx), ctx.Sub("rows"));
+      s.square_m = Number(Require(root, "square_mm", ctx), ctx.Sub("square_mm")) * kMm;
+      s.border_m = NumberOr(root, "border_mm", s.square_m / kMm, ctx) * kMm;
+      return CalibrationTarget::Checkerboard(s);
+    }
+    if (type == "aprilgrid") {
+      RejectUnknownKeys(root, {"type", "tag_cols", "tag_rows", "tag_size_mm", "tag_spacing", "first_id", "border_mm",
+                               "corner_squares", "family"}, ctx);
+      if (Has(root, "family") && String(root["family"], ctx.Sub("family")) != "tag36h11")
+        ctx.Sub("family").Fail(root["family"], "only tag36h11 is supported");
+      AprilGridSpec s;
+      s.tag_cols = Integer(Require(root, "tag_cols", ctx), ctx.Sub("tag_cols"));
+      s.tag_rows = Integer(Require(root, "tag_rows", ctx), ctx.Sub("tag_rows"));
+      s.tag_size_m = Number(Require(root, "tag_size_mm", ctx), ctx.Sub("tag_size_mm")) * kMm;
+      s.tag_spacing = Number(Require(root, "tag_spacing", ctx), ctx.Sub("tag_spacing"));
+      s.first_id = IntegerOr(root, "first_id", 0, ctx);
+      s.border_m = NumberOr(root, "border_mm", s.border_m / kMm, ctx) * kMm;
+      s.corner_squares = BooleanOr(root, "corner_squares", false, ctx);
+      return CalibrationTarget::AprilGrid(s);
+    }
+  } catch (const std::invalid_argument& e) {
+    throw UserError(source + ": " + e.what());
+  }
+  ctx.Sub("type").Fail(root["type"], "expected checkerboard or aprilgrid, got \"" + type + "\"");
+}
+
+std::string FormatTargetYaml(const CalibrationTarget& target) {
+  std::ostringstream o;
+  o.precision(15);
+  if (target.type() == TargetType::kCheckerboard) {
+    const CheckerboardSpec& s = target.checkerboard();
+    o << "type: checkerboard\ncols: " << s.cols << "\nrows: " << s.rows << "\nsquare_mm: " << s.square_m / kMm
+      << "\nborder_mm: " << s.border_m / kMm << "\n";
+  } else {
+    const AprilGridSpec& s = target.aprilgrid();
+    o << "type: aprilgrid\nfamily: tag36h11\ntag_cols: " << s.tag_cols << "\ntag_rows: " << s.tag_rows << "\ntag_size_mm: " << s.tag_size_m / kMm
+      << "\ntag_spacing: " << s.tag_spacing << "\nfirst_id: " << s.first_id << "\nborder_mm: " << s.border_m / kMm
+      << "\ncorner_squares: " << (s.corner_squares ? "true" : "false") << "\n";
+  }
+  return o.str();
+}
+
+CalibrationTarget ParseTargetSpec(const std::string& spec) {
+  std::vector<std::string> parts;
+  std::string part;
+  std::istringstream in(spec);
+  while (std::getline(in, part, ':')) parts.push_back(part);
+  const auto bad = [&](const std::string& why) -> UserError {
+    return UserError("--target \"" + spec + "\": " + why +
+                     " (expected checkerboard:COLSxROWS:SQUARE_MM or aprilgrid:COLSxROWS:TAG_MM:SPACING[:FIRST_ID])");
+  };
+  if (parts.size() < 3) throw bad("too few fields");
+  const std::size_t x = parts[1].find('x');
+  int cols = 0, rows = 0;
+  if (x == std::string::npos || !ParseInt(parts[1].substr(0, x), &cols) || !ParseInt(parts[1].substr(x + 1), &rows))
+    throw bad("COLSxROWS is not two integers");
+  double size_mm = 0;
+  if (!ParseDouble(parts[2], &size_mm) || size_mm <= 0) throw bad("size is not a positive number");
+  try {
+    if (parts[0] == "checkerboard") {
+      if (parts.size() != 3) throw bad("too many fields");
+      CheckerboardSpec s;
+      s.cols = cols;
+      s.rows = rows;
+      s.square_m = size_mm * kMm;
+      s.border_m = s.square_m;
+      return CalibrationTarget::Checkerboard(s);
+    }
+    if (parts[0] == "aprilgrid") {
+      if (parts.size() < 4 || parts.size() > 5) throw bad("wrong number of fields");
+      AprilGridSpec s;
+      s.tag_cols = cols;
+      s.tag_rows = rows;
+      s.tag_size_m = size_mm * kMm;
+      if (!ParseDouble(parts[3], &s.tag_spacing) || s.tag_spacing <= 0) throw bad("SPACING is not a positive number");
+      if (parts.size() == 5 && !ParseInt(parts[4], &s.first_id)) throw bad("FIRST_ID is not an integer");
+      return CalibrationTarget::AprilGrid(s);
+    }
+  } catch (const std::invalid_argument& e) {
+    throw bad(e.what());
+  }
+  throw bad("unknown target type \"" + parts[0] + "\"");
+}
+
+std::vector<Eigen::Vector3d> TargetPoints(const CalibrationTarget& target) {
+  std::vector<Eigen::Vector3d> pts(target.corners().size(), Eigen::Vector3d::Zero());
+  for (const TargetCorner& c : target.corners()) pts.at(static_cast<std::size_t>(c.id)) = c.P_w;
+  return pts;
+}
+
+CalibDataset ReadCalibDataset(const std::filesystem::path& dir) {
+  std::error_code ec;
+  if (!std::filesystem::is_directory(dir, ec)) throw UserError(dir.string() + ": not a dataset directory");
+  CalibDataset ds;
+  ds.dir = dir;
+  const std::filesystem::path target_path = dir / "target.yaml";
+  ds.target = ParseTargetYaml(ReadFile(target_path), target_path.string());
+  ds.images = ReadImagesCsv(dir / "images.csv");
+  for (DatasetImage& im : ds.images) {
+    im.path = dir / "images" / im.camera / (im.image + ".pgm");
+    if (!std::filesystem::is_regular_file(im.path, ec))
+      throw UserError((dir / "images.csv").string() + ": image " + im.camera + "/" + im.image + ": no file " + im.path.string());
+    if (std::find(ds.cameras.begin(), ds.cameras.end(), im.camera) == ds.cameras.end()) ds.cameras.push_back(im.camera);
+  }
+  if (ds.cameras.size() > static_cast<std::size_t>(limits::kMaxCameras))
+    throw UserError((dir / "images.csv").string() + ": " + std::to_string(ds.cameras.size()) + " cameras, at most " +
+                    std::to_string(limits::kMaxCameras));
+  if (std::filesystem::is_regular_file(dir / "truth-rig.yaml", ec)) {
+    ds.truth.rig = ReadRigYaml(dir / "truth-rig.yaml");
+    ds.truth.has_rig = true;
+  }
+  if (std::filesystem::is_regular_file(dir / "truth.yaml", ec)) ReadTruth(dir / "truth.yaml", &ds.truth);
+  return ds;
+}
+
+}  // namespace mfns::host

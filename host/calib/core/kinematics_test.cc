@@ -1,0 +1,64 @@
+#include "host/calib/core/kinematics.h"
+
+#include <gtest/gtest.h>
+
+#include <random>
+
+#include "common/rotation/rotation.h"
+#include "host/sim/scenario/scenario.h"
+
+namespace mfns::host {
+namespace {
+
+// The calibration's kinematics must be the generator's (host/sim/scenario TurntablePose).
+TEST(Kinematics, BodyInWorldMatchesTheSimulatorsTurntable) {
+  std::mt19937_64 rng(3);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  for (int trial = 0; trial < 50; ++trial) {
+    Turntable tt;
+    tt.C_w_t = ExpSO3(Eigen::Vector3d(u(rng), u(rng), u(rng)));
+    tt.r_w_wt = Eigen::Vector3d(u(rng), u(rng), u(rng));
+    tt.C_p_b = ExpSO3(0.1 * Eigen::Vector3d(u(rng), u(rng), u(rng)));
+    tt.r_p_pb = 0.2 * Eigen::Vector3d(u(rng), u(rng), u(rng));
+    TurntableMount m{tt.C_w_t, tt.r_w_wt, tt.C_p_b, tt.r_p_pb};
+    const double main = 3.0 * u(rng), aux = 1.5 * u(rng);
+    const BodyPose ref = TurntablePose(tt, main, aux);
+    const Transform b = BodyInWorld(m, main, aux);
+    EXPECT_LT((b.C - ref.C_w_b).norm(), 1e-14);
+    EXPECT_LT((b.r - ref.r_w_wb).norm(), 1e-14);
+  }
+}
+
+// Main alone is the paper's eq. A5, aux alone the rotation of A9 (active rotations).
+TEST(Kinematics, SingleAxesAreThePapersA5AndA9) {
+  const double a = 0.3, c = std::cos(a), s = std::sin(a);
+  Eigen::Matrix3d A5, Rx;
+  A5 << c, -s, 0, s, c, 0, 0, 0, 1;
+  Rx << 1, 0, 0, 0, c, -s, 0, s, c;
+  EXPECT_LT((PlatformRotation(a, 0.0) - A5).norm(), 1e-15);
+  EXPECT_LT((PlatformRotation(0.0, a) - Rx).norm(), 1e-15);
+  // aux is the outer axis: C_t_p = Rx(aux) Rz(main).
+  EXPECT_LT((PlatformRotation(0.2, 0.7) - PlatformRotation(0.0, 0.7) * PlatformRotation(0.2, 0.0)).norm(), 1e-15);
+}
+
+TEST(Kinematics, CameraInWorldIsEquationTwoInverted) {
+  Transform body{ExpSO3(Eigen::Vector3d(0.1, -0.4, 0.9)), Eigen::Vector3d(0.1, 0.2, 0.3)};
+  const Eigen::Matrix3d C_k_b = ExpSO3(Eigen::Vector3d(1.0, 0.2, -0.3));
+  const Eigen::Vector3d r_b_bk(0.05, -0.02, 0.1), P_w(0.3, -0.1, 1.2);
+  const Transform k = CameraInWorld(body, C_k_b, r_b_bk);
+  // Eq. 2: p_k = C_k_b (C_b_w P_w + r_b_bw - r_b_bk).
+  const Eigen::Vector3d eq2 = C_k_b * (body.C.transpose() * P_w - body.C.transpose() * body.r - r_b_bk);
+  EXPECT_LT((k.C.transpose() * (P_w - k.r) - eq2).norm(), 1e-15);
+}
+
+TEST(Kinematics, NearestAxisAlignedFindsTheNominalFrame) {
+  const Eigen::Matrix3d flip = Eigen::Vector3d(1, -1, -1).asDiagonal();
+  EXPECT_EQ(NearestAxisAligned(flip * ExpSO3(Eigen::Vector3d(0.05, -0.1, 0.2))), flip);
+  EXPECT_EQ(NearestAxisAligned(ExpSO3(Eigen::Vector3d(0.01, 0.0, 0.3))), Eigen::Matrix3d::Identity());
+  const Eigen::Matrix3d Rz90 = ExpSO3(Eigen::Vector3d(0, 0, kPi / 2));
+  EXPECT_LT((NearestAxisAligned(Rz90 * ExpSO3(Eigen::Vector3d(0.1, 0.1, 0.1))) - Rz90).norm(), 1e-12);
+  EXPECT_NEAR(RotationAngle(Rz90), kPi / 2, 1e-12);
+}
+
+}  // namespace
+}  // namespace mfns::host

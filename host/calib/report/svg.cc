@@ -1,0 +1,193 @@
+#include "host/calib/report/svg.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <sstream>
+
+namespace mfns::host {
+namespace {
+
+constexpr double kW = 420, kH = 320, kLeft = 62, kRight = 16, kTop = 30, kBottom = 46;
+
+struct Axis {
+  double lo = 0, hi = 1;
+  std::vector<double> ticks;
+};
+
+// "Nice" ticks (1, 2, 2.5, 5 x 10^k) covering [lo, hi].
+Axis NiceAxis(double lo, double hi, int target = 5) {
+  if (!(hi > lo)) {
+    const double c = std::isfinite(lo) ? lo : 0.0, h = std::max(1e-12, std::abs(c) * 0.1 + 1e-12);
+    lo = c - h;
+    hi = c + h;
+  }
+  const double raw = (hi - lo) / target, mag = std::pow(10.0, std::floor(std::log10(raw)));
+  double step = mag;
+  for (double m : {1.0, 2.0, 2.5, 5.0, 10.0})
+    if (m * mag >= raw) {
+      step = m * mag;
+      break;
+    }
+  Axis a;
+  a.lo = std::floor(lo / step) * step;
+  a.hi = std::ceil(hi / step) * step;
+  for (double t = a.lo; t <= a.hi + 0.5 * step; t += step) a.ticks.push_back(std::abs(t) < 1e-12 * step ? 0.0 : t);
+  return a;
+}
+
+std::string Num(double v) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.4g", v);
+  return buf;
+}
+
+std::string Fmt(double v) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.2f", v);
+  return buf;
+}
+
+class Frame {
+ public:
+  Frame(const Axis& x, const Axis& y) : x_(x), y_(y) {}
+  double X(double v) const { return kLeft + (v - x_.lo) / (x_.hi - x_.lo) * (kW - kLeft - kRight); }
+  double Y(double v) const { return kH - kBottom - (v - y_.lo) / (y_.hi - y_.lo) * (kH - kTop - kBottom); }
+
+  std::string Open(const std::string& title, const std::string& xl, const std::string& yl, bool x_ticks = true) const {
+    std::ostringstream o;
+    o << "<svg xmlns=\"http://www.w3.org/2000/svg\" class=\"chart\" width=\"" << kW << "\" height=\"" << kH
+      << "\" viewBox=\"0 0 " << kW << " " << kH << "\">\n<rect x=\"0\" y=\"0\" width=\"" << kW << "\" height=\"" << kH
+      << "\" fill=\"white\"/>\n<text x=\"" << kW / 2 << "\" y=\"18\" text-anchor=\"middle\" font-size=\"13\">"
+      << Escape(title) << "</text>\n";
+    for (double t : y_.ticks)
+      o << "<line x1=\"" << Fmt(kLeft) << "\" x2=\"" << Fmt(kW - kRight) << "\" y1=\"" << Fmt(Y(t)) << "\" y2=\"" << Fmt(Y(t))
+        << "\" stroke=\"#ddd\"/><text x=\"" << Fmt(kLeft - 4) << "\" y=\"" << Fmt(Y(t) + 4)
+        << "\" text-anchor=\"end\" font-size=\"10\">" << Num(t) << "</text>\n";
+    if (x_ticks)
+      for (double t : x_.ticks)
+        o << "<line x1=\"" << Fmt(X(t)) << "\" x2=\"" << Fmt(X(t)) << "\" y1=\"" << Fmt(kTop) << "\" y2=\""
+          << Fmt(kH - kBottom) << "\" stroke=\"#ddd\"/><text x=\"" << Fmt(X(t)) << "\" y=\"" << Fmt(kH - kBottom + 14)
+          << "\" text-anchor=\"middle\" font-size=\"10\">" << Num(t) << "</text>\n";
+    o << "<rect x=\"" << Fmt(kLeft) << "\" y=\"" << Fmt(kTop) << "\" width=\"" << Fmt(kW - kLeft - kRight) << "\" height=\""
+      << Fmt(kH - kTop - kBottom) << "\" fill=\"none\" stroke=\"#444\"/>\n";
+    o << "<text x=\"" << Fmt((kLeft + kW - kRight) / 2) << "\" y=\"" << Fmt(kH - 8)
+      << "\" text-anchor=\"middle\" font-size=\"11\">" << Escape(xl) << "</text>\n";
+    o << "<text x=\"14\" y=\"" << Fmt((kTop + kH - kBottom) / 2) << "\" text-anchor=\"middle\" font-size=\"11\" transform=\"rotate(-90 14 "
+      << Fmt((kTop + kH - kBottom) / 2) << ")\">" << Escape(yl) << "</text>\n";
+    return o.str();
+  }
+
+ private:
+  Axis x_, y_;
+};
+
+}  // namespace
+
+std::string Escape(const std::string& s) {
+  std::string o;
+  for (char c : s) switch (c) {
+      case '&': o += "&amp;"; break;
+      case '<': o += "&lt;"; break;
+      case '>': o += "&gt;"; break;
+      case '"': o += "&quot;"; break;
+      case '\'': o += "&#39;"; break;
+      default: o += c;
+    }
+  return o;
+}
+
+std::string ScatterSvg(const SvgChart& c) {
+  double xlo = 1e300, xhi = -1e300, ylo = 1e300, yhi = -1e300;
+  for (const SvgSeries& s : c.series)
+    for (std::size_t i = 0; i < s.x.size() && i < s.y.size(); ++i) {
+      if (!std::isfinite(s.x[i]) || !std::isfinite(s.y[i])) continue;
+      xlo = std::min(xlo, s.x[i]);
+      xhi = std::max(xhi, s.x[i]);
+      ylo = std::min(ylo, s.y[i]);
+      yhi = std::max(yhi, s.y[i]);
+    }
+  if (xlo > xhi) xlo = xhi = ylo = yhi = 0.0;
+  if (c.equal_axes) {
+    const double m = std::max({std::abs(xlo), std::abs(xhi), std::abs(ylo), std::abs(yhi), 1e-6});
+    xlo = ylo = -m;
+    xhi = yhi = m;
+  }
+  const Axis ax = NiceAxis(xlo, xhi), ay = NiceAxis(ylo, yhi);
+  const Frame f(ax, ay);
+  std::ostringstream o;
+  o << f.Open(c.title, c.x_label, c.y_label);
+  double ly = kTop + 12;
+  for (const SvgSeries& s : c.series) {
+    for (std::size_t i = 0; i < s.x.size() && i < s.y.size(); ++i) {
+      if (!std::isfinite(s.x[i]) || !std::isfinite(s.y[i])) continue;
+      o << "<circle class=\"" << Escape(s.css_class) << "\" cx=\"" << Fmt(f.X(s.x[i])) << "\" cy=\"" << Fmt(f.Y(s.y[i]))
+        << "\" r=\"2\" fill=\"" << s.color << "\" fill-opacity=\"0.6\"/>\n";
+    }
+    if (c.series.size() > 1) {
+      o << "<circle cx=\"" << Fmt(kW - kRight - 90) << "\" cy=\"" << Fmt(ly - 4) << "\" r=\"4\" fill=\"" << s.color
+        << "\"/><text x=\"" << Fmt(kW - kRight - 82) << "\" y=\"" << Fmt(ly) << "\" font-size=\"10\">" << Escape(s.name)
+        << "</text>\n";
+      ly += 14;
+    }
+  }
+  o << "</svg>\n";
+  return o.str();
+}
+
+std::string HistogramSvg(const std::vector<double>& values, int bins, const std::string& title, const std::string& x_label) {
+  double lo = 1e300, hi = -1e300;
+  for (double v : values)
+    if (std::isfinite(v)) {
+      lo = std::min(lo, v);
+      hi = std::max(hi, v);
+    }
+  if (lo > hi) lo = hi = 0.0;
+  const Axis ax = NiceAxis(lo, hi);
+  bins = std::max(1, bins);
+  std::vector<int> count(static_cast<std::size_t>(bins), 0);
+  const double w = (ax.hi - ax.lo) / bins;
+  for (double v : values) {
+    if (!std::isfinite(v)) continue;
+    const int b = std::clamp(static_cast<int>((v - ax.lo) / w), 0, bins - 1);
+    ++count[static_cast<std::size_t>(b)];
+  }
+  const int most = *std::max_element(count.begin(), count.end());
+  const Axis ay = NiceAxis(0.0, std::max(1, most));
+  const Frame f(ax, ay);
+  std::ostringstream o;
+  o << f.Open(title, x_label, "count");
+  for (int b = 0; b < bins; ++b) {
+    const double x0 = f.X(ax.lo + b * w), x1 = f.X(ax.lo + (b + 1) * w), y = f.Y(count[static_cast<std::size_t>(b)]);
+    o << "<rect class=\"bar\" x=\"" << Fmt(x0) << "\" y=\"" << Fmt(y) << "\" width=\"" << Fmt(std::max(0.5, x1 - x0 - 0.5))
+      << "\" height=\"" << Fmt(f.Y(0.0) - y) << "\" fill=\"#4c72b0\"/>\n";
+  }
+  o << "</svg>\n";
+  return o.str();
+}
+
+std::string BarSvg(const std::vector<std::string>& labels, const std::vector<double>& values, const std::string& title,
+                   const std::string& y_label) {
+  double hi = 0;
+  for (double v : values)
+    if (std::isfinite(v)) hi = std::max(hi, v);
+  const Axis ax{0.0, static_cast<double>(std::max<std::size_t>(1, values.size())), {}};
+  const Axis ay = NiceAxis(0.0, hi > 0 ? hi : 1.0);
+  const Frame f(ax, ay);
+  std::ostringstream o;
+  o << f.Open(title, "image", y_label, false);
+  for (std::size_t i = 0; i < values.size(); ++i) {
+    const double v = std::isfinite(values[i]) ? values[i] : 0.0;
+    const double x0 = f.X(static_cast<double>(i) + 0.1), x1 = f.X(static_cast<double>(i) + 0.9), y = f.Y(v);
+    o << "<rect class=\"bar\" x=\"" << Fmt(x0) << "\" y=\"" << Fmt(y) << "\" width=\"" << Fmt(x1 - x0) << "\" height=\""
+      << Fmt(f.Y(0.0) - y) << "\" fill=\"#55a868\"><title>" << Escape(i < labels.size() ? labels[i] : "") << ": " << Num(v)
+      << "</title></rect>\n";
+    if (values.size() <= 32 && i < labels.size())
+      o << "<text x=\"" << Fmt((x0 + x1) / 2) << "\" y=\"" << Fmt(kH - kBottom + 12)
+        << "\" text-anchor=\"middle\" font-size=\"8\">" << Escape(labels[i]) << "</text>\n";
+  }
+  o << "</svg>\n";
+  return o.str();
+}
+
+}  // namespace mfns::host

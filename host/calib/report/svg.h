@@ -1,0 +1,35 @@
+// Small self-contained SVG charts for report.html: scatter (several series), histogram and bar
+// chart on linear axes with ticks and labels. Standalone SVG 1.1 elements, inlined in HTML.
+#pragma once
+
+#include <string>
+#include <vector>
+
+namespace mfns::host {
+
+struct SvgSeries {
+  std::string name;       // legend text
+  std::string css_class;  // class of each <circle>
+  std::string color;      // fill, e.g. "#1f77b4"
+  std::vector<double> x, y;
+};
+
+struct SvgChart {
+  std::string title, x_label, y_label;
+  std::vector<SvgSeries> series;
+  bool equal_axes = false;  // same scale on x and y, ranges symmetric about 0 (residual scatter)
+};
+
+// Points as <circle class="css_class">; non-finite points are skipped.
+std::string ScatterSvg(const SvgChart& chart);
+// values binned into `bins` equal bins over their range: <rect class="bar">.
+std::string HistogramSvg(const std::vector<double>& values, int bins, const std::string& title,
+                         const std::string& x_label);
+// One <rect class="bar"> per label, heights from 0.
+std::string BarSvg(const std::vector<std::string>& labels, const std::vector<double>& values, const std::string& title,
+                   const std::string& y_label);
+
+// Escapes & < > " ' for XML and HTML.
+std::string Escape(const std::string& s);
+
+}  // namespace mfns::host
