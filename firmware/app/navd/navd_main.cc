@@ -148,15 +148,15 @@ int Run(int argc, char** argv) {
       BlobInfo next_info;
       Rig& next = rigs[static_cast<std::size_t>(1 - active)];
       if (loader.Reload(&next, &next_info) == StoreStatus::kOk && !SameBlob(next_info, info)) {
-        const char* reason = nullptr;
-        if (loop->Reload(next, next_info.generation, &reason)) {
+        const char* refused = nullptr;
+        if (loop->Reload(next, next_info.generation, &refused)) {
           active = 1 - active;
           info = next_info;
           std::fprintf(stderr, "mfns-navd: parameters reloaded: generation %llu\n",
                        static_cast<unsigned long long>(info.generation));
         } else {
           std::fprintf(stderr, "mfns-navd: new parameters refused (%s); generation %llu stays\n",
-                       reason != nullptr ? reason : "?", static_cast<unsigned long long>(info.generation));
+                       refused != nullptr ? refused : "?", static_cast<unsigned long long>(info.generation));
         }
       }
     }

@@ -81,6 +81,7 @@ bool TrackOptions::IsValid(const char** why) const {
   else if (!(chain_slack_m >= 0.0) || !(chain_slack_rad >= 0.0)) bad = "chain_slack";
   else if (min_acquire_frames < 2) bad = "min_acquire_frames";
   else if (!positive(chain_stale_s)) bad = "chain_stale_s";
+
   else if (!positive(twin_m) || !positive(twin_rad)) bad = "twin";
   else if (!positive(innovation_m) || !positive(innovation_rad)) bad = "innovation";
   else if (!solve.IsValid(&sub)) bad = sub;
@@ -260,25 +261,11 @@ bool Tracker::ChainPrior(std::uint64_t t_ns, const TrackOptions& o, LisPrior* pr
   return true;
 }
 
-// Beacons that `pose` predicts at least margin_px inside an image (over all cameras).
-int Tracker::SurelyVisible(const BodyPose& pose, double margin_px) const {
-  int n = 0;
-  for (int k = 0; k < rig_->num_cameras; ++k) {
-    for (int m = 0; m < rig_->num_beacons; ++m) {
-      Eigen::Vector2d uv;
-      bool inner = false;
-      if (matcher_.Predict(k, pose, rig_->beacons_w[static_cast<std::size_t>(m)], 0.0, margin_px, &uv, &inner) && inner)
-        ++n;
-    }
-  }
-  return n;
-}
-
 // Follows the poses kept so far with lost-in-space's (complete) consistent poses of this frame
-// set: every consistent pose within the motion bounds of a kept one is kept (confirmed). A
-// kept pose with none is dropped only when it should have been found (three beacons surely
-// in view); otherwise its true self may just lack beacons this frame set, and dropping it
-// could leave only wrong poses: it coasts, unconfirmed, until chain_stale_s restarts all.
+// set: every consistent pose within the motion bounds of a kept one is kept, the others are
+// dropped. The true pose is in every complete list when three true beacons are in view; with
+// fewer, spurious blobs can still make three blobs, and the truth may drop out: hence
+// min_acquire_frames for chains not seeded by an accepted pose.
 bool Tracker::Acquire(std::uint64_t t_ns, const TrackOptions& o, TrackResult* r) {
   const LisResult& l = lis_res_;
   if (!l.complete) {
@@ -297,9 +284,8 @@ bool Tracker::Acquire(std::uint64_t t_ns, const TrackOptions& o, TrackResult* r)
     return false;
   }
   // Every consistent pose within the bounds of a followed one is followed on (any of them may
-  // be the truth); a followed pose with none is kept unless refuted.
+  // be the truth); a followed pose with none is dropped.
   int n = 0, confirmed = 0;
-  std::array<bool, limits::kMaxLisCandidates> reached{};
   for (int i = 0; i < l.num_consistent && n < limits::kMaxLisCandidates; ++i) {
     const BodyPose& p = l.consistent_poses[static_cast<std::size_t>(i)];
     bool near = false;
@@ -307,8 +293,8 @@ bool Tracker::Acquire(std::uint64_t t_ns, const TrackOptions& o, TrackResult* r)
       const auto sj = static_cast<std::size_t>(j);
       const BodyPose& q = chain_[sj];
       if ((p.r_w_wb - q.r_w_wb).norm() <= chain_max_m_[sj] && LogSO3(q.C_w_b.transpose() * p.C_w_b).norm() <= chain_max_rad_[sj]) {
-        reached[sj] = true;
         near = true;
+        break;
       }
     }
     if (!near) continue;
@@ -317,23 +303,10 @@ bool Tracker::Acquire(std::uint64_t t_ns, const TrackOptions& o, TrackResult* r)
     ++n;
     ++confirmed;
   }
-  for (int j = 0; j < chain_n_ && n < limits::kMaxLisCandidates; ++j) {
-    const auto sj = static_cast<std::size_t>(j);
-    if (reached[sj]) continue;
-    // Not found. Had it three beacons surely in view (deeper inside the images than its
-    // motion bounds could carry them out), complete lost-in-space would have found it: it is
-    // not the truth. Otherwise its true self may simply lack beacons this frame set: it
-    // coasts, unconfirmed.
-    const BodyPose& q = chain_[sj];
-    const double motion_px = px_per_rad_ * (chain_max_rad_[sj] + chain_max_m_[sj] / o.gate_depth_m);
-    if (SurelyVisible(q, o.miss_margin_px + motion_px) >= 3) continue;
-    chain_next_[static_cast<std::size_t>(n)] = q;
-    chain_next_t_[static_cast<std::size_t>(n)] = chain_t_[sj];
-    ++n;
-  }
   if (n == 0) {
-    // Every followed pose refuted: none was the truth, or the motion broke the bounds. Start
-    // over at the next frame set, without a prior.
+    // Nothing consistent near the followed poses: none was the truth, or this frame set has
+    // fewer than 3 true beacons, or the motion broke the bounds. Start over at the next frame
+    // set, without a prior.
     chain_n_ = 0;
     has_seed_ = false;
     r->acquisition_poses = 0;

@@ -16,10 +16,9 @@
 // 2. Otherwise re-identification by lost-in-space (lost_in_space.h). A fix is accepted.
 //    When lost-in-space lists several consistent poses and the list is complete, they are
 //    followed over the next frame sets through motion bounds (max speed and turn rate times
-//    the elapsed time): a followed pose moves on to the consistent poses within its bounds;
-//    one with none is dropped only when it has three beacons surely in view (lost-in-space
-//    would have found it), so the true pose is never dropped, while a wrong one dies as soon
-//    as the motion brings a beacon into view where it predicts none. When one pose is left, confirmed by the current
+//    the elapsed time): a followed pose moves on to the consistent poses within its bounds,
+//    or is dropped. The true pose survives every frame set with three true beacons in view;
+//    a wrong one dies as soon as the motion brings a beacon into view where it predicts none. When one pose is left, confirmed by the current
 //    frame set, it is accepted (source kAcquired). The pose predicted from the last accepted one
 //    (if at most max_seed_s old) seeds the intersection, within acceleration bounds, so that
 //    after a gap in the beacons the first frame set usually settles it.
@@ -29,7 +28,7 @@
 //    a large residual is forgotten; one that only lacks beacons (0-2 in view) is kept for
 //    max_coast_s so tracking resumes when beacons return.
 //
-// Memory: one object (about 450 kB, mostly lost-in-space) holds every buffer; construct it at
+// Memory: one object (about 400 kB, mostly lost-in-space) holds every buffer; construct it at
 // start (static or reserved), Reset() it with the rig, then Track() never allocates.
 #pragma once
 
@@ -165,7 +164,6 @@ class Tracker {
   void PrepareChain(std::uint64_t t_ns, const TrackOptions& o);
   bool ChainPrior(std::uint64_t t_ns, const TrackOptions& o, LisPrior* prior);
   bool Acquire(std::uint64_t t_ns, const TrackOptions& o, TrackResult* r);
-  int SurelyVisible(const BodyPose& pose, double margin_px) const;
   void Accept(std::uint64_t t_ns, const TrackOptions& o, TrackResult* r);
   TrackStatus Lost(TrackReason why, TrackResult* r);
 
