@@ -50,7 +50,14 @@ function(mfns_gtest name)
     DISCOVERY_MODE PRE_TEST
     DISCOVERY_TIMEOUT 120
     WORKING_DIRECTORY ${CMAKE_BINARY_DIR}
-    PROPERTIES LABELS "${ARG_LABELS}" ENVIRONMENT "MFNS_SOURCE_DIR=${PROJECT_SOURCE_DIR}")
+    PROPERTIES ENVIRONMENT "MFNS_SOURCE_DIR=${PROJECT_SOURCE_DIR}")
+  # Labels are set by a CTest include file that runs after the discovered tests are added:
+  # gtest_discover_tests flattens its PROPERTIES, so a label list ("host;slow") passed there
+  # would split into LABELS=host and a stray property.
+  set(_mfns_label_file ${CMAKE_CURRENT_BINARY_DIR}/${name}_labels.cmake)
+  file(WRITE ${_mfns_label_file}
+       "if(DEFINED ${name}_TESTS)\n  set_tests_properties(\${${name}_TESTS} PROPERTIES LABELS \"${ARG_LABELS}\")\nendif()\n")
+  set_property(DIRECTORY APPEND PROPERTY TEST_INCLUDE_FILES ${_mfns_label_file})
 endfunction()
 
 # mfns_benchmark(NAME SOURCES ... DEPS ...): a Google Benchmark program in bin/ (not a test).

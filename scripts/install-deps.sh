@@ -11,8 +11,9 @@ HOST_PKGS=(
   libgtest-dev libgmock-dev googletest libbenchmark-dev
   g++-aarch64-linux-gnu qemu-user
   openssh-server openssh-client dpkg-dev file
+  chromium  # headless check of report.html (host/calib/app/rig_command_test)
 )
-ARM64_PKGS=(libgpiod-dev:arm64 libgpiod2:arm64)
+ARM64_PKGS=(libgpiod-dev:arm64 libgpiod2:arm64 libbenchmark-dev:arm64)  # benchmark: aarch64 benchmarks (scripts/bench.sh)
 
 SUDO=""
 if [ "$(id -u)" -ne 0 ]; then SUDO="sudo"; fi

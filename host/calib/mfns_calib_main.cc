@@ -2,17 +2,21 @@
 //   mfns-calib blob RIG.yaml --out FILE [--generation N]   rig file -> parameter blob
 //   mfns-calib inspect BLOB                                 print a blob's header and contents
 //   mfns-calib paper-rig --out FILE                         write the published rig (Tables 2-4)
+//   mfns-calib rig DATASET_DIR --out DIR [--method ml|paper|opencv-handeye]   (app/calib_commands.h)
+//   mfns-calib intrinsics --target checkerboard:COLSxROWS:SQUARE_MM IMAGE... --out DIR
 // Exit 0 on success, 1 on a user error with a one-line reason on stderr.
 #include <CLI/CLI.hpp>
 
 #include <chrono>
 #include <cstdio>
 #include <iostream>
+#include <string>
 #include <vector>
 
 #include "common/blob/param_blob.h"
 #include "common/rig/paper_rig.h"
 #include "common/rotation/rotation.h"
+#include "host/calib/app/calib_commands.h"
 #include "host/rigio/rig_yaml.h"
 #include "host/util/atomic_file.h"
 
@@ -59,7 +63,7 @@ std::uint64_t NowSeconds() {
 }
 
 int Run(int argc, char** argv) {
-  CLI::App app{"MFNS calibration tools: rig files, parameter blobs"};
+  CLI::App app{"MFNS calibration tools: rig calibration, intrinsics, rig files, parameter blobs"};
   app.require_subcommand(1);
 
   std::string rig_path, out_path, blob_path;
@@ -75,6 +79,9 @@ int Run(int argc, char** argv) {
 
   CLI::App* paper = app.add_subcommand("paper-rig", "Write the paper's published rig (Tables 2-4) as a rig file");
   paper->add_option("--out", out_path, "Output rig file (YAML)")->required();
+
+  AddRigCommand(app);
+  AddIntrinsicsCommand(app);
 
   try {
     app.parse(argc, argv);
@@ -94,7 +101,12 @@ int main(int argc, char** argv) {
   try {
     return mfns::host::Run(argc, argv);
   } catch (const std::exception& e) {
-    std::fprintf(stderr, "mfns-calib: %s\n", e.what());
+    // One line even for library errors (cv::Exception's what() spans several).
+    std::string what = e.what();
+    while (!what.empty() && (what.back() == '\n' || what.back() == ' ')) what.pop_back();
+    for (char& c : what)
+      if (c == '\n' || c == '\r') c = ' ';
+    std::fprintf(stderr, "mfns-calib: %s\n", what.c_str());
     return 1;
   }
 }

@@ -1,6 +1,9 @@
 #include "host/calib/app/calib_commands.h"
 
+#include <algorithm>
 #include <chrono>
+#include <cstdlib>
+#include <map>
 #include <cmath>
 #include <filesystem>
 #include <iostream>
@@ -69,7 +72,15 @@ void Compare(const CalibInput& in, const IntrinsicsStage& stage, RigOptions ro, 
   const RigMethod chosen = ro.method;
   for (RigMethod m : {RigMethod::kMl, RigMethod::kPaper, RigMethod::kOpenCvHandEye}) {
     ro.method = m;
-    const RigCalibration r = m == chosen ? main_result : SolveRig(in, stage, ro);
+    RigCalibration r;
+    try {
+      r = m == chosen ? main_result : SolveRig(in, stage, ro);
+    } catch (const std::exception& e) {  // a comparison that fails (e.g. OpenCV's on too few poses) is reported
+      std::string what = e.what();
+      std::replace(what.begin(), what.end(), '\n', ' ');
+      table << "  " << ToString(m) << ": failed: " << what << "\n";
+      continue;
+    }
     const RigErrors e = CompareRig(r, ds.truth.rig, ds.truth.has_mount ? &ds.truth.mount : nullptr);
     int within = 0, total = 0;
     for (const ParamError& p : e.params) {
@@ -92,6 +103,79 @@ void Compare(const CalibInput& in, const IntrinsicsStage& stage, RigOptions ro, 
 
 }  // namespace
 
+CalibInput CornersFromCsv(const CalibDataset& ds, const std::string& path) {
+  const std::string text = ReadFile(path);
+  std::map<std::string, std::vector<CornerObs>> by_image;  // "camera/image"
+  const int n_ids = static_cast<int>(TargetPoints(ds.target).size());
+  std::istringstream lines(text);
+  std::string line;
+  int line_no = 0;
+  while (std::getline(lines, line)) {
+    ++line_no;
+    if (!line.empty() && line.back() == '\r') line.pop_back();
+    if (line.empty() || (line_no == 1 && line.rfind("camera,", 0) == 0)) continue;
+    std::vector<std::string> f;
+    std::istringstream fields(line);
+    for (std::string x; std::getline(fields, x, ',');) f.push_back(x);
+    const std::string where = path + ":" + std::to_string(line_no) + ": ";
+    if (f.size() != 5) throw UserError(where + "expected camera,image,corner,u_px,v_px");
+    CornerObs c;
+    char* end = nullptr;
+    c.id = static_cast<int>(std::strtol(f[2].c_str(), &end, 10));
+    if (f[2].empty() || *end != '\0' || c.id < 0 || c.id >= n_ids)
+      throw UserError(where + "corner id \"" + f[2] + "\" is not one of the target's 0.." + std::to_string(n_ids - 1));
+    for (int a = 0; a < 2; ++a) {
+      const std::string& v = f[static_cast<std::size_t>(3 + a)];
+      c.uv[a] = std::strtod(v.c_str(), &end);
+      if (v.empty() || *end != '\0' || !std::isfinite(c.uv[a])) throw UserError(where + "bad pixel coordinate \"" + v + "\"");
+    }
+    by_image[f[0] + "/" + f[1]].push_back(c);
+  }
+  CalibInput in;
+  in.target_points = TargetPoints(ds.target);
+  for (const std::string& name : ds.cameras) in.cameras.push_back({name, 0, 0});
+  for (const DatasetImage& im : ds.images) {
+    const int k = static_cast<int>(std::find(ds.cameras.begin(), ds.cameras.end(), im.camera) - ds.cameras.begin());
+    CameraInfo& cam = in.cameras[static_cast<std::size_t>(k)];
+    if (cam.width == 0) {  // the image size from the camera's first readable image
+      try {
+        const cv::Mat m = ReadPgm(im.path.string());
+        cam.width = m.cols;
+        cam.height = m.rows;
+      } catch (const PgmError&) {
+      }
+    }
+    auto it = by_image.find(im.camera + "/" + im.image);
+    if (it == by_image.end()) {
+      in.skipped.push_back({im.camera, im.image, "no corners in " + path});
+      continue;
+    }
+    ViewObservation v;
+    v.camera = k;
+    v.image = im.image;
+    v.kind = im.kind;
+    v.main_cmd = im.main_cmd;
+    v.aux_cmd = im.aux_cmd;
+    v.corners = it->second;
+    std::sort(v.corners.begin(), v.corners.end(), [](const CornerObs& a, const CornerObs& b) { return a.id < b.id; });
+    in.views.push_back(std::move(v));
+  }
+  for (const CameraInfo& c : in.cameras)
+    if (c.width == 0) throw UserError("camera " + c.name + ": no readable image to take its size from");
+  return in;
+}
+
+std::string FormatCornersCsv(const CalibInput& in) {
+  std::ostringstream o;
+  o.precision(10);
+  o << "camera,image,corner,u_px,v_px\n";
+  for (const ViewObservation& v : in.views)
+    for (const CornerObs& c : v.corners)
+      o << in.cameras[static_cast<std::size_t>(v.camera)].name << "," << v.image << "," << c.id << "," << c.uv.x() << ","
+        << c.uv.y() << "\n";
+  return o.str();
+}
+
 RigCalibration RunRigCommand(const RigCommandOptions& o, std::ostream& log) {
   if (o.out_dir.empty()) throw UserError("--out DIR is required");
   if (!(o.huber_px >= 0)) throw UserError("--huber-px must not be negative");
@@ -111,7 +195,8 @@ RigCalibration RunRigCommand(const RigCommandOptions& o, std::ostream& log) {
   DetectOptions det;
   det.sb_accuracy = !o.fast_detect;
   det.min_corners = ro.min_corners;
-  CalibInput in = DetectDataset(ds, det, o.jobs, &log);
+  CalibInput in = o.corners_csv.empty() ? DetectDataset(ds, det, o.jobs, &log) : CornersFromCsv(ds, o.corners_csv);
+  if (!o.corners_csv.empty()) log << "corners from " << o.corners_csv << " (no detection)\n";
   const double angle_arcsec =
       !o.angle_sigma_set && ds.truth.angle_sigma_arcsec > 0 ? ds.truth.angle_sigma_arcsec : o.angle_sigma_arcsec;
   in.angle_sigma = DegToRad(angle_arcsec / 3600.0);
@@ -130,6 +215,9 @@ RigCalibration RunRigCommand(const RigCommandOptions& o, std::ostream& log) {
   }
   log << mount_note << "\n";
   const IntrinsicsStage stage = PrepareViews(&in, ro);
+  if (!o.write_corners_csv.empty()) WriteFileAtomic(o.write_corners_csv, FormatCornersCsv(in));
+  log << in.skipped.size() << " images skipped\n";
+  for (const SkippedImage& s : in.skipped) log << "  skipped " << s.camera << "/" << s.image << ": " << s.reason << "\n";
   RigCalibration rig = SolveRig(in, stage, ro);
   rig.notes.insert(rig.notes.begin(), mount_note);
   if (o.compare) Compare(in, stage, ro, rig, ds, o.out_dir, log);
@@ -242,6 +330,10 @@ void AddRigCommand(CLI::App& app) {
   cmd->add_option("--rig-id", o->rig_id, "Rig id of the blob (default: the truth rig's, else mfns-calibrated)");
   cmd->add_option("--generation", o->generation, "Blob generation (default: UTC seconds now)");
   cmd->add_flag("--no-covariance", o->no_covariance, "ml: skip the covariance (sigma 0)");
+  cmd->add_option("--corners", o->corners_csv,
+                  "Use these corners (CSV camera,image,corner,u_px,v_px as the dataset's corners.csv) instead of "
+                  "detecting them");
+  cmd->add_option("--write-corners", o->write_corners_csv, "Write the corners used (same CSV format)");
   cmd->add_flag("--compare", o->compare,
                 "Also run every other method on the same corners and write compare.csv (errors against the dataset's "
                 "truth)");

@@ -37,7 +37,16 @@ struct RigCommandOptions {
   bool generation_set = false;
   bool no_covariance = false;
   bool compare = false;  // also run the other methods on the same corners; compare.csv against the truth
+  // Corners from a CSV (camera,image,corner,u_px,v_px: the dataset's corners.csv format, e.g.
+  // from another detector) instead of detecting them; and the corners used, written out.
+  std::string corners_csv;
+  std::string write_corners_csv;
 };
+
+// The corners of a CSV in the corners.csv format (docs/calib-dataset.md) as the input of a
+// calibration: images of the dataset without rows are skipped. Throws UserError naming the line.
+CalibInput CornersFromCsv(const CalibDataset& ds, const std::string& path);
+std::string FormatCornersCsv(const CalibInput& in);
 
 // Runs the rig calibration and writes the outputs; summary and progress go to `log`.
 RigCalibration RunRigCommand(const RigCommandOptions& o, std::ostream& log);

@@ -1,11 +1,13 @@
 #include "host/calib/app/calibrate.h"
 
+#include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <atomic>
 #include <cmath>
 #include <mutex>
 #include <ostream>
 #include <sstream>
+#include <opencv2/core.hpp>
 #include <thread>
 
 #include "common/rotation/rotation.h"
@@ -71,6 +73,24 @@ RigCalibration FromHandEye(const CalibInput& in, const IntrinsicsStage& st, cons
       rig.angles.push_back(a);
     }
   return rig;
+}
+
+// Standard deviation along the minor axis of the target positions of `corners` (all target
+// points when null), m: small when the corners lie nearly on a line.
+double MinorSpread(const std::vector<Eigen::Vector3d>& target_points, const std::vector<CornerObs>* corners) {
+  Eigen::Vector2d mean = Eigen::Vector2d::Zero();
+  Eigen::Matrix2d second = Eigen::Matrix2d::Zero();
+  const std::size_t n = corners != nullptr ? corners->size() : target_points.size();
+  if (n == 0) return 0.0;
+  for (std::size_t i = 0; i < n; ++i) {
+    const Eigen::Vector2d p =
+        target_points[corners != nullptr ? static_cast<std::size_t>((*corners)[i].id) : i].head<2>();
+    mean += p;
+    second += p * p.transpose();
+  }
+  mean /= static_cast<double>(n);
+  const Eigen::Matrix2d cov = second / static_cast<double>(n) - mean * mean.transpose();
+  return std::sqrt(std::max(0.0, Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d>(cov).eigenvalues()[0]));
 }
 
 }  // namespace
@@ -162,12 +182,18 @@ CalibInput DetectDataset(const CalibDataset& ds, const DetectOptions& detect, in
 }
 
 IntrinsicsStage PrepareViews(CalibInput* in, const RigOptions& o) {
-  // Views with too few corners cannot carry a pose.
+  // Views with too few corners, or corners nearly on a line (a partial board's single row),
+  // cannot carry a pose: cv::calibrateCamera asserts on them.
+  const double full_spread = MinorSpread(in->target_points, nullptr);
   std::vector<ViewObservation> kept;
   for (ViewObservation& v : in->views) {
+    const std::string& camera = in->cameras[static_cast<std::size_t>(v.camera)].name;
     if (static_cast<int>(v.corners.size()) < std::max(4, o.min_corners)) {
-      in->skipped.push_back({in->cameras[static_cast<std::size_t>(v.camera)].name, v.image,
-                             "only " + std::to_string(v.corners.size()) + " corners"});
+      in->skipped.push_back({camera, v.image, "only " + std::to_string(v.corners.size()) + " corners"});
+      continue;
+    }
+    if (MinorSpread(in->target_points, &v.corners) < 0.2 * full_spread) {
+      in->skipped.push_back({camera, v.image, "corners nearly on a line (" + std::to_string(v.corners.size()) + " corners)"});
       continue;
     }
     kept.push_back(std::move(v));
@@ -189,7 +215,13 @@ IntrinsicsStage PrepareViews(CalibInput* in, const RigOptions& o) {
     if (views.size() < 3)
       throw UserError("camera " + in->cameras[k].name + ": " + std::to_string(views.size()) +
                       " usable images, at least 3 needed for its intrinsics");
-    ZhangResult z = CalibrateZhang(views, in->target_points, in->cameras[k].width, in->cameras[k].height, zo);
+    ZhangResult z;
+    try {
+      z = CalibrateZhang(views, in->target_points, in->cameras[k].width, in->cameras[k].height, zo);
+    } catch (const cv::Exception& e) {
+      throw UserError("camera " + in->cameras[k].name + ": cv::calibrateCamera failed on its " +
+                      std::to_string(views.size()) + " images: " + e.err);
+    }
     for (std::size_t n = 0; n < index.size(); ++n) st.view_T_w_k[index[n]] = {z.views[n].C_k_w.transpose(), z.views[n].r_w_wk};
     if (o.progress != nullptr)
       *o.progress << "zhang: camera " << in->cameras[k].name << ": " << views.size() << " images, RMS " << z.rms_px

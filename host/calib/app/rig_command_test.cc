@@ -7,11 +7,13 @@
 #include <gtest/gtest.h>
 #include <yaml-cpp/yaml.h>
 
+#include <algorithm>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
 #include <sstream>
 
 #include "common/blob/param_blob.h"
@@ -30,6 +32,11 @@ int Count(const std::string& text, const std::string& what) {
   int n = 0;
   for (std::size_t p = text.find(what); p != std::string::npos; p = text.find(what, p + 1)) ++n;
   return n;
+}
+
+void WriteText(const fs::path& p, const std::string& text) {
+  std::ofstream f(p, std::ios::binary | std::ios::trunc);
+  f << text;
 }
 
 // A small dataset (640x512 cameras, 5 turntable + 4 free images per camera), made once.
@@ -155,6 +162,25 @@ TEST_F(RigCommandTest, ReportLoadsInHeadlessChromium) {
   EXPECT_GT(Count(text, "<circle class=\"res-turntable\""), 100);
   EXPECT_GT(Count(text, "<rect class=\"bar\""), 30);
   EXPECT_NE(text.find("method</th><td class=\"l\">paper"), std::string::npos);
+
+  // And it is drawn: a screenshot of the whole page has the charts' coloured marks (points,
+  // histogram and RMS bars; the rest of the page is black, grey and white text and tables).
+  const fs::path png = *root_ / "report.png";
+  const std::string shot = "timeout 60 chromium --headless --no-sandbox --disable-gpu --hide-scrollbars "
+                           "--disable-background-networking --disable-component-update --disable-sync --no-first-run "
+                           "--user-data-dir=" + profile.string() + " --window-size=1400,7000 --screenshot=" + png.string() +
+                           " file://" + report.string() + " > /dev/null 2>&1";
+  ASSERT_EQ(std::system(shot.c_str()), 0);
+  const cv::Mat image = cv::imread(png.string(), cv::IMREAD_COLOR);
+  ASSERT_FALSE(image.empty());
+  int coloured = 0;
+  for (int v = 0; v < image.rows; ++v)
+    for (int u = 0; u < image.cols; ++u) {
+      const cv::Vec3b p = image.at<cv::Vec3b>(v, u);
+      coloured += std::max({p[0], p[1], p[2]}) - std::min({p[0], p[1], p[2]}) > 80 ? 1 : 0;
+    }
+  std::printf("report.png: %d coloured pixels\n", coloured);
+  EXPECT_GT(coloured, 30000) << "the charts are not drawn in " << png;
 }
 
 TEST_F(RigCommandTest, IntrinsicsCommandOnOneCamerasImages) {
@@ -179,6 +205,100 @@ TEST_F(RigCommandTest, IntrinsicsCommandOnOneCamerasImages) {
   EXPECT_NE(report.find("target.yaml"), std::string::npos);
 }
 
+// --corners: the dataset's exact corners (corners.csv) instead of detection; ml then recovers
+// the rig to the turntable's 8 arcsec (the detector's own error is what limits it on images).
+// --write-corners writes what was used, in the same format.
+TEST_F(RigCommandTest, CornersFromCsvAndWrittenBack) {
+  RigCommandOptions o = Options("ml", "exact");
+  o.corners_csv = (*root_ / "data" / "corners.csv").string();
+  o.write_corners_csv = (*root_ / "exact-corners.csv").string();
+  std::ostringstream log;
+  const RigCalibration rig = RunRigCommand(o, log);
+  EXPECT_NE(log.str().find("no detection"), std::string::npos);
+  const RigErrors e = CompareRig(rig, scene_->rig, &scene_->mount);
+  for (const CameraError& c : e.cameras) {
+    EXPECT_LT(c.rotation_deg, 0.005) << c.name;
+    EXPECT_LT(c.position_mm, 0.02) << c.name;
+  }
+  // Same corners, same order: the written file has every row of the input.
+  const std::string in = ReadFile(o.corners_csv), out = ReadFile(o.write_corners_csv);
+  EXPECT_EQ(Count(out, "\n"), Count(in, "\n"));
+  EXPECT_EQ(out.substr(0, out.find('\n')), "camera,image,corner,u_px,v_px");
+
+  o.corners_csv = (*root_ / "bad-corners.csv").string();
+  WriteText(o.corners_csv, "camera,image,corner,u_px,v_px\nz,000,1,2.5,x\n");
+  try {
+    RunRigCommand(o, log);
+    ADD_FAILURE() << "no error";
+  } catch (const UserError& err) {
+    EXPECT_NE(std::string(err.what()).find("bad-corners.csv:2: bad pixel coordinate"), std::string::npos) << err.what();
+  }
+}
+
+// A copy of the dataset with some images damaged: `damage(images_dir)` edits it.
+fs::path DamagedCopy(const fs::path& root, const std::string& name, void (*damage)(const fs::path&)) {
+  const fs::path dir = root / name;
+  fs::remove_all(dir);
+  fs::copy(root / "data", dir, fs::copy_options::recursive);
+  damage(dir / "images");
+  return dir;
+}
+
+// Item 1: unusable images are skipped and listed with the reason (stderr and report.html).
+TEST_F(RigCommandTest, SkippedImagesAreListedWithTheReason) {
+  const fs::path data = DamagedCopy(*root_, "damaged", [](const fs::path& images) {
+    WriteText(images / "x" / "001.pgm", "P5 garbage");                                // corrupt file
+    WriteText(images / "y" / "002.pgm", "P5\n64 48\n255\n" + std::string(64 * 48, '\x80'));    // wrong size
+    WriteText(images / "y" / "003.pgm", "P5\n640 512\n255\n" + std::string(640 * 512, '\x80'));  // no target
+  });
+  RigCommandOptions o = Options("paper", "damaged-out");
+  o.dataset = data.string();
+  std::ostringstream log;
+  RunRigCommand(o, log);
+  EXPECT_NE(log.str().find("skipped x/001: unreadable image"), std::string::npos) << log.str();
+  EXPECT_NE(log.str().find("skipped y/002: image size 64x48 differs"), std::string::npos) << log.str();
+  EXPECT_NE(log.str().find("skipped y/003: checkerboard not found"), std::string::npos) << log.str();
+  const std::string html = ReadFile(*root_ / "damaged-out" / "report.html");
+  const std::size_t at = html.find("Skipped images");
+  ASSERT_NE(at, std::string::npos);
+  const std::string skipped = html.substr(at);
+  EXPECT_NE(skipped.find("<td class=\"l\">x</td><td class=\"l\">001</td><td class=\"l\">unreadable image"),
+            std::string::npos);
+  EXPECT_NE(skipped.find("<td class=\"l\">y</td><td class=\"l\">002</td><td class=\"l\">image size 64x48"),
+            std::string::npos);
+}
+
+// Item 5: a failed run never replaces a good rig.yaml, whether it fails before the outputs
+// (camera z has no usable image) or while writing them (report.html cannot be replaced).
+TEST_F(RigCommandTest, FailedRunNeverReplacesAGoodRigYaml) {
+  std::ostringstream log;
+  RunRigCommand(Options("paper", "keep"), log);
+  const fs::path out = *root_ / "keep";
+  const std::string good = ReadFile(out / "rig.yaml");
+
+  const fs::path broken = DamagedCopy(*root_, "broken", [](const fs::path& images) {
+    for (const fs::directory_entry& e : fs::directory_iterator(images / "z")) WriteText(e.path(), "not a pgm");
+  });
+  RigCommandOptions o = Options("ml", "keep");
+  o.dataset = broken.string();
+  try {
+    RunRigCommand(o, log);
+    ADD_FAILURE() << "no error";
+  } catch (const UserError& e) {
+    EXPECT_NE(std::string(e.what()).find("camera z: 0 usable images"), std::string::npos) << e.what();
+  }
+  EXPECT_EQ(ReadFile(out / "rig.yaml"), good);
+
+  // The same good dataset with the other method, but report.html is a directory: the write
+  // fails after calibration.bin and the rest, before rig.yaml.
+  fs::remove(out / "report.html");
+  fs::create_directories(out / "report.html" / "blocker");
+  EXPECT_THROW(RunRigCommand(Options("ml", "keep"), log), UserError);
+  EXPECT_EQ(ReadFile(out / "rig.yaml"), good);
+  for (const fs::directory_entry& e : fs::directory_iterator(out))  // no temp file left behind
+    EXPECT_EQ(e.path().filename().string().find(".tmp"), std::string::npos) << e.path();
+}
+
 TEST_F(RigCommandTest, UserErrorsAreOneLine) {
   std::ostringstream log;
   RigCommandOptions o = Options("ml", "bad");
@@ -197,6 +317,27 @@ TEST_F(RigCommandTest, UserErrorsAreOneLine) {
   const std::string text = ReadFile(err);
   EXPECT_EQ(Count(text, "\n"), 1) << text;
   EXPECT_NE(text.find("mfns-calib: "), std::string::npos);
+
+  // Corrupt dataset files: the tool names the file, exits 1, writes nothing.
+  const auto run = [&](const fs::path& data, const std::string& expect) {
+    const fs::path out = *root_ / "corrupt-out";
+    const std::string c = "bin/mfns-calib rig " + data.string() + " --out " + out.string() + " 2> " + err.string();
+    const int status = std::system(c.c_str());
+    ASSERT_TRUE(WIFEXITED(status));
+    EXPECT_EQ(WEXITSTATUS(status), 1) << expect;
+    const std::string e = ReadFile(err);
+    EXPECT_EQ(Count(e, "\n"), 1) << e;
+    EXPECT_NE(e.find(expect), std::string::npos) << e;
+    EXPECT_FALSE(fs::exists(out / "rig.yaml"));
+  };
+  const fs::path bad_csv = DamagedCopy(*root_, "bad-csv", [](const fs::path& images) {
+    std::ofstream(images.parent_path() / "images.csv", std::ios::app) << "z,000,turntable,abc,0\n";
+  });
+  run(bad_csv, "images.csv");
+  const fs::path bad_target = DamagedCopy(*root_, "bad-target", [](const fs::path& images) {
+    WriteText(images.parent_path() / "target.yaml", "type: checkerboard\ncols: [\n");
+  });
+  run(bad_target, "target.yaml");
 }
 
 }  // namespace

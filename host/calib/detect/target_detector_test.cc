@@ -5,6 +5,7 @@
 #include <cmath>
 #include <map>
 
+#include "common/camera/camera.h"
 #include "common/rig/paper_rig.h"
 #include "common/rotation/rotation.h"
 #include "host/sim/render/sensor.h"
@@ -48,6 +49,25 @@ CameraPose View(const CalibrationTarget& t, double d, double tilt, double az, do
   return LookAt(eye, centre, Eigen::Vector3d(std::sin(roll), -std::cos(roll), 0.0));
 }
 
+// Precondition of a detection test: every outer square of the board projects inside the image
+// with a margin (findChessboardCornersSB needs the outer squares; a board cut by the border
+// is a different test). The views were once taken from 0.45 m, where this paper camera sees a
+// 300 x 240 mm board cut by the border at most rolls, and detection failed or was off by 0.13 px.
+::testing::AssertionResult BoardInView(const TargetRenderer& r, const CheckerboardSpec& s, const CameraPose& pose,
+                                       double margin_px) {
+  const CameraIntrinsics& cam = r.camera();
+  for (int i = -1; i <= s.rows; ++i)
+    for (int j = -1; j <= s.cols; ++j) {
+      const Eigen::Vector3d P_w(j * s.square_m, i * s.square_m, 0.0);
+      Eigen::Vector2d uv;
+      if (Project(cam, pose.C_k_w * (P_w - pose.r_w_wk), &uv) != ProjectStatus::kOk || uv.x() < margin_px ||
+          uv.y() < margin_px || uv.x() > cam.width - 1 - margin_px || uv.y() > cam.height - 1 - margin_px)
+        return ::testing::AssertionFailure() << "outer square corner (" << i << ", " << j << ") at " << uv.transpose()
+                                             << " px is not in the image";
+    }
+  return ::testing::AssertionSuccess();
+}
+
 struct Compare {
   int matched = 0;
   double max_px = 0;
@@ -80,10 +100,11 @@ TEST(TargetDetector, SymmetricCheckerboardIdsUpToTheHalfTurnAndFlagged) {
   ph.blur_sigma_px = 0.7;
   for (double roll_deg : {0.0, 35.0, 90.0, 180.0, 250.0}) {
     const TargetRenderer& r = roll_deg == 35.0 ? FullRenderer() : Renderer();
-    const CameraPose pose = View(board, 0.45, DegToRad(20), DegToRad(30), DegToRad(roll_deg));
+    const CameraPose pose = View(board, 0.65, DegToRad(20), DegToRad(30), DegToRad(roll_deg));
+    ASSERT_TRUE(BoardInView(r, board.checkerboard(), pose, 10.0)) << "roll " << roll_deg;
     const cv::Mat image = r.Render(board, pose, ph, SensorModel::Noiseless(8), nullptr);
     const DetectResult d = DetectTarget(image, board);
-    ASSERT_TRUE(d.ok) << d.reason;
+    ASSERT_TRUE(d.ok) << d.reason << " roll " << roll_deg;
     EXPECT_TRUE(d.orientation_ambiguous);
     ASSERT_EQ(d.corners.size(), 63u);
     const Compare c = Check(d, r.Corners(board, pose, 0.0), true);
@@ -100,10 +121,11 @@ TEST(TargetDetector, AsymmetricCheckerboardIdsAreExact) {
   for (const CheckerboardSpec spec : {CheckerboardSpec{9, 6, 0.03, 0.03}, CheckerboardSpec{8, 7, 0.03, 0.03}}) {
     const CalibrationTarget board = CalibrationTarget::Checkerboard(spec);
     for (double roll_deg : {0.0, 100.0, 180.0, 300.0}) {
-      const CameraPose pose = View(board, 0.45, DegToRad(25), DegToRad(-60), DegToRad(roll_deg));
+      const CameraPose pose = View(board, 0.65, DegToRad(25), DegToRad(-60), DegToRad(roll_deg));
+      ASSERT_TRUE(BoardInView(Renderer(), spec, pose, 10.0)) << spec.cols << "x" << spec.rows << " roll " << roll_deg;
       const cv::Mat image = Renderer().Render(board, pose, ph, SensorModel::Noiseless(8), nullptr);
       const DetectResult d = DetectTarget(image, board);
-      ASSERT_TRUE(d.ok) << d.reason;
+      ASSERT_TRUE(d.ok) << d.reason << " " << spec.cols << "x" << spec.rows << " roll " << roll_deg;
       EXPECT_FALSE(d.orientation_ambiguous);
       const Compare c = Check(d, Renderer().Corners(board, pose, 0.0), false);
       EXPECT_EQ(c.matched, spec.cols * spec.rows);
@@ -124,7 +146,8 @@ TEST(TargetDetector, UnusableImagesSayWhy) {
 
 TEST(TargetDetector, Mono16IsScaled) {
   const CalibrationTarget board = CalibrationTarget::Checkerboard({9, 6, 0.03, 0.03});
-  const CameraPose pose = View(board, 0.45, DegToRad(10), 0.0, 0.0);
+  const CameraPose pose = View(board, 0.65, DegToRad(10), 0.0, 0.0);
+  ASSERT_TRUE(BoardInView(Renderer(), board.checkerboard(), pose, 10.0));
   TargetPhotometry ph;
   ph.illumination_e = 3000;
   const cv::Mat image = Renderer().Render(board, pose, ph, SensorModel::Noiseless(16), nullptr);

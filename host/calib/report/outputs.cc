@@ -5,6 +5,8 @@
 #include <cstring>
 #include <opencv2/core.hpp>
 #include <sstream>
+#include <utility>
+#include <vector>
 
 #include "common/blob/param_blob.h"
 #include "common/rotation/rotation.h"
@@ -322,18 +324,21 @@ std::string FormatReportHtml(const RigCalibration& rig, const CalibInput& in, co
 
 void WriteRigOutputs(const std::filesystem::path& out_dir, const RigCalibration& rig, const CalibInput& in,
                      const ReportContext& ctx) {
-  std::error_code ec;
-  std::filesystem::create_directories(out_dir, ec);
-  if (!std::filesystem::is_directory(out_dir)) throw UserError(out_dir.string() + ": cannot create the output directory");
+  // Everything is formatted (and the rig validated) before the first byte is written, and
+  // rig.yaml, the file people and tools take as "the result", is written last: a run that
+  // fails anywhere leaves a previous rig.yaml untouched, and each file is replaced atomically.
   const Rig out = ToRig(rig, ctx.rig_id);
-  WriteRigYaml(out_dir / "rig.yaml", out);
+  int bad_camera = -1;
+  if (const RigStatus v = ValidateRig(out, &bad_camera); v != RigStatus::kOk)
+    throw UserError("the calibrated rig is invalid (" + std::string(ToString(v)) + ", camera index " +
+                    std::to_string(bad_camera) + "): nothing written");
+  std::vector<std::pair<std::string, std::string>> files;  // name, contents
   std::vector<std::uint8_t> bytes(limits::kMaxBlobBytes);
   std::size_t written = 0;
   const BlobStatus s = EncodeParamBlob(out, ctx.generation, bytes, &written);
   if (s != BlobStatus::kOk) throw UserError("cannot encode the parameter blob: " + std::string(ToString(s)));
-  bytes.resize(written);
-  WriteFileAtomic(out_dir / "calibration.bin", bytes);
-  WriteFileAtomic(out_dir / "camchain.yaml", FormatCamchainYaml(rig));
+  files.emplace_back("calibration.bin", std::string(reinterpret_cast<const char*>(bytes.data()), written));
+  files.emplace_back("camchain.yaml", FormatCamchainYaml(rig));
   for (std::size_t k = 0; k < rig.cameras.size(); ++k) {
     std::vector<std::string> names;
     std::vector<double> rms;
@@ -343,10 +348,15 @@ void WriteRigOutputs(const std::filesystem::path& out_dir, const RigCalibration&
       names.push_back(v.image + " (" + ToString(v.kind) + ")");
       rms.push_back(r.rms_px);
     }
-    WriteFileAtomic(out_dir / ("camera-" + rig.cameras[k].name + ".yaml"),
-                    FormatOpenCvCameraYaml(rig.cameras[k], names, rms, true));
+    files.emplace_back("camera-" + rig.cameras[k].name + ".yaml", FormatOpenCvCameraYaml(rig.cameras[k], names, rms, true));
   }
-  WriteFileAtomic(out_dir / "report.html", FormatReportHtml(rig, in, ctx));
+  files.emplace_back("report.html", FormatReportHtml(rig, in, ctx));
+  files.emplace_back("rig.yaml", FormatRigYaml(out));  // last
+
+  std::error_code ec;
+  std::filesystem::create_directories(out_dir, ec);
+  if (!std::filesystem::is_directory(out_dir)) throw UserError(out_dir.string() + ": cannot create the output directory");
+  for (const auto& [name, contents] : files) WriteFileAtomic(out_dir / name, contents);
 }
 
 }  // namespace mfns::host

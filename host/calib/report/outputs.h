@@ -46,7 +46,9 @@ std::string FormatOpenCvCameraYaml(const CameraResult& cam, const std::vector<st
 
 std::string FormatReportHtml(const RigCalibration& rig, const CalibInput& in, const ReportContext& ctx);
 
-// Writes every file above into out_dir (created if missing). Throws UserError.
+// Writes every file above into out_dir (created if missing). Throws UserError. Everything is
+// formatted and the rig validated before the first write, and rig.yaml is written last, so a
+// failed run never replaces a previous rig.yaml (other files are each replaced atomically).
 void WriteRigOutputs(const std::filesystem::path& out_dir, const RigCalibration& rig, const CalibInput& in,
                      const ReportContext& ctx);
 
