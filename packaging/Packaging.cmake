@@ -9,7 +9,7 @@
 
 # Whether mfns-navd sends sd_notify READY=1 / WATCHDOG=1: the unit is then Type=notify with a
 # watchdog; otherwise Type=simple (restart on failure only).
-option(MFNS_NAVD_SD_NOTIFY "mfns-navd sends sd_notify READY=1 and WATCHDOG=1 (unit Type=notify, WatchdogSec)" OFF)
+option(MFNS_NAVD_SD_NOTIFY "mfns-navd sends sd_notify READY=1 and WATCHDOG=1 (unit Type=notify, WatchdogSec)" ON)
 if(MFNS_NAVD_SD_NOTIFY)
   set(MFNS_UNIT_TYPE notify)
   set(MFNS_UNIT_WATCHDOG "NotifyAccess=main\nWatchdogSec=5s")
@@ -82,7 +82,7 @@ if(MFNS_DPKG_DEB)
   add_test(NAME package_contents
            COMMAND ${CMAKE_COMMAND} -DDPKG_DEB=${MFNS_DPKG_DEB} -DDIR=${_mfns_pkg_out}
                    -DNAME=${CPACK_PACKAGE_NAME} -DVERSION=${PROJECT_VERSION} -DARCH=${_mfns_pkg_arch}
-                   -DMACHINE=${_mfns_pkg_machine} "-DBINARIES=${_mfns_pkg_binaries_csv}"
+                   -DMACHINE=${_mfns_pkg_machine} "-DBINARIES=${_mfns_pkg_binaries_csv}" -DSD_NOTIFY=${MFNS_NAVD_SD_NOTIFY}
                    -P ${_mfns_pkg_src}/check_package.cmake)
   set_tests_properties(package_contents PROPERTIES FIXTURES_REQUIRED mfns_package LABELS "${_mfns_pkg_labels}"
                        TIMEOUT 120)

@@ -1,23 +1,119 @@
 #!/usr/bin/env bash
-# The main job: installs what is missing, builds the host preset and runs the end-to-end demo
-# in simulation. Outputs go to out/demo/ (or $1).
+# The main job (issue 7): installs what is missing, builds the tools and runs the whole life of
+# a flyer in simulation, then prints the paper's Tables 3 and 5 regenerated beside the
+# published numbers and writes OUT/report.html with plots. docs/replication.md explains every
+# stage and number.
 #
-# What runs today (grows with the project, see README "Status"):
-#   1. the paper rig (Tables 2-4) as a rig file, 2. its parameter blob, 3. the blob checked and
-#   printed back.
+#   scripts/demo.sh [OUT] [--out DIR] [--frames N] [--seed S] [--threads N] [--fast-detect]
+#                   [--no-build] [--bin DIR]
+#
+#   1. calibration dataset   mfns-sim calib-dataset --preset paper-calibration (Section 4.2 with the
+#                            paper's error sources: centroid noise, 8 arcsec turntable angles)
+#   2. calibration           mfns-calib rig --method ml, and --method paper (CPC) for comparison
+#   3. turntable sweep       mfns-sim render: paper-turntable (Section 5, 1 deg steps) with the
+#                            beacon map's 0.4 mm survey error; the TRUE rig renders the frames
+#   4. the flyer's blob      the ml cameras + the surveyed map (mfns-sim merge-rig, mfns-calib blob)
+#   5. flash                 mfns-flash into the local flyer store OUT/flyer/store
+#   6. navigate              mfns-navd --params OUT/flyer/store --source replay:OUT/sweep --log
+#   7. the paper's pipeline  mfns-sim solve-given: Newton on the true correspondences, CPC rig
+#   8. tables + report       mfns-sim report (stdout, OUT/report.html)
+#
+# Outputs in OUT (default out/demo); each stage's output in OUT/logs/<stage>.log. Progress on
+# stderr, the tables on stdout. Exit 1 with a one-line message when a stage fails.
 set -euo pipefail
 cd "$(dirname "$0")/.."
-bash scripts/install-deps.sh
-cmake --preset host >/dev/null
-cmake --build --preset host -j "$(nproc)"
 
-out=${1:-out/demo}
+out=out/demo
+frames=360
+seed=1
+threads=$(nproc)
+build=1
 bin=build/host/bin
-mkdir -p "${out}"
-echo "== 1. paper rig -> ${out}/paper-rig.yaml" >&2
-"${bin}/mfns-calib" paper-rig --out "${out}/paper-rig.yaml"
-echo "== 2. parameter blob -> ${out}/calibration.bin" >&2
-"${bin}/mfns-calib" blob "${out}/paper-rig.yaml" --out "${out}/calibration.bin" --generation 1
-echo "== 3. blob read back" >&2
-"${bin}/mfns-calib" inspect "${out}/calibration.bin"
-echo "demo: done (outputs in ${out})" >&2
+calib_opts=()
+while [ $# -gt 0 ]; do
+  case "$1" in
+    --out) out=$2; shift 2 ;;
+    --frames) frames=$2; shift 2 ;;
+    --seed) seed=$2; shift 2 ;;
+    --threads) threads=$2; shift 2 ;;
+    --no-build) build=0; shift ;;
+    --fast-detect) calib_opts+=(--fast-detect); shift ;;
+    --bin) bin=$2; shift 2 ;;
+    -h|--help) sed -n '2,23p' "$0"; exit 0 ;;
+    -*) echo "demo: unknown option $1 (see --help)" >&2; exit 1 ;;
+    *) out=$1; shift ;;
+  esac
+done
+
+t0=$(date +%s)
+say() { echo "demo [$(( $(date +%s) - t0 ))s] $*" >&2; }
+
+if [ "$build" = 1 ]; then
+  say "install dependencies and build the tools (build/host)"
+  bash scripts/install-deps.sh
+  cmake --preset host >/dev/null
+  cmake --build --preset host -j "$(nproc)" --target mfns-sim mfns-calib mfns-flash mfns-navd mfns-paramctl
+fi
+for tool in mfns-sim mfns-calib mfns-flash mfns-navd; do
+  [ -x "$bin/$tool" ] || { echo "demo: $bin/$tool is missing (build it, or give --bin DIR)" >&2; exit 1; }
+done
+
+mkdir -p "$out/logs"
+# run STAGE CMD...: the command's stdout and stderr go to OUT/logs/STAGE.log; on failure one line.
+run() {
+  local stage=$1
+  shift
+  local log="$out/logs/$stage.log"
+  if ! "$@" > "$log" 2>&1; then
+    echo "demo: stage '$stage' failed: $(grep -v '^\s*$' "$log" | tail -n 1) (full output: $log)" >&2
+    exit 1
+  fi
+}
+
+calib="$out/calib-dataset"
+sweep="$out/sweep"
+
+say "1/8 calibration dataset: paper-calibration, seed $seed -> $calib"
+rm -rf "$calib"
+run calib-dataset "$bin/mfns-sim" calib-dataset --preset paper-calibration --seed "$seed" --threads "$threads" --out "$calib"
+
+say "2/8 calibration: mfns-calib rig --method ml and --method paper"
+run calib-ml "$bin/mfns-calib" rig "$calib" --out "$out/calib-ml" --method ml --jobs "$threads" ${calib_opts[@]+"${calib_opts[@]}"}
+run calib-paper "$bin/mfns-calib" rig "$calib" --out "$out/calib-paper" --method paper --jobs "$threads" ${calib_opts[@]+"${calib_opts[@]}"}
+
+say "3/8 turntable sweep: paper-turntable, $frames frame sets, beacon survey error 0.4 mm -> $sweep"
+"$bin/mfns-sim" preset paper-turntable |
+  sed -e 's/^  beacon_map: {enabled: false/  beacon_map: {enabled: true/' > "$out/sweep-scenario.yaml"
+grep -q '^  beacon_map: {enabled: true, sigma_mm: 0.4}' "$out/sweep-scenario.yaml" ||
+  { echo "demo: could not switch on the beacon survey error in the paper-turntable preset" >&2; exit 1; }
+rm -rf "$sweep"
+run render "$bin/mfns-sim" render --scenario "$out/sweep-scenario.yaml" --frames "$frames" --seed "$seed" \
+  --threads "$threads" --out "$sweep"
+
+say "4/8 the flyer's parameters: ml cameras + surveyed beacon map -> $out/flyer-rig.yaml, blob"
+run merge-ml "$bin/mfns-sim" merge-rig --cameras "$out/calib-ml/rig.yaml" --beacons "$sweep/believed-rig.yaml" \
+  --out "$out/flyer-rig.yaml"
+run blob "$bin/mfns-calib" blob "$out/flyer-rig.yaml" --out "$out/flyer.bin"
+
+say "5/8 flash into the flyer store $out/flyer/store"
+mkdir -p "$out/flyer"
+run flash "$bin/mfns-flash" "$out/flyer.bin" "$out/flyer/store" --no-signal
+
+say "6/8 navigate: mfns-navd replays $frames frame sets with the store's parameters"
+run navd "$bin/mfns-navd" --params "$out/flyer/store" --source "replay:$sweep" --log "$out/navd-poses.csv" \
+  --pid-file '' --quiet
+
+say "7/8 the paper's pipeline: CPC rig, Newton on the true correspondences"
+run merge-paper "$bin/mfns-sim" merge-rig --cameras "$out/calib-paper/rig.yaml" --beacons "$sweep/believed-rig.yaml" \
+  --out "$out/paper-flyer-rig.yaml"
+run solve-given "$bin/mfns-sim" solve-given "$sweep" --rig "$out/paper-flyer-rig.yaml" --out "$out/given-poses.csv"
+
+say "8/8 tables and report"
+if ! "$bin/mfns-sim" report --sim "$sweep" --poses "ours=$out/navd-poses.csv" \
+    --poses "CPC+Newton=$out/given-poses.csv" --truth-rig "$calib/truth-rig.yaml" \
+    --calib "ml=$out/calib-ml/rig.yaml" --calib "paper=$out/calib-paper/rig.yaml" \
+    --html "$out/report.html" 2> "$out/logs/report.log"; then
+  echo "demo: stage 'report' failed: $(tail -n 1 "$out/logs/report.log")" >&2
+  exit 1
+fi
+say "done: report $out/report.html, logs in $out/logs"

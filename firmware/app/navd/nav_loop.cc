@@ -54,9 +54,10 @@ bool NavLoop::Reload(const Rig& rig, std::uint64_t generation, const char** why)
   return true;
 }
 
-bool NavLoop::AcquireAll(std::uint64_t* t_capture_ns, bool* all_ended) {
+bool NavLoop::AcquireAll(std::uint64_t* t_capture_ns, bool* all_ended, std::uint32_t* delivered_set) {
   num_obs_ = 0;
   *t_capture_ns = 0;
+  *delivered_set = 0;
   int ended = 0, delivered = 0;
   for (int k = 0; k < rig_->num_cameras; ++k) {
     const auto ks = static_cast<std::size_t>(k);
@@ -92,7 +93,11 @@ bool NavLoop::AcquireAll(std::uint64_t* t_capture_ns, bool* all_ended) {
     *t_capture_ns = (*t_capture_ns == 0) ? view.t_capture_ns : std::min(*t_capture_ns, view.t_capture_ns);
     const DetectStatus d = detectors_[ks].Detect(view, &rig_->cameras[ks].intrinsics, &lists_[ks]);
     source_->Release(k);
-    if (d != DetectStatus::kOk && d != DetectStatus::kBlobLimit) ++counters_.detect_errors;
+    if (d != DetectStatus::kOk && d != DetectStatus::kBlobLimit) {
+      ++counters_.detect_errors;  // no usable blob list: as if the camera had not delivered
+      continue;
+    }
+    *delivered_set |= std::uint32_t{1} << k;
     const BlobList& list = lists_[ks];
     sup.blobs_last = static_cast<std::uint16_t>(list.count);
     for (int i = 0; i < list.count && num_obs_ < limits::kMaxObservations; ++i) {
@@ -171,13 +176,17 @@ StepStatus NavLoop::Step(PoseRecord* out) {
   }
   std::uint64_t t_capture_ns = 0;
   bool all_ended = false;
-  const bool any = AcquireAll(&t_capture_ns, &all_ended);
+  std::uint32_t delivered = 0;
+  const bool any = AcquireAll(&t_capture_ns, &all_ended, &delivered);
   if (all_ended) return StepStatus::kEndOfStream;
   const std::uint64_t t_start = MonotonicNs();
-  bool cameras_down = false;
+  // A fix from fewer cameras than the rig's (one set aside, or silent in this frame set, e.g.
+  // while a set-aside camera is retried) is degraded.
+  const std::uint32_t all = (std::uint32_t{1} << rig_->num_cameras) - 1U;
+  bool cameras_down = (delivered & all) != all;
   for (int k = 0; k < rig_->num_cameras; ++k) cameras_down = cameras_down || supervision_[static_cast<std::size_t>(k)].set_aside;
   if (any) {
-    navigator_.Step(obs_.data(), num_obs_, t_capture_ns, cameras_down, &nav_);
+    navigator_.Step(obs_.data(), num_obs_, t_capture_ns, delivered, cameras_down, &nav_);
   } else {
     nav_.status = NavStatus::kLost;
     nav_.reason = NavReason::kNoFrames;

@@ -72,7 +72,7 @@ class NavLoop {
   HealthRecord Health() const;
 
  private:
-  bool AcquireAll(std::uint64_t* t_capture_ns, bool* all_ended);
+  bool AcquireAll(std::uint64_t* t_capture_ns, bool* all_ended, std::uint32_t* delivered);
   void Publish(const NavOutput& nav, std::uint64_t t_capture_ns, PoseRecord* out);
 
   const Rig* rig_;

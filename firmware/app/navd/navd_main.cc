@@ -5,6 +5,9 @@
 #include <signal.h>
 #include <sys/stat.h>
 
+#include <time.h>
+
+#include <cstdint>
 #include <cstdio>
 #include <cstring>
 #include <memory>
@@ -16,6 +19,7 @@
 #include "firmware/drivers/replay/replay_source.h"
 #include "firmware/drivers/v4l2/v4l2_io.h"
 #include "firmware/drivers/v4l2/v4l2_source.h"
+#include "firmware/lib/sd_notify.h"
 #include "firmware/modules/params/param_loader.h"
 #include "firmware/modules/params/reload_signal.h"
 
@@ -26,6 +30,12 @@ volatile sig_atomic_t g_stop = 0;
 volatile sig_atomic_t g_reload = 0;
 void OnStop(int) { g_stop = 1; }
 void OnReload(int) { g_reload = 1; }
+
+std::uint64_t MonotonicNs() {
+  timespec ts{};
+  clock_gettime(CLOCK_MONOTONIC, &ts);
+  return static_cast<std::uint64_t>(ts.tv_sec) * 1'000'000'000ull + static_cast<std::uint64_t>(ts.tv_nsec);
+}
 
 int Run(int argc, char** argv) {
   static NavdOptions opt;
@@ -139,6 +149,18 @@ int Run(int argc, char** argv) {
     std::fprintf(stderr, "mfns-navd: warning: cannot write the pid file %s (reload still follows the store)\n",
                  opt.pid_file.data());
 
+  // systemd (Type=notify unit, packaging/): READY once navigating, WATCHDOG while frame sets
+  // keep being processed, so a stuck loop is restarted. Outside systemd this does nothing.
+  static SdNotifier notifier;
+  const NotifyStatus ns = notifier.Open();
+  if (ns != NotifyStatus::kOk && ns != NotifyStatus::kDisabled)
+    std::fprintf(stderr, "mfns-navd: warning: systemd notification off: %s\n", ToString(ns));
+  notifier.Ready();
+  char status_line[96];
+  std::snprintf(status_line, sizeof(status_line), "navigating, parameters generation %llu",
+                static_cast<unsigned long long>(info.generation));
+  notifier.Status(status_line);
+
   // ---- Start is over: from here on, no heap. ----
   const int per_second = opt.health_every;
   for (std::int64_t n = 0; !g_stop && (opt.frames == 0 || n < opt.frames); ++n) {
@@ -154,6 +176,9 @@ int Run(int argc, char** argv) {
           info = next_info;
           std::fprintf(stderr, "mfns-navd: parameters reloaded: generation %llu\n",
                        static_cast<unsigned long long>(info.generation));
+          std::snprintf(status_line, sizeof(status_line), "navigating, parameters generation %llu",
+                        static_cast<unsigned long long>(info.generation));
+          notifier.Status(status_line);
         } else {
           std::fprintf(stderr, "mfns-navd: new parameters refused (%s); generation %llu stays\n",
                        refused != nullptr ? refused : "?", static_cast<unsigned long long>(info.generation));
@@ -161,6 +186,7 @@ int Run(int argc, char** argv) {
       }
     }
     if (loop->Step() == StepStatus::kEndOfStream) break;
+    notifier.Watchdog(MonotonicNs());
     const LoopCounters& c = loop->counters();
     if (!opt.quiet && c.frame_sets % static_cast<std::uint64_t>(per_second) == 0)
       std::fprintf(stderr, "mfns-navd: %llu frame sets: fix %llu, degraded %llu, lost %llu, slips %llu\n",
@@ -168,6 +194,7 @@ int Run(int argc, char** argv) {
                    static_cast<unsigned long long>(c.degraded), static_cast<unsigned long long>(c.lost),
                    static_cast<unsigned long long>(c.deadline_slips));
   }
+  notifier.Stopping();
   source->Stop();
   const LoopCounters& c = loop->counters();
   std::fprintf(stderr,

@@ -33,8 +33,9 @@ bool Navigator::Init(const Rig& rig, const NavigatorOptions& options, const char
   return true;
 }
 
-void Navigator::Step(const BlobObs* blobs, int num_blobs, std::uint64_t t_ns, bool cameras_down, NavOutput* out) {
-  const TrackStatus s = tracker_.Track(blobs, num_blobs, t_ns, options_.track, &result_);
+void Navigator::Step(const BlobObs* blobs, int num_blobs, std::uint64_t t_ns, std::uint32_t delivered,
+                     bool cameras_down, NavOutput* out) {
+  const TrackStatus s = tracker_.Track(blobs, num_blobs, t_ns, options_.track, &result_, delivered);
   out->source = result_.source;
   out->reason = ToNavReason(result_.reason);
   out->num_matches = 0;

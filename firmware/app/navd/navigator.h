@@ -41,8 +41,11 @@ class Navigator {
   // Keeps a reference to rig (alive and unchanged until the next Init). False on bad options or
   // rig; *why names the problem.
   bool Init(const Rig& rig, const NavigatorOptions& options, const char** why = nullptr);
-  // One frame set's blobs (sample time t_ns). cameras_down: a camera is set aside.
-  void Step(const BlobObs* blobs, int num_blobs, std::uint64_t t_ns, bool cameras_down, NavOutput* out);
+  // One frame set's blobs (sample time t_ns). delivered: bit k set when camera k delivered a
+  // frame (the others predict no beacon, so their silence refutes nothing); cameras_down: a
+  // camera is set aside (a fix is then reported degraded, reason kCameraDown).
+  void Step(const BlobObs* blobs, int num_blobs, std::uint64_t t_ns, std::uint32_t delivered, bool cameras_down,
+            NavOutput* out);
   const TrackCounters& counters() const { return tracker_.counters(); }
 
  private:

@@ -1,22 +1,30 @@
-// Speed of beacon identification (lost-in-space, tracking) beside OpenCV's cv::solvePnP
-// (SOLVEPNP_ITERATIVE) on one camera's points, in the same program.
+// Speed of beacon identification (lost-in-space, tracking) beside OpenCV baselines measured in
+// the same program: cv::solvePnP (SOLVEPNP_ITERATIVE, from the previous pose) on one camera's
+// points for tracking, and cv::solveP3P (SOLVEPNP_P3P) for the P3P that lost-in-space repeats
+// for every hypothesis (OpenCV has no identification: a brute-force lost-in-space with OpenCV
+// would cost about p3p_solves x one cv::solveP3P).
 //
-//   build/<dir>/bin/identify_benchmark --benchmark_min_time=0.5s
+//   build/<dir>/bin/identify_benchmark --benchmark_min_time=0.5
 //
 // Scenes: the paper rig and its 10 beacons (common/rig/paper_rig.h), body at the origin yawed
 // in 1 deg steps at 30 Hz, 0.2 px centroid noise, optional spurious blobs as bright as beacons.
 #include <benchmark/benchmark.h>
 
+#include <array>
 #include <memory>
-#include <opencv2/calib3d.hpp>
 #include <random>
 #include <vector>
 
 #include "common/rig/paper_rig.h"
 #include "common/rotation/rotation.h"
 #include "firmware/modules/identify/lost_in_space.h"
+#include "firmware/modules/identify/p3p.h"
 #include "firmware/modules/identify/tracker.h"
 #include "firmware/modules/solve/synthetic_scene.h"
+
+#ifdef MFNS_HAVE_OPENCV  // host builds; the aarch64 cross build has no OpenCV
+#include <opencv2/calib3d.hpp>
+#endif
 
 namespace mfns::fw {
 namespace {
@@ -120,6 +128,7 @@ void TrackSweep(benchmark::State& state, int spurious) {
 BENCHMARK_CAPTURE(TrackSweep, clean, 0)->Unit(benchmark::kMicrosecond)->Iterations(1080);
 BENCHMARK_CAPTURE(TrackSweep, 2spurious, 2)->Unit(benchmark::kMicrosecond)->Iterations(1080);
 
+#ifdef MFNS_HAVE_OPENCV
 // Baseline: OpenCV's iterative PnP on camera y's 4 points of one frame (the tracked case:
 // an initial guess 1 deg off).
 void OpenCvSolvePnP(benchmark::State& state) {
@@ -155,6 +164,96 @@ void OpenCvSolvePnP(benchmark::State& state) {
   }
 }
 BENCHMARK(OpenCvSolvePnP)->Unit(benchmark::kMicrosecond);
+#endif  // MFNS_HAVE_OPENCV
+
+// One P3P hypothesis, the unit of lost-in-space's work: three beacons along three blob rays.
+// Ours is the generalised (multi-camera) P3P; OpenCV's is central, so the comparison uses three
+// blobs of one camera (camera y, the same pixels and depths for both).
+struct P3pCase {
+  std::array<BlobObs, 3> blobs{};
+  std::array<Eigen::Vector3d, 3> P_w{};
+#ifdef MFNS_HAVE_OPENCV
+  std::vector<cv::Point3d> obj;
+  std::vector<cv::Point2d> img;
+  cv::Matx33d K;
+  cv::Mat dist;
+#endif
+};
+
+P3pCase OneCameraP3pCase() {
+  const Rig& rig = PaperRigOnce();
+  const BodyPose truth = testing::YawPose(DegToRad(20.0));
+  const RigCamera& cam = rig.cameras[1];
+  const CameraIntrinsics& in = cam.intrinsics;
+  P3pCase c;
+  const Eigen::Vector2d spots[] = {{300, 250}, {1000, 800}, {950, 200}};
+  const double depth[] = {0.6, 0.75, 0.9};
+  for (int i = 0; i < 3; ++i) {
+    const auto is = static_cast<std::size_t>(i);
+    Eigen::Vector2d x_n;
+    Unproject(in, spots[i], &x_n);
+    c.blobs[is].camera = 1;
+    c.blobs[is].uv_px = spots[i];
+    c.blobs[is].x_n = x_n;
+    c.P_w[is] = truth.C_w_b * (cam.C_k_b.transpose() * (depth[i] * Eigen::Vector3d(x_n.x(), x_n.y(), 1.0)) + cam.r_b_bk) + truth.r_w_wb;
+#ifdef MFNS_HAVE_OPENCV
+    c.obj.emplace_back(c.P_w[is].x(), c.P_w[is].y(), c.P_w[is].z());
+    c.img.emplace_back(spots[i].x(), spots[i].y());
+#endif
+  }
+#ifdef MFNS_HAVE_OPENCV
+  c.K = cv::Matx33d(in.alpha_x, in.skew, in.u0, 0, in.alpha_y, in.v0, 0, 0, 1);
+  c.dist = (cv::Mat_<double>(1, 5) << in.kc[0], in.kc[1], in.kc[2], in.kc[3], in.kc[4]);
+#endif
+  return c;
+}
+
+void P3pOneHypothesis(benchmark::State& state) {
+  const Rig& rig = PaperRigOnce();
+  const P3pCase c = OneCameraP3pCase();
+  static P3pRayTriple triple;
+  static std::array<BodyPose, limits::kMaxP3pSolutions> poses;
+  int n = 0;
+  for (auto _ : state) {
+    const std::array<BodyRay, 3> rays = {RayOfBlob(rig, c.blobs[0]), RayOfBlob(rig, c.blobs[1]), RayOfBlob(rig, c.blobs[2])};
+    triple.Set(rays, P3pOptions{});
+    n = triple.Solve(c.P_w, &poses);
+    benchmark::DoNotOptimize(poses[0].r_w_wb.data());
+  }
+  state.counters["solutions"] = n;
+}
+BENCHMARK(P3pOneHypothesis)->Unit(benchmark::kMicrosecond);
+
+// Lost-in-space sets the ray triple once per blob triple and solves it for many beacon triples.
+void P3pSolveOnly(benchmark::State& state) {
+  const Rig& rig = PaperRigOnce();
+  const P3pCase c = OneCameraP3pCase();
+  static P3pRayTriple triple;
+  static std::array<BodyPose, limits::kMaxP3pSolutions> poses;
+  triple.Set({RayOfBlob(rig, c.blobs[0]), RayOfBlob(rig, c.blobs[1]), RayOfBlob(rig, c.blobs[2])}, P3pOptions{});
+  int n = 0;
+  for (auto _ : state) {
+    n = triple.Solve(c.P_w, &poses);
+    benchmark::DoNotOptimize(poses[0].r_w_wb.data());
+  }
+  state.counters["solutions"] = n;
+}
+BENCHMARK(P3pSolveOnly)->Unit(benchmark::kMicrosecond);
+
+#ifdef MFNS_HAVE_OPENCV
+// Baseline: OpenCV's P3P (Gao et al., with undistortion of the three pixels) on the same case.
+void OpenCvSolveP3P(benchmark::State& state) {
+  const P3pCase c = OneCameraP3pCase();
+  std::vector<cv::Mat> rvecs, tvecs;
+  int n = 0;
+  for (auto _ : state) {
+    n = cv::solveP3P(c.obj, c.img, c.K, c.dist, rvecs, tvecs, cv::SOLVEPNP_P3P);
+    benchmark::DoNotOptimize(n);
+  }
+  state.counters["solutions"] = n;
+}
+BENCHMARK(OpenCvSolveP3P)->Unit(benchmark::kMicrosecond);
+#endif  // MFNS_HAVE_OPENCV
 
 }  // namespace
 }  // namespace mfns::fw

@@ -293,7 +293,7 @@ bool LostInSpace::NearPrior(const BodyPose& pose, double slack_m, double slack_r
 }
 
 LisStatus LostInSpace::Identify(const BlobObs* blobs, int num_blobs, const LisOptions& o, LisResult* result,
-                                const LisPrior* prior) {
+                                const LisPrior* prior, std::uint32_t cameras) {
   prior_ = prior;
   LisResult& res = *result;
   res.status = LisStatus::kBadInput;
@@ -318,7 +318,7 @@ LisStatus LostInSpace::Identify(const BlobObs* blobs, int num_blobs, const LisOp
   if (num_blobs < 3 || rig_->num_beacons < 3) return res.status = LisStatus::kTooFewBlobs;
   blobs_ = blobs;
   num_blobs_ = num_blobs;
-  matcher_.SetBlobs(blobs, num_blobs);
+  matcher_.SetBlobs(blobs, num_blobs, cameras);
   SelectBlobs(o);
   P3pOptions p3p = o.p3p;
   if (p3p.max_depth_m <= 0.0) p3p.max_depth_m = map_diameter_m_ + o.workspace_margin_m;

@@ -128,8 +128,9 @@ class LostInSpace {
   // Identifies blobs[0..num_blobs) (num_blobs <= limits::kMaxObservations). Never allocates.
   // With a prior, only poses near it are sought and listed (complete then means: every
   // consistent pose near the prior).
+  // cameras: those that delivered a frame (BeaconMatcher::SetBlobs); the others refute nothing.
   LisStatus Identify(const BlobObs* blobs, int num_blobs, const LisOptions& options, LisResult* result,
-                     const LisPrior* prior = nullptr);
+                     const LisPrior* prior = nullptr, std::uint32_t cameras = kAllCameras);
 
  private:
   struct Candidate {

@@ -35,13 +35,14 @@ void BeaconMatcher::Reset(const Rig& rig) {
   }
 }
 
-int BeaconMatcher::SetBlobs(const BlobObs* blobs, int num_blobs) {
+int BeaconMatcher::SetBlobs(const BlobObs* blobs, int num_blobs, std::uint32_t cameras) {
   blobs_ = blobs;
+  cameras_ = cameras;
   count_.fill(0);
   int indexed = 0;
   for (int i = 0; i < num_blobs && rig_ != nullptr; ++i) {
     const int k = blobs[i].camera;
-    if (k < 0 || k >= rig_->num_cameras || k >= limits::kMaxCameras) continue;
+    if (k < 0 || k >= rig_->num_cameras || k >= limits::kMaxCameras || (cameras >> k & 1U) == 0) continue;
     auto& c = count_[static_cast<std::size_t>(k)];
     if (c >= limits::kMaxBlobsPerFrame) continue;
     index_[static_cast<std::size_t>(k)][static_cast<std::size_t>(c++)] = static_cast<short>(i);
@@ -78,6 +79,7 @@ void BeaconMatcher::MatchPose(const BodyPose& pose, const MatchOptions& o, Match
   };
   const double gate_sq = o.gate_px * o.gate_px;
   for (int k = 0; k < rig_->num_cameras; ++k) {
+    if ((cameras_ >> k & 1U) == 0) continue;  // no frame from this camera: nothing to predict
     const auto sk = static_cast<std::size_t>(k);
     std::array<Candidate, 2 * limits::kMaxBeacons> cand;
     int n_cand = 0;

@@ -25,6 +25,9 @@
 
 namespace mfns::fw {
 
+// A camera set: bit k for camera k.
+inline constexpr std::uint32_t kAllCameras = 0xFFFFFFFFu;
+
 struct MatchOptions {
   double gate_px = 10.0;          // largest blob-to-prediction distance of a match (> 0)
   double miss_margin_px = 15.0;   // "well inside the image" margin for missing beacons (>= 0)
@@ -92,8 +95,9 @@ class BeaconMatcher {
 
   // Indexes a frame set's blobs by camera (blobs with a camera outside the rig, or beyond
   // limits::kMaxBlobsPerFrame in a camera, are ignored). The list must stay alive while
-  // matching. Returns the number of blobs indexed.
-  int SetBlobs(const BlobObs* blobs, int num_blobs);
+  // matching. cameras: bit k set when camera k delivered a frame in this frame set; the
+  // others predict nothing (no match, never missing). Returns the number of blobs indexed.
+  int SetBlobs(const BlobObs* blobs, int num_blobs, std::uint32_t cameras = kAllCameras);
 
   // Predicts every beacon at `pose` and matches. out->matches come camera by camera.
   void MatchPose(const BodyPose& pose, const MatchOptions& options, MatchSet* out) const;
@@ -110,6 +114,7 @@ class BeaconMatcher {
   const Rig* rig_ = nullptr;
   std::array<double, limits::kMaxCameras> max_tan_sq_{};  // view cone: (x^2 + y^2) / z^2 bound
   const BlobObs* blobs_ = nullptr;
+  std::uint32_t cameras_ = kAllCameras;
   std::array<int, limits::kMaxCameras> count_{};
   std::array<std::array<short, limits::kMaxBlobsPerFrame>, limits::kMaxCameras> index_{};
 };

@@ -59,7 +59,6 @@ bool TrackOptions::IsValid(const char** why) const {
   if (!lis.IsValid(&sub)) bad = sub;
   else if (!positive(gate_px)) bad = "gate_px";
   else if (!positive(hold_gate_px)) bad = "hold_gate_px";
-  else if (!(gate_growth_px_per_s >= 0.0) || !std::isfinite(gate_growth_px_per_s)) bad = "gate_growth_px_per_s";
   else if (!positive(max_gate_px) || max_gate_px < gate_px || max_gate_px < hold_gate_px) bad = "max_gate_px";
   else if (!positive(refine_gate_px)) bad = "refine_gate_px";
   else if (!(miss_margin_px >= 0.0) || !std::isfinite(miss_margin_px)) bad = "miss_margin_px";
@@ -80,6 +79,7 @@ bool TrackOptions::IsValid(const char** why) const {
   else if (!positive(max_angular_accel_rad_s2)) bad = "max_angular_accel_rad_s2";
   else if (!(chain_slack_m >= 0.0) || !(chain_slack_rad >= 0.0)) bad = "chain_slack";
   else if (min_acquire_frames < 2) bad = "min_acquire_frames";
+  else if (lis_fix_min_beacons < 3) bad = "lis_fix_min_beacons";
   else if (!positive(chain_stale_s)) bad = "chain_stale_s";
 
   else if (!positive(twin_m) || !positive(twin_rad)) bad = "twin";
@@ -89,8 +89,16 @@ bool TrackOptions::IsValid(const char** why) const {
   return bad == nullptr;
 }
 
+void TrackOptions::ScalePixelGates(double factor) {
+  for (double* px : {&gate_px, &hold_gate_px, &max_gate_px, &refine_gate_px, &miss_margin_px,
+                     &lis.hypothesis_match.gate_px, &lis.hypothesis_match.miss_margin_px, &lis.refine_match.gate_px,
+                     &lis.refine_match.miss_margin_px})
+    *px *= factor;
+}
+
 bool Tracker::Reset(const Rig& rig) {
   rig_ = nullptr;
+  prev_num_blobs_ = -1;
   has_pose_ = has_velocity_ = has_seed_ = false;
   chain_n_ = chain_frames_ = 0;
   counters_ = TrackCounters{};
@@ -106,6 +114,7 @@ bool Tracker::Reset(const Rig& rig) {
 }
 
 void Tracker::SetPose(const BodyPose& pose, std::uint64_t t_ns) {
+  prev_num_blobs_ = -1;
   has_pose_ = has_seed_ = true;
   has_velocity_ = false;
   last_pose_ = pose;
@@ -128,7 +137,7 @@ BodyPose Tracker::Predict(std::uint64_t t_ns) const {
 
 // Solve from `start` with the identities in set_, then re-match with the tight gate and solve
 // again while they change (bounded). r->matches and r->solve hold the outcome.
-bool Tracker::SolveAt(const BodyPose& start, const TrackOptions& o, TrackResult* r) {
+bool Tracker::SolveAt(const BodyPose& start, const TwinRegion& twin, const TrackOptions& o, TrackResult* r) {
   BodyPose pose = start;
   const MatchOptions tight{o.refine_gate_px, o.miss_margin_px, false};
   for (int round = 0; round < 3; ++round) {
@@ -157,14 +166,15 @@ bool Tracker::SolveAt(const BodyPose& start, const TrackOptions& o, TrackResult*
   r->matches.num_beacons = std::popcount(r->matches.beacons);
   r->pose = r->solve.pose;
   return r->matches.num_beacons >= 3 && r->matches.num_missing <= o.max_missing && r->solve.rms_px <= o.max_rms_px &&
-         !NearbyTwin(o, r);
+         !NearbyTwin(twin, o, r);
 }
 
 // Three observations fit a pose exactly, and so do up to three other poses (the P3P's other
-// roots). Far apart, the prediction tells them apart; near one another (near-degenerate
-// geometry), the solver may have settled on the wrong one and its covariance does not say
-// so. True when another consistent root lies within twin_m / twin_rad.
-bool Tracker::NearbyTwin(const TrackOptions& o, const TrackResult* r) {
+// roots). When another root consistent with the blobs lies inside the region where the truth
+// may be (the prediction's error bounds when tracking; twin_m / twin_rad around the solution
+// otherwise), nothing tells the two apart and the solver may have settled on the wrong one:
+// true then. A root outside that region is refuted by the motion model.
+bool Tracker::NearbyTwin(const TwinRegion& region, const TrackOptions& o, const TrackResult* r) {
   if (r->matches.num_matches != 3) return false;
   std::array<BodyRay, 3> rays;
   std::array<Eigen::Vector3d, 3> P;
@@ -176,45 +186,55 @@ bool Tracker::NearbyTwin(const TrackOptions& o, const TrackResult* r) {
   P3pOptions p3p = o.lis.p3p;
   if (p3p.max_depth_m <= 0.0) p3p.max_depth_m = 10.0;
   if (!twin_.Set(rays, p3p)) return false;
+  const BodyPose& centre = region.centre != nullptr ? *region.centre : r->pose;
   const int n = twin_.Solve(P, &twin_poses_);
   for (int i = 0; i < n; ++i) {
     const BodyPose& q = twin_poses_[static_cast<std::size_t>(i)];
     const double dr = (q.r_w_wb - r->pose.r_w_wb).norm();
     const double da = LogSO3(r->pose.C_w_b.transpose() * q.C_w_b).norm();
     if (dr < 1e-3 && da < 1e-3) continue;  // the solution itself (the noise moves it a little)
-    if (dr > o.twin_m || da > o.twin_rad) continue;
+    if ((q.r_w_wb - centre.r_w_wb).norm() > region.max_m ||
+        LogSO3(centre.C_w_b.transpose() * q.C_w_b).norm() > region.max_rad)
+      continue;
     matcher_.MatchPose(q, MatchOptions{o.refine_gate_px, o.miss_margin_px, false}, &twin_set_);
     if (twin_set_.num_missing <= o.max_missing) return true;
   }
   return false;
 }
 
-bool Tracker::TrackFrom(const BodyPose& predicted, double since_s, double gate_px, const TrackOptions& o,
-                        TrackResult* r, bool* refuted) {
+// How far the truth may lie from Predict(last + since_s): the acceleration bounds over the
+// elapsed time (with a velocity; the speed bounds for a held pose), gate_sigmas of the last
+// pose's 1-sigma, grown by the velocity's lever (its baseline is that much shorter than the
+// extrapolation), and the innovation slack for what the model leaves out.
+void Tracker::PredictionBounds(double since_s, const TrackOptions& o, double* max_m, double* max_rad) const {
+  const double lead = has_velocity_ ? 1.0 + since_s / velocity_baseline_s_ : 1.0;
+  *max_m = o.innovation_m + o.gate_sigmas * last_sigma_m_ * lead;
+  *max_rad = o.innovation_rad + o.gate_sigmas * last_sigma_rad_ * lead;
+  if (has_velocity_) {
+    *max_m += 0.5 * o.max_accel_m_s2 * since_s * since_s;
+    *max_rad += 0.5 * o.max_angular_accel_rad_s2 * since_s * since_s;
+  } else {
+    *max_m += o.max_speed_m_s * since_s;
+    *max_rad += o.max_rate_rad_s * since_s;
+  }
+}
+
+bool Tracker::TrackFrom(const BodyPose& predicted, double max_m, double max_rad, double gate_px,
+                        const TrackOptions& o, TrackResult* r, bool* refuted) {
   *refuted = false;
   matcher_.MatchPose(predicted, MatchOptions{gate_px, o.miss_margin_px, true}, &set_);
   if (set_.num_beacons < 3) return false;
-  if (!SolveAt(predicted, o, r)) {
+  const TwinRegion region{&predicted, max_m, max_rad};
+  if (!SolveAt(predicted, region, o, r)) {
     *refuted = r->matches.num_missing > o.max_missing || r->solve.rms_px > o.max_rms_px;
     return false;
   }
   // Innovation test: the solved pose must be where the motion model allows. Three matches
   // fit any pose exactly, so one wrong match (a spurious blob in a beacon's gate) shows only
-  // here, as a jump.
-  const double lead = has_velocity_ ? 1.0 + since_s / velocity_baseline_s_ : 1.0;
-  double max_m = o.innovation_m + o.gate_sigmas * last_sigma_m_ * lead;
-  double max_rad = o.innovation_rad + o.gate_sigmas * last_sigma_rad_ * lead;
-  if (has_velocity_) {
-    max_m += 0.5 * o.max_accel_m_s2 * since_s * since_s;
-    max_rad += 0.5 * o.max_angular_accel_rad_s2 * since_s * since_s;
-  } else {
-    max_m += o.max_speed_m_s * since_s;
-    max_rad += o.max_rate_rad_s * since_s;
-  }
+  // here, as a jump. (Not a refutation of the prior: a wrong match proves nothing about it.)
   if ((r->pose.r_w_wb - predicted.r_w_wb).norm() > max_m ||
       LogSO3(predicted.C_w_b.transpose() * r->pose.C_w_b).norm() > max_rad) {
     ++counters_.innovation_refused;
-    *refuted = true;
     return false;
   }
   return true;
@@ -228,8 +248,7 @@ void Tracker::PrepareChain(std::uint64_t t_ns, const TrackOptions& o) {
     if (Seconds(t_ns, chain_t_[static_cast<std::size_t>(i)]) > o.chain_stale_s) chain_n_ = 0;
   bool seeded = false;
   if (chain_n_ == 0 && has_seed_ && Seconds(t_ns, last_t_ns_) <= o.max_seed_s) {
-    // The true pose is within the acceleration bounds of the constant-velocity prediction
-    // (or the speed bounds of a held pose).
+    // The true pose is within the prediction's error bounds (PredictionBounds).
     chain_n_ = 1;
     chain_[0] = Predict(t_ns);
     chain_t_[0] = last_t_ns_;
@@ -240,11 +259,13 @@ void Tracker::PrepareChain(std::uint64_t t_ns, const TrackOptions& o) {
   for (int i = 0; i < chain_n_; ++i) {
     const auto si = static_cast<std::size_t>(i);
     const double dt = std::max(0.0, Seconds(t_ns, chain_t_[si]));
-    chain_max_m_[si] = o.max_speed_m_s * dt + o.chain_slack_m;
-    chain_max_rad_[si] = o.max_rate_rad_s * dt + o.chain_slack_rad;
-    if (seeded && has_velocity_) {
-      chain_max_m_[si] = std::min(chain_max_m_[si], 0.5 * o.max_accel_m_s2 * dt * dt + o.chain_slack_m);
-      chain_max_rad_[si] = std::min(chain_max_rad_[si], 0.5 * o.max_angular_accel_rad_s2 * dt * dt + o.chain_slack_rad);
+    if (seeded) {
+      PredictionBounds(dt, o, &chain_max_m_[si], &chain_max_rad_[si]);
+      chain_max_m_[si] += o.chain_slack_m;
+      chain_max_rad_[si] += o.chain_slack_rad;
+    } else {
+      chain_max_m_[si] = o.max_speed_m_s * dt + o.chain_slack_m;
+      chain_max_rad_[si] = o.max_rate_rad_s * dt + o.chain_slack_rad;
     }
     prior_max_m_ = std::max(prior_max_m_, chain_max_m_[si]);
     prior_max_rad_ = std::max(prior_max_rad_, chain_max_rad_[si]);
@@ -305,10 +326,10 @@ bool Tracker::Acquire(std::uint64_t t_ns, const TrackOptions& o, TrackResult* r)
   }
   if (n == 0) {
     // Nothing consistent near the followed poses: none was the truth, or this frame set has
-    // fewer than 3 true beacons, or the motion broke the bounds. Start over at the next frame
-    // set, without a prior.
+    // fewer than 3 true beacons (e.g. 2 and a reflection). Start over at the next frame set:
+    // from the prediction again while the last accepted pose may seed it (a refuted prediction
+    // is forgotten by Track, from its missing beacons), else without a prior.
     chain_n_ = 0;
-    has_seed_ = false;
     r->acquisition_poses = 0;
     return false;
   }
@@ -319,21 +340,106 @@ bool Tracker::Acquire(std::uint64_t t_ns, const TrackOptions& o, TrackResult* r)
   }
   ++chain_frames_;
   r->acquisition_poses = chain_n_;
-  // A chain seeded by an accepted pose holds the truth; one started from lost-in-space alone
-  // may not (the first frame set may have had fewer than 3 true beacons), so it must outlive
-  // min_acquire_frames frame sets. The last pose must be confirmed by this frame set.
-  if (chain_n_ != 1 || confirmed != 1 || chain_frames_ < (chain_seeded_ ? 2 : o.min_acquire_frames)) return false;
-  // One pose left: its identities, solved.
+  // The last pose must be confirmed by this frame set. A chain seeded by an accepted pose
+  // holds the truth when the frame sets had three true beacons; one started from
+  // lost-in-space alone may not (its first frame set may have had fewer), so it must outlive
+  // min_acquire_frames frame sets. So must a seeded one when reflections are in view (blobs
+  // that the pose leaves unexplained, now or in the previous frame set): two true beacons
+  // and a reflection fit an exact pose, which may be the one left in wide bounds (seen after
+  // a 2 s gap: 0.2 rad off).
+  if (chain_n_ != 1 || confirmed != 1 || chain_frames_ < 2) return false;
+  // Carried back to the previous frame set, a pose resting on a reflection predicts its
+  // beacon where that frame set has no blob (a reflection does not move with the body).
+  int unexplained_prev = 0;
+  if (!ExplainsPrevious(chain_[0], t_ns, o, &unexplained_prev)) {
+    ++counters_.previous_refused;
+    return false;
+  }
   matcher_.MatchPose(chain_[0], o.lis.refine_match, &set_);
-  if (set_.num_beacons < 3 || !SolveAt(chain_[0], o, r)) return false;
+  const bool reflections = indexed_blobs_ > set_.num_matches || unexplained_prev > 0;
+  // (A seeded chain counts its seed as the first frame.)
+  const int needed = chain_seeded_ ? 1 + (reflections ? o.min_acquire_frames : 1) : o.min_acquire_frames;
+  if (chain_frames_ < needed) return false;
+  if (!chain_seeded_ && !SurvivorIsBest(t_ns, o)) return false;
+  // One pose left: its identities, solved.
+  // Lost-in-space listed every consistent pose within the bounds, so a second P3P root there
+  // would be a second survivor; unseeded, a root within twin_m / twin_rad is refused.
+  const TwinRegion twin = chain_seeded_ ? TwinRegion{nullptr, o.lis.same_pose_m, o.lis.same_pose_rad}
+                                        : TwinRegion{nullptr, o.twin_m, o.twin_rad};
+  if (set_.num_beacons < 3 || !SolveAt(chain_[0], twin, o, r)) return false;
   chain_n_ = 0;
   return true;
 }
 
+// An unseeded chain started from lost-in-space's list of its first frame set; when that frame
+// set had fewer than three true beacons, the truth was never followed and a pose that fits
+// the same blobs (an alias) may be the one left (seen: it explained three of four blobs, the
+// truth four). So the survivor must score best among every pose consistent with this frame
+// set (lost-in-space without a prior, complete); otherwise the chain restarts from that list.
+bool Tracker::SurvivorIsBest(std::uint64_t t_ns, const TrackOptions& o) {
+  ++counters_.lis_runs;
+  lis_.Identify(blobs_, num_blobs_, o.lis, &lis_res_, nullptr, cameras_);
+  const LisResult& l = lis_res_;
+  if (!l.complete) return false;  // cannot tell now: keep following
+  double survivor = -1e300, others = -1e300;
+  for (int i = 0; i < l.num_consistent; ++i) {
+    const BodyPose& p = l.consistent_poses[static_cast<std::size_t>(i)];
+    const bool same = (p.r_w_wb - chain_[0].r_w_wb).norm() <= o.lis.same_pose_m &&
+                      LogSO3(chain_[0].C_w_b.transpose() * p.C_w_b).norm() <= o.lis.same_pose_rad;
+    double& score = same ? survivor : others;
+    score = std::max(score, l.consistent_scores[static_cast<std::size_t>(i)]);
+  }
+  if (survivor >= others) return true;
+  chain_n_ = std::min(l.num_consistent, limits::kMaxLisCandidates);
+  for (int i = 0; i < chain_n_; ++i) {
+    chain_[static_cast<std::size_t>(i)] = l.consistent_poses[static_cast<std::size_t>(i)];
+    chain_t_[static_cast<std::size_t>(i)] = t_ns;
+  }
+  chain_frames_ = 1;
+  ++counters_.chain_restarts;
+  return false;
+}
+
+bool Tracker::ExplainsPrevious(const BodyPose& pose, std::uint64_t t_ns, const TrackOptions& o,
+                               int* unexplained) {
+  *unexplained = 0;
+  if (prev_num_blobs_ < 0) return true;  // nothing kept (start): the chain's length must do
+  const double dt = Seconds(t_ns, prev_t_ns_);
+  if (!(dt > 0.0) || dt > o.velocity_window_s) return true;
+  // Back along the velocity estimate; its error is what the accelerations may have changed
+  // since the last accepted pose (or the speed bounds without a velocity).
+  BodyPose back = pose;
+  double dv_m = o.max_speed_m_s, dv_rad = o.max_rate_rad_s;
+  if (has_velocity_) {
+    back.r_w_wb = pose.r_w_wb - v_w_ * dt;
+    back.C_w_b = pose.C_w_b * ExpSO3(-omega_b_ * dt);
+    const double since = std::max(0.0, Seconds(t_ns, last_t_ns_));
+    dv_m = o.max_accel_m_s2 * since + o.gate_sigmas * last_sigma_m_ / velocity_baseline_s_;
+    dv_rad = o.max_angular_accel_rad_s2 * since + o.gate_sigmas * last_sigma_rad_ / velocity_baseline_s_;
+  }
+  const double gate = o.gate_px + px_per_rad_ * (dv_rad * dt + dv_m * dt / o.gate_depth_m);
+  const int indexed = matcher_.SetBlobs(prev_blobs_.data(), prev_num_blobs_, prev_cameras_);
+  // (A true beacon predicted just inside may really have been just outside: a refusal, never
+  // a wrong fix; the next frame set decides.)
+  matcher_.MatchPose(back, MatchOptions{gate, o.miss_margin_px, false}, &twin_set_);
+  matcher_.SetBlobs(blobs_, num_blobs_, cameras_);
+  *unexplained = std::max(0, indexed - twin_set_.num_matches);
+  return twin_set_.num_missing <= o.max_missing;
+}
+
+// Keeps this frame set's blobs for ExplainsPrevious at the next one.
+void Tracker::KeepBlobs(std::uint64_t t_ns) {
+  prev_num_blobs_ = std::min(num_blobs_, limits::kMaxObservations);
+  for (int i = 0; i < prev_num_blobs_; ++i) prev_blobs_[static_cast<std::size_t>(i)] = blobs_[i];
+  prev_t_ns_ = t_ns;
+  prev_cameras_ = cameras_;
+}
+
 void Tracker::Accept(std::uint64_t t_ns, const TrackOptions& o, TrackResult* r) {
   // Velocity from the oldest pose of the history within velocity_window_s (a longer baseline
-  // averages the noise of single poses), else the newest.
-  if (!has_pose_) hist_n_ = 0;
+  // averages the noise of single poses), else the newest (e.g. across a gap bridged by the
+  // prediction). A history the new pose does not continue is forgotten.
+  if (!has_seed_) hist_n_ = 0;
   int from = -1;
   for (int i = 0; i < hist_n_; ++i) {
     const double age = Seconds(t_ns, hist_t_ns_[static_cast<std::size_t>(i)]);
@@ -394,7 +500,15 @@ TrackStatus Tracker::Lost(TrackReason why, TrackResult* r) {
 }
 
 TrackStatus Tracker::Track(const BlobObs* blobs, int num_blobs, std::uint64_t t_ns, const TrackOptions& o,
-                           TrackResult* r) {
+                           TrackResult* r, std::uint32_t cameras) {
+  cameras_ = cameras;
+  const TrackStatus s = TrackOnce(blobs, num_blobs, t_ns, o, r);
+  if (r->reason != TrackReason::kBadInput) KeepBlobs(t_ns);
+  return s;
+}
+
+TrackStatus Tracker::TrackOnce(const BlobObs* blobs, int num_blobs, std::uint64_t t_ns, const TrackOptions& o,
+                               TrackResult* r) {
   ++counters_.frames;
   r->t_ns = t_ns;
   r->lis_run = false;
@@ -410,46 +524,75 @@ TrackStatus Tracker::Track(const BlobObs* blobs, int num_blobs, std::uint64_t t_
       return Lost(TrackReason::kBadInput, r);
   blobs_ = blobs;
   num_blobs_ = num_blobs;
-  matcher_.SetBlobs(blobs, num_blobs);
+  indexed_blobs_ = matcher_.SetBlobs(blobs, num_blobs, cameras_);
 
-  // 1. Tracking from the last pose.
-  if (has_pose_ && Seconds(t_ns, last_t_ns_) > o.max_coast_s) has_pose_ = has_velocity_ = false;
+  // 1. Tracking from the last pose: while the gate covers the prediction's error bounds, match
+  // nearest blobs; beyond (a long gap, or no velocity yet), the prediction only seeds
+  // re-identification (2), which lists every pose consistent with the blobs within the bounds.
+  const double since = has_seed_ ? std::max(0.0, Seconds(t_ns, last_t_ns_)) : 0.0;
+  if (has_seed_ && since > o.max_seed_s) has_seed_ = has_pose_ = has_velocity_ = false;
+  if (has_pose_ && since > o.max_coast_s) has_pose_ = false;
   TrackReason why = TrackReason::kTooFewBeacons;
-  if (has_pose_) {
-    const double since = std::max(0.0, Seconds(t_ns, last_t_ns_));
-    // The gate grows with the time since the last pose and with that pose's attitude
-    // uncertainty, carried forward by the velocity estimate's baseline.
-    const double lead = has_velocity_ ? 1.0 + since / velocity_baseline_s_ : 1.0;
-    const double gate = std::min(o.max_gate_px, (has_velocity_ ? o.gate_px : o.hold_gate_px) +
-                                                    o.gate_growth_px_per_s * since +
-                                                    o.gate_sigmas * px_per_rad_ * (last_sigma_rad_ + last_sigma_m_ / o.gate_depth_m) * lead);
+  if (has_seed_) {
+    const BodyPose predicted = Predict(t_ns);
+    double max_m = 0.0, max_rad = 0.0;
+    PredictionBounds(since, o, &max_m, &max_rad);
+    const double gate = (has_velocity_ ? o.gate_px : o.hold_gate_px) +
+                        px_per_rad_ * ((max_rad - o.innovation_rad) + (max_m - o.innovation_m) / o.gate_depth_m);
     bool refuted = false;
-    if (TrackFrom(Predict(t_ns), since, gate, o, r, &refuted)) {
-      r->source = TrackSource::kTracked;
-      Accept(t_ns, o, r);
-      ++counters_.by_status[static_cast<std::size_t>(r->status)];
-      ++counters_.by_reason[static_cast<std::size_t>(r->reason)];
-      return r->status;
+    if (gate <= o.max_gate_px) {
+      // A beacon predicted well inside an image (by more than the gate) with no blob in its
+      // gate refutes the prediction (a kidnapped body, a wrong track).
+      matcher_.MatchPose(predicted, MatchOptions{gate, o.miss_margin_px + gate, false}, &set_);
+      refuted = set_.num_missing > o.max_missing;
+      if (!refuted && has_pose_) {
+        if (TrackFrom(predicted, max_m, max_rad, gate, o, r, &refuted)) {
+          r->source = TrackSource::kTracked;
+          Accept(t_ns, o, r);
+          ++counters_.by_status[static_cast<std::size_t>(r->status)];
+          ++counters_.by_reason[static_cast<std::size_t>(r->reason)];
+          return r->status;
+        }
+      }
     }
     if (refuted) {
       ++counters_.track_refuted;
       has_pose_ = has_velocity_ = has_seed_ = false;  // the prior disagrees with the blobs: forget it
+      chain_n_ = 0;
     }
   }
   // 2. Re-identification.
-  if (num_blobs < 3) return Lost(has_pose_ ? TrackReason::kTooFewBeacons : TrackReason::kTooFewBlobs, r);
+  if (num_blobs < 3) return Lost(has_seed_ ? TrackReason::kTooFewBeacons : TrackReason::kTooFewBlobs, r);
   r->lis_run = true;
   ++counters_.lis_runs;
   // While poses are being followed (or a recent pose can seed them), lost-in-space only looks
   // near them: cheaper, and complete far more often when spurious blobs multiply the poses.
   LisPrior prior;
-  const bool use_prior = ChainPrior(t_ns, o, &prior);
-  r->lis_status = lis_.Identify(blobs, num_blobs, o.lis, &lis_res_, use_prior ? &prior : nullptr);
+  bool use_prior = ChainPrior(t_ns, o, &prior);
+  r->lis_status = lis_.Identify(blobs, num_blobs, o.lis, &lis_res_, use_prior ? &prior : nullptr, cameras_);
+  if (use_prior && r->lis_status == LisStatus::kNoHypothesis && lis_res_.complete) {
+    // Nothing consistent near the followed (or predicted) poses: fewer than three true beacons
+    // in this frame set, or a motion beyond the bounds. A pose lost-in-space settles on its
+    // own (typically >= 5 beacons in view) is a fix all the same, and replaces the prior.
+    chain_n_ = 0;
+    ++counters_.lis_runs;
+    if (lis_.Identify(blobs, num_blobs, o.lis, &lis_res_, nullptr, cameras_) != LisStatus::kFix ||
+        lis_res_.matches.num_beacons < o.lis_fix_min_beacons)
+      return Lost(has_seed_ ? TrackReason::kTooFewBeacons : TrackReason::kNoHypothesis, r);
+    has_pose_ = has_velocity_ = has_seed_ = false;
+    use_prior = false;
+    r->lis_status = LisStatus::kFix;
+  }
   // A fix found without a prior stands on its own; under a prior it only says which of the
   // followed poses are left, like any other outcome.
+  // Three beacons fit their pose exactly: a unique three-beacon pose may rest on a reflection
+  // (seen: one beacon and two reflections in one camera). Lost-in-space alone fixes only with
+  // lis_fix_min_beacons; a three-beacon pose is followed like an ambiguous one.
+  if (r->lis_status == LisStatus::kFix && !use_prior && lis_res_.matches.num_beacons < o.lis_fix_min_beacons)
+    r->lis_status = LisStatus::kAmbiguous;
   if (r->lis_status == LisStatus::kFix && !use_prior) {
     set_ = lis_res_.matches;
-    if (SolveAt(lis_res_.pose, o, r)) {
+    if (SolveAt(lis_res_.pose, TwinRegion{nullptr, o.twin_m, o.twin_rad}, o, r)) {
       r->source = TrackSource::kLostInSpace;
       Accept(t_ns, o, r);
       ++counters_.by_status[static_cast<std::size_t>(r->status)];
@@ -468,7 +611,7 @@ TrackStatus Tracker::Track(const BlobObs* blobs, int num_blobs, std::uint64_t t_
       return r->status;
     }
     if (chain_n_ > 0) why = TrackReason::kAcquiring;
-    else if (r->lis_status == LisStatus::kNoHypothesis) why = has_pose_ ? TrackReason::kTooFewBeacons : TrackReason::kNoHypothesis;
+    else if (r->lis_status == LisStatus::kNoHypothesis) why = has_seed_ ? TrackReason::kTooFewBeacons : TrackReason::kNoHypothesis;
     else why = TrackReason::kAmbiguous;
     return Lost(why, r);
   }

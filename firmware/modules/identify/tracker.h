@@ -1,35 +1,40 @@
 // Frame-to-frame beacon identification and pose: tracking with re-identification (issue 4
 // items 5 and 6: status fix / degraded / lost with a reason).
 //
-// Per frame set (blobs of every camera, capture time t_ns):
+// Per frame set (blobs of the cameras that delivered, capture time t_ns):
 // 1. Tracking, when a recent pose is known: predict the pose at t_ns (constant velocity on
 //    position and attitude from the accepted poses of the last velocity_window_s; hold when
-//    only one is known),
-//    project every beacon, match each to the nearest blob within the gate (one-to-one; a
-//    beacon with two blobs in its gate is left out), solve jointly, re-match at the solved
-//    pose with a tight gate and solve again if the identities changed. The solution is
-//    accepted when it has >= 3 beacons, no missing beacon (predicted well inside an image,
-//    no blob), a small residual, lies where the motion model allows (innovation test: with
+//    only one is known). The prediction's error bounds (PredictionBounds) are the
+//    acceleration bounds over the elapsed time (speed bounds without a velocity), plus
+//    gate_sigmas of the last pose's 1-sigma and the innovation slack. While the matching gate
+//    that covers them stays within max_gate_px: a beacon predicted well inside an image with
+//    no blob in its gate refutes the prediction (forgotten); otherwise each beacon is matched
+//    to the nearest blob in the gate (one-to-one; a beacon with two blobs in its gate is left
+//    out), the pose solved jointly, re-matched with a tight gate. It is accepted with >= 3
+//    beacons, no missing beacon, a small residual, within the bounds (innovation test: with
 //    three beacons a wrong match still fits exactly, but jumps) and, with exactly three
-//    observations, has no other exact solution (P3P root) consistent with the blobs nearby. The gate grows with the time since the last accepted pose
-//    and with its uncertainty.
-// 2. Otherwise re-identification by lost-in-space (lost_in_space.h). A fix is accepted.
-//    When lost-in-space lists several consistent poses and the list is complete, they are
-//    followed over the next frame sets through motion bounds (max speed and turn rate times
-//    the elapsed time): a followed pose moves on to the consistent poses within its bounds,
-//    or is dropped. The true pose survives every frame set with three true beacons in view;
-//    a wrong one dies as soon as the motion brings a beacon into view where it predicts none. When one pose is left, confirmed by the current
-//    frame set, it is accepted (source kAcquired). The pose predicted from the last accepted one
-//    (if at most max_seed_s old) seeds the intersection, within acceleration bounds, so that
-//    after a gap in the beacons the first frame set usually settles it.
+//    observations, no other exact solution (P3P root) consistent with the blobs within the
+//    bounds.
+// 2. Otherwise re-identification by lost-in-space (lost_in_space.h). Without a prior, a fix
+//    with >= lis_fix_min_beacons beacons is accepted. When it lists several consistent poses
+//    (complete list), they are followed over the next frame sets through motion bounds: a
+//    followed pose moves on to the consistent poses within its bounds, or is dropped. The
+//    true pose survives every frame set with three true beacons in view; a wrong one dies as
+//    soon as the motion brings a beacon into view where it predicts none. The one pose left
+//    is accepted (source kAcquired) when it also explains the previous frame set (carried
+//    back by the velocity) and has lasted min_acquire_frames frame sets; unseeded, it must
+//    also score best among all consistent poses of the frame set (else the chain restarts).
+//    Within max_seed_s of the last accepted pose, the prediction seeds the chain with its
+//    bounds (after a gap too long for the gate), so that one frame set settles it, two more
+//    when reflections are in view (blobs the pose leaves unexplained). When nothing is
+//    consistent near the prediction, a lost-in-space fix on its own still counts.
 // 3. An accepted pose is reported as fix, or degraded (fewer than fix_min_beacons beacons,
 //    residual above degraded_rms_px, or 1-sigma position / attitude above their bounds);
-//    otherwise the frame is lost with a reason. A tracked pose refuted by a missing beacon or
-//    a large residual is forgotten; one that only lacks beacons (0-2 in view) is kept for
-//    max_coast_s so tracking resumes when beacons return.
+//    otherwise the frame is lost with a reason.
 //
 // Memory: one object (about 400 kB, mostly lost-in-space) holds every buffer; construct it at
 // start (static or reserved), Reset() it with the rig, then Track() never allocates.
+// (It also keeps the previous frame set's blobs: ~50 kB.)
 #pragma once
 
 #include <Eigen/Core>
@@ -79,7 +84,6 @@ struct TrackOptions {
   LisOptions lis;
   double gate_px = 10.0;             // tracking gate with a velocity prediction
   double hold_gate_px = 60.0;        // tracking gate when only one pose is known
-  double gate_growth_px_per_s = 60.0;  // added per second since the last accepted pose
   double max_gate_px = 120.0;
   double gate_sigmas = 3.0;          // plus this many 1-sigma errors of the last pose, in px:
   double gate_depth_m = 0.5;         // (position errors seen at this beacon range)
@@ -95,17 +99,25 @@ struct TrackOptions {
   double degraded_rms_px = 1.0;
   double max_position_sigma_m = 0.05;
   double max_attitude_sigma_rad = 0.02;
-  // Acquisition: motion bounds between frame sets.
+  // Motion bounds. Speed and rate bound a held pose and the acquisition between frame sets;
+  // the accelerations bound the error of a constant-velocity prediction (0.5 a t^2), which
+  // decides how long a gap with 0-2 beacons tracking and the seeded re-identification bridge
+  // (a free-flyer in a station accelerates at a few cm/s^2 and turns up to ~10 deg/s^2; a
+  // turntable turns at a constant rate). Larger values: more poses fit the wider bounds after
+  // a gap, and the first frame sets after it may stay "acquiring".
   double max_speed_m_s = 0.5;
   double max_rate_rad_s = 1.0;
-  double max_accel_m_s2 = 0.5;       // bounds the error of a constant-velocity prediction
-  double max_angular_accel_rad_s2 = 0.5;
+  double max_accel_m_s2 = 0.1;
+  double max_angular_accel_rad_s2 = 0.2;
   double chain_slack_m = 0.02;       // plus estimation noise
   double chain_slack_rad = 0.02;
   int min_acquire_frames = 3;        // frame sets an unseeded acquisition must last (>= 2)
+  int lis_fix_min_beacons = 4;       // a lost-in-space fix on its own needs this many beacons
+                                     // (three fit exactly, so a reflection among them shows not)
   double chain_stale_s = 1.0;        // a followed pose unconfirmed this long restarts it all
-  // A three-beacon pose is refused when another exact solution (another P3P root) consistent
-  // with the blobs lies this near: the prediction cannot tell them apart.
+  // A three-beacon pose from lost-in-space or an unseeded acquisition is refused when another
+  // exact solution (another P3P root) consistent with the blobs lies this near; when tracking,
+  // the prediction's bounds take this place (a root outside them is refuted by the motion).
   double twin_m = 0.2;
   double twin_rad = 0.2;
   // A tracked pose is refused when it lies farther from the prediction than this, plus the
@@ -115,6 +127,11 @@ struct TrackOptions {
   SolveOptions solve;
 
   bool IsValid(const char** why = nullptr) const;
+  // The pixel gates and margins above (and lost-in-space's) are sized for the paper's cameras
+  // (1280 x 1024, ~1600 px/rad); for other cameras multiply them by the ratio of focal lengths
+  // (e.g. 0.25 for the same optics at 320 x 256), so that they keep their angular size.
+  // (Residual bounds in px are left: they follow the centroid noise, not the focal length.)
+  void ScalePixelGates(double factor);
 };
 
 struct TrackResult {
@@ -137,6 +154,8 @@ struct TrackCounters {
   std::array<std::uint32_t, kNumTrackReason> by_reason{};
   std::uint32_t tracked = 0, lost_in_space_fixes = 0, acquired = 0;
   std::uint32_t lis_runs = 0, track_refuted = 0, innovation_refused = 0;
+  std::uint32_t previous_refused = 0;  // an acquired pose that does not explain the previous frame set
+  std::uint32_t chain_restarts = 0;    // an unseeded acquisition's survivor outscored: restarted
   SolveCounters solve;
 };
 
@@ -149,27 +168,43 @@ class Tracker {
   // yet, so the next frame set is matched with hold_gate_px.
   void SetPose(const BodyPose& pose, std::uint64_t t_ns);
 
-  // Identifies and solves one frame set; t_ns is its capture time (monotonic, ns).
+  // Identifies and solves one frame set; t_ns is its capture time (monotonic, ns). cameras: bit k
+  // set when camera k delivered a frame in this frame set (a camera set aside or timed out
+  // predicts no beacon, so it refutes nothing).
   TrackStatus Track(const BlobObs* blobs, int num_blobs, std::uint64_t t_ns, const TrackOptions& options,
-                    TrackResult* result);
+                    TrackResult* result, std::uint32_t cameras = kAllCameras);
 
   const TrackCounters& counters() const { return counters_; }
 
  private:
+  // Where a second exact three-beacon solution would be indistinguishable from the solution:
+  // within max_m / max_rad of *centre (nullptr: of the solution itself).
+  struct TwinRegion {
+    const BodyPose* centre = nullptr;
+    double max_m = 0.0;
+    double max_rad = 0.0;
+  };
   BodyPose Predict(std::uint64_t t_ns) const;
-  bool TrackFrom(const BodyPose& predicted, double since_s, double gate_px, const TrackOptions& o, TrackResult* r,
-                 bool* refuted);
-  bool SolveAt(const BodyPose& start, const TrackOptions& o, TrackResult* r);
-  bool NearbyTwin(const TrackOptions& o, const TrackResult* r);
+  void PredictionBounds(double since_s, const TrackOptions& o, double* max_m, double* max_rad) const;
+  bool TrackFrom(const BodyPose& predicted, double max_m, double max_rad, double gate_px, const TrackOptions& o,
+                 TrackResult* r, bool* refuted);
+  bool SolveAt(const BodyPose& start, const TwinRegion& twin, const TrackOptions& o, TrackResult* r);
+  bool NearbyTwin(const TwinRegion& region, const TrackOptions& o, const TrackResult* r);
   void PrepareChain(std::uint64_t t_ns, const TrackOptions& o);
   bool ChainPrior(std::uint64_t t_ns, const TrackOptions& o, LisPrior* prior);
   bool Acquire(std::uint64_t t_ns, const TrackOptions& o, TrackResult* r);
+  bool ExplainsPrevious(const BodyPose& pose, std::uint64_t t_ns, const TrackOptions& o, int* unexplained);
+  bool SurvivorIsBest(std::uint64_t t_ns, const TrackOptions& o);
+  void KeepBlobs(std::uint64_t t_ns);
+  TrackStatus TrackOnce(const BlobObs* blobs, int num_blobs, std::uint64_t t_ns, const TrackOptions& o,
+                        TrackResult* result);
   void Accept(std::uint64_t t_ns, const TrackOptions& o, TrackResult* r);
   TrackStatus Lost(TrackReason why, TrackResult* r);
 
   const Rig* rig_ = nullptr;
   const BlobObs* blobs_ = nullptr;
   int num_blobs_ = 0;
+  int indexed_blobs_ = 0;  // blobs of cameras that delivered
   BeaconMatcher matcher_;
   LostInSpace lis_;
   LisResult lis_res_;
@@ -204,6 +239,11 @@ class Tracker {
   std::array<double, limits::kMaxLisCandidates> chain_max_rad_{};
   std::array<BodyPose, limits::kMaxLisCandidates> chain_next_{};
   std::array<std::uint64_t, limits::kMaxLisCandidates> chain_next_t_{};
+  // The previous frame set's blobs (ExplainsPrevious); -1: none.
+  int prev_num_blobs_ = -1;
+  std::uint32_t cameras_ = kAllCameras, prev_cameras_ = kAllCameras;
+  std::uint64_t prev_t_ns_ = 0;
+  std::array<BlobObs, limits::kMaxObservations> prev_blobs_{};
   TrackCounters counters_;
 };
 

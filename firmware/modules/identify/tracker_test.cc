@@ -136,11 +136,16 @@ TEST(TrackerTest, PaperYawSweep) {
     EXPECT_EQ(run.wrong, 0);
     EXPECT_GE(run.first_fix, 0);
     EXPECT_LT(run.first_fix, 60);
-    // Every frame set with >= 3 beacons after the acquisition has a fix, but for the few whose
-    // three beacons admit a second exact pose nearby (refused, see TrackOptions::twin_m).
+    // Clean: every frame set with >= 3 beacons after the acquisition has a fix (a second exact
+    // three-beacon pose is refused only within the prediction's bounds). With reflections, a
+    // gap too long for the tracking gate ends with a re-identification seeded by the
+    // prediction that must outlive min_acquire_frames frame sets (TrackOptions).
+    if (spurious == 0) {
+      EXPECT_EQ(run.accepted_after_first, run.eligible_after_first);
+    }
     EXPECT_GE(run.accepted_after_first, run.eligible_after_first * 97 / 100);
     EXPECT_GT(run.short_gaps, 0);
-    EXPECT_LE(run.worst_recovery, 1);
+    EXPECT_LE(run.worst_recovery, spurious == 0 ? 0 : TrackOptions{}.min_acquire_frames);
   }
 }
 
@@ -175,11 +180,13 @@ TEST(TrackerTest, SmoothSixDofPath) {
     EXPECT_EQ(run.wrong, 0);
     EXPECT_GE(run.first_fix, 0);
     EXPECT_GT(gaps, 0);  // the path has gaps to recover from
-    // Gaps shorter than max_coast_s are bridged by tracking; longer ones need a new
-    // acquisition, which can take many frame sets with three beacons in view.
+    // Gaps shorter than max_coast_s are bridged by tracking or, beyond the gate, by the
+    // prediction seeding re-identification (with reflections in view, confirmed over
+    // min_acquire_frames frame sets); gaps beyond max_seed_s need a new acquisition, which can
+    // take many frame sets with three beacons in view.
     EXPECT_GT(run.short_gaps, 0);
-    EXPECT_LE(run.worst_recovery, 1);
-    EXPECT_GE(run.accepted_after_first, run.eligible_after_first * 70 / 100);
+    EXPECT_LE(run.worst_recovery, spurious == 0 ? 0 : TrackOptions{}.min_acquire_frames);
+    EXPECT_GE(run.accepted_after_first, run.eligible_after_first * (spurious == 0 ? 90 : 75) / 100);
   }
 }
 

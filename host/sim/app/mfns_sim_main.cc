@@ -5,6 +5,7 @@
 //   mfns-sim compare DIR POSES.csv  estimates against truth and the bound
 //   mfns-sim preset NAME            print a built-in scenario (to start a custom one)
 //   mfns-sim analyze --out DIR ...  Figures 4-6 of the paper (error analysis)
+//   mfns-sim report | merge-rig | solve-given   replication tables and report (host/report)
 // Exit 0 on success, 1 on a user error with a one-line reason on stderr.
 #include <CLI/CLI.hpp>
 
@@ -12,6 +13,7 @@
 #include <iostream>
 #include <yaml-cpp/yaml.h>
 
+#include "host/report/report_command.h"
 #include "host/sim/analysis/analyze_command.h"
 #include "host/sim/calibdata/calib_dataset.h"
 #include "host/sim/eval/compare.h"
@@ -105,6 +107,7 @@ int Run(int argc, char** argv) {
   preset->add_flag("--list", list, "List the built-in presets");
 
   AddAnalyzeCommand(app);
+  AddReportCommands(app);  // report, merge-rig, solve-given (host/report)
 
   try {
     app.parse(argc, argv);

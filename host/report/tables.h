@@ -1,0 +1,33 @@
+// The replication tables as fixed-width text (what `mfns-sim report` prints on stdout).
+//   Table 5: per axis, the paper's published mean and std beside each run's mean, std and the
+//            Cramér-Rao bound (RMS of the per-frame 1-sigma over the frames used).
+//   Table 3: per camera and quantity, each method's estimate - truth (1-sigma) beside the
+//            paper's published 1-sigma.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "common/rig/rig.h"
+#include "host/report/calib_errors.h"
+#include "host/report/pose_errors.h"
+
+namespace mfns::host {
+
+struct NamedPoseSummary {
+  std::string label;  // e.g. "ours", "paper pipeline"
+  PoseSummary summary;
+};
+
+struct NamedCalibration {
+  std::string label;  // e.g. "ml", "paper"
+  std::vector<CameraCalibError> cameras;
+};
+
+std::string FormatTable5(const std::vector<NamedPoseSummary>& runs);
+
+// `published` supplies the paper's sigma (common/rig/paper_rig.h PaperRig()), matched by
+// camera name; cameras are listed in the first method's order.
+std::string FormatTable3(const std::vector<NamedCalibration>& methods, const Rig& published);
+
+}  // namespace mfns::host
