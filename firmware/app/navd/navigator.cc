@@ -30,6 +30,9 @@ bool Navigator::Init(const Rig& rig, const NavigatorOptions& options, const char
     return false;
   }
   options_ = options;
+  // The gates must allow for the surveyed map's error (rig.beacon_sigma), seen at the range
+  // the tracker sizes its gates for; derived from the caller's options at every Init (reload).
+  options_.track.AllowForMapError(BeaconMapErrorPx(rig, options_.track.gate_depth_m));
   return true;
 }
 

@@ -96,6 +96,25 @@ void TrackOptions::ScalePixelGates(double factor) {
     *px *= factor;
 }
 
+void TrackOptions::AllowForMapError(double map_px) {
+  if (!(map_px > 0.0) || !std::isfinite(map_px)) return;
+  // Gates on a single residual cover 4 sigmas of the map error, RMS bounds 2 (an RMS averages).
+  auto grow = [map_px](double* b, double sigmas) { *b = std::hypot(*b, sigmas * map_px); };
+  for (double* gate : {&refine_gate_px, &solve.outlier_threshold_px, &lis.refine_match.gate_px,
+                       &lis.solve.outlier_threshold_px})
+    if (*gate > 0.0) grow(gate, 4.0);  // (an outlier threshold <= 0 means no rejection: kept)
+  for (double* rms : {&max_rms_px, &lis.max_rms_px}) grow(rms, 2.0);
+}
+
+double BeaconMapErrorPx(const Rig& rig, double range_m) {
+  if (!(range_m > 0.0) || !(rig.beacon_sigma > 0.0)) return 0.0;
+  double px_per_rad = 0.0;
+  for (int k = 0; k < rig.num_cameras; ++k)
+    px_per_rad = std::max({px_per_rad, rig.cameras[static_cast<std::size_t>(k)].intrinsics.alpha_x,
+                           rig.cameras[static_cast<std::size_t>(k)].intrinsics.alpha_y});
+  return px_per_rad * rig.beacon_sigma / range_m;
+}
+
 bool Tracker::Reset(const Rig& rig) {
   rig_ = nullptr;
   prev_num_blobs_ = -1;
