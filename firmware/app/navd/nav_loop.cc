@@ -26,6 +26,10 @@ bool NavLoop::Configure(const NavLoopConfig& config, const char** why) {
     reason = "timeout, deadline, sigma and counts must be positive";
   } else if (source_ == nullptr || source_->num_cameras() != rig_->num_cameras) {
     reason = "the frame source's cameras do not match the rig's";
+  } else if (!(config.initial_sigma_m >= 0) || !(config.initial_sigma_rad >= 0) || !(config.reload_sigma_m >= 0) ||
+             !(config.reload_sigma_rad >= 0) || !config.initial_pose.r_w_wb.allFinite() ||
+             !config.initial_pose.C_w_b.allFinite()) {
+    reason = "the initial pose and the pose sigmas must be finite, sigmas >= 0";
   }
   if (reason != nullptr) {
     if (why != nullptr) *why = reason;
@@ -35,7 +39,10 @@ bool NavLoop::Configure(const NavLoopConfig& config, const char** why) {
   config_.navigator.track.solve.sigma_px = config.sigma_px;
   config_.navigator.track.lis.solve.sigma_px = config.sigma_px;
   for (BlobDetector& d : detectors_) d = BlobDetector(config_.detect);
-  return navigator_.Init(*rig_, config_.navigator, why);
+  if (!navigator_.Init(*rig_, config_.navigator, why)) return false;
+  if (config_.has_initial_pose)
+    navigator_.SetInitialPose(config_.initial_pose, config_.initial_sigma_m, config_.initial_sigma_rad);
+  return true;
 }
 
 bool NavLoop::Reload(const Rig& rig, std::uint64_t generation, const char** why) {
@@ -43,13 +50,17 @@ bool NavLoop::Reload(const Rig& rig, std::uint64_t generation, const char** why)
     if (why != nullptr) *why = "the new parameters have a different number of cameras";
     return false;
   }
+  BodyPose last;
+  const bool had_pose = navigator_.LastPose(&last);
   const Rig* old = rig_;
   rig_ = &rig;
   if (!navigator_.Init(rig, config_.navigator, why)) {
     rig_ = old;
     navigator_.Init(*old, config_.navigator, nullptr);
+    if (had_pose) navigator_.SetInitialPose(last, config_.reload_sigma_m, config_.reload_sigma_rad);
     return false;
   }
+  if (had_pose) navigator_.SetInitialPose(last, config_.reload_sigma_m, config_.reload_sigma_rad);
   config_.param_generation = generation;
   return true;
 }

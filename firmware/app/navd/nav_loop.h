@@ -31,6 +31,14 @@ struct NavLoopConfig {
   std::uint64_t param_generation = 0;
   DetectOptions detect;
   NavigatorOptions navigator;
+  // A known start pose (the dock): the first frame set with >= 3 beacons is a fix, without
+  // the acquisition over frames that lost-in-space needs when few beacons are in view.
+  bool has_initial_pose = false;
+  BodyPose initial_pose;
+  double initial_sigma_m = 0.01, initial_sigma_rad = 0.0175;  // its 1-sigma errors
+  // A reload keeps the track: the last pose seeds the new rig's with these 1-sigma errors
+  // (a new calibration moves the solved pose by millimetres and milliradians).
+  double reload_sigma_m = 0.01, reload_sigma_rad = 0.01;
 };
 
 enum class StepStatus : unsigned char { kOk = 0, kEndOfStream, kNotStarted };
@@ -60,7 +68,8 @@ class NavLoop {
 
   // Checks the configuration and sizes everything; *why names a problem.
   bool Configure(const NavLoopConfig& config, const char** why);
-  // Switches to a new rig (parameter reload) between frame sets; the track is reset.
+  // Switches to a new rig (parameter reload) between frame sets; the track is reset, seeded
+  // with the last pose (reload_sigma_*) when the last frame set had one.
   bool Reload(const Rig& rig, std::uint64_t generation, const char** why);
 
   // One frame set. *out (optional) receives the published pose record.

@@ -13,6 +13,7 @@
 #include <memory>
 
 #include "common/blob/param_blob.h"
+#include "common/rotation/rotation.h"
 #include "firmware/app/navd/nav_loop.h"
 #include "firmware/app/navd/navd_options.h"
 #include "firmware/drivers/gpio/gpio_line_io.h"
@@ -128,6 +129,9 @@ int Run(int argc, char** argv) {
   config.camera_retry_every = opt.camera_retry_every;
   config.health_every = opt.health_every;
   config.param_generation = info.generation;
+  config.has_initial_pose = InitialPoseOf(opt, &config.initial_pose);
+  config.initial_sigma_m = opt.initial_sigma_mm * 1e-3;
+  config.initial_sigma_rad = DegToRad(opt.initial_sigma_deg);
   auto loop = std::make_unique<NavLoop>(rig, source.get(), &trigger, &udp, &log);
   const char* reason = nullptr;
   if (!loop->Configure(config, &reason)) {

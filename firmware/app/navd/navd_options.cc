@@ -3,17 +3,20 @@
 #include <getopt.h>
 
 #include <cerrno>
+#include <cmath>
 #include <cstdarg>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+
+#include "common/rotation/rotation.h"
 
 namespace mfns::fw {
 namespace {
 
 enum : int {
   kParams = 1000, kSource, kDevice, kY16, kBuffers, kRate, kTrigger, kPulse, kOutput, kLog, kFrames, kTimeout,
-  kDeadline, kSigma, kHealthEvery, kRetryEvery, kSetAside, kPidFile, kQuiet, kHelp
+  kDeadline, kSigma, kHealthEvery, kRetryEvery, kSetAside, kInitialPose, kInitialSigma, kPidFile, kQuiet, kHelp
 };
 
 const option kLongOptions[] = {
@@ -27,6 +30,8 @@ const option kLongOptions[] = {
     {"health-every", required_argument, nullptr, kHealthEvery},
     {"camera-retry-every", required_argument, nullptr, kRetryEvery},
     {"camera-timeouts", required_argument, nullptr, kSetAside},
+    {"initial-pose", required_argument, nullptr, kInitialPose},
+    {"initial-sigma", required_argument, nullptr, kInitialSigma},
     {"pid-file", required_argument, nullptr, kPidFile},
     {"quiet", no_argument, nullptr, kQuiet},               {"help", no_argument, nullptr, kHelp},
     {nullptr, 0, nullptr, 0},
@@ -59,6 +64,21 @@ bool ParseDouble(const char* s, double lo, double hi, double* v) {
   return true;
 }
 
+// Parses exactly n comma-separated finite numbers.
+bool ParseList(const char* s, int n, double* out) {
+  const char* p = s;
+  for (int i = 0; i < n; ++i) {
+    errno = 0;
+    char* end = nullptr;
+    out[i] = std::strtod(p, &end);
+    if (errno != 0 || end == p || !std::isfinite(out[i])) return false;
+    const char want = i + 1 < n ? ',' : '\0';
+    if (*end != want) return false;
+    p = end + 1;
+  }
+  return true;
+}
+
 // Writes the one-line reason and returns kError.
 __attribute__((format(printf, 3, 4))) OptionsStatus Fail(char* why, std::size_t why_size, const char* fmt, ...) {
   va_list args;
@@ -69,6 +89,15 @@ __attribute__((format(printf, 3, 4))) OptionsStatus Fail(char* why, std::size_t 
 }
 
 }  // namespace
+
+bool InitialPoseOf(const NavdOptions& opt, BodyPose* pose) {
+  if (!opt.has_initial_pose) return false;
+  const auto& p = opt.initial_pose;
+  pose->r_w_wb = Eigen::Vector3d(p[0], p[1], p[2]) * 1e-3;
+  // The poses CSV's angles are the Euler angles of C_b_w (nav_loop.cc Publish).
+  pose->C_w_b = EulerToMatrix(EulerAngles{DegToRad(p[3]), DegToRad(p[4]), DegToRad(p[5])}).transpose();
+  return true;
+}
 
 const char* NavdUsage() {
   return "usage: mfns-navd --params FILE|DIR --source v4l2|replay:DIR [options]\n"
@@ -90,6 +119,8 @@ const char* NavdUsage() {
          "  --health-every N        health datagram every N frame sets (default: once a second)\n"
          "  --camera-retry-every N  frame sets between retries of a camera set aside (default: 1 s)\n"
          "  --camera-timeouts N     consecutive failures before a camera is set aside, default 3\n"
+         "  --initial-pose X,Y,Z,ROLL,PITCH,YAW  known start pose (mm, deg; as the poses CSV): no acquisition\n"
+         "  --initial-sigma MM,DEG  1-sigma errors of --initial-pose, default 10,1\n"
          "  --pid-file PATH         pid file for mfns-paramctl's reload signal (default /run/mfns-navd.pid; '' = none)\n"
          "  --quiet                 no per-second status line on stderr\n"
          "  --help                  this text\n";
@@ -193,6 +224,19 @@ OptionsStatus ParseNavdOptions(int argc, char** argv, NavdOptions* opt, char* wh
         if (!ParseLong(a, 1, 1000, &n)) return Fail(why, why_size, "--camera-timeouts: expected 1..1000, got '%s'", a);
         opt->camera_timeouts_to_set_aside = static_cast<int>(n);
         break;
+      case kInitialPose:
+        if (!ParseList(a, 6, opt->initial_pose.data()))
+          return Fail(why, why_size, "--initial-pose: expected X,Y,Z,ROLL,PITCH,YAW (mm, deg), got '%s'", a);
+        opt->has_initial_pose = true;
+        break;
+      case kInitialSigma: {
+        double v[2] = {0.0, 0.0};
+        if (!ParseList(a, 2, v) || v[0] < 0.0 || v[0] > 1e4 || v[1] < 0.0 || v[1] > 180.0)
+          return Fail(why, why_size, "--initial-sigma: expected MM,DEG (0..10000, 0..180), got '%s'", a);
+        opt->initial_sigma_mm = v[0];
+        opt->initial_sigma_deg = v[1];
+        break;
+      }
       case kPidFile:
         if (std::strlen(a) >= opt->pid_file.size()) return Fail(why, why_size, "--pid-file: path too long: '%s'", a);
         opt->pid_file.fill('\0');

@@ -8,6 +8,7 @@
 #include <cstdint>
 
 #include "common/limits.h"
+#include "common/rig/rig.h"
 
 namespace mfns::fw {
 
@@ -38,6 +39,12 @@ struct NavdOptions {
   int health_every = 0;          // a health datagram every N frame sets (0 = once a second)
   int camera_retry_every = 0;    // frame sets between retries of a set-aside camera (0 = 1 s)
   int camera_timeouts_to_set_aside = 3;
+  // --initial-pose X,Y,Z,ROLL,PITCH,YAW: a known start pose (the dock) in the poses CSV's
+  // terms (r_w_wb in mm; the paper's 2-1-3 Euler angles of C_b_w in deg), with its 1-sigma
+  // errors (--initial-sigma MM,DEG).
+  bool has_initial_pose = false;
+  std::array<double, 6> initial_pose{};
+  double initial_sigma_mm = 10.0, initial_sigma_deg = 1.0;
   Path pid_file{};               // --pid-file ("" = none); default /run/mfns-navd.pid
   bool quiet = false;
   bool help = false;
@@ -47,6 +54,9 @@ enum class OptionsStatus : unsigned char { kOk = 0, kHelp, kError };
 
 // Parses argv. On kError *why holds a one-line reason (NUL-terminated, truncated to why_size).
 OptionsStatus ParseNavdOptions(int argc, char** argv, NavdOptions* opt, char* why, std::size_t why_size);
+
+// The --initial-pose as a body pose (r_w_wb in m, C_w_b); false when none was given.
+bool InitialPoseOf(const NavdOptions& opt, BodyPose* pose);
 
 // Usage text for --help.
 const char* NavdUsage();

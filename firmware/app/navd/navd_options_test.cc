@@ -2,8 +2,12 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
+
 #include <string>
 #include <vector>
+
+#include "common/rotation/rotation.h"
 
 namespace mfns::fw {
 namespace {
@@ -45,6 +49,48 @@ TEST(NavdOptions, TheDesignCommandLine) {
   EXPECT_EQ(o.timeout_ms, 161);
   EXPECT_NEAR(o.deadline_ms, 53.763, 1e-3);
   EXPECT_EQ(o.health_every, 19);
+}
+
+// --initial-pose is in the poses CSV's terms: the pose it gives, logged, reads back the same
+// (the CSV's angles are the Euler angles of C_b_w, publishers.cc).
+TEST(NavdOptions, InitialPoseInThePosesCsvTerms) {
+  NavdOptions o;
+  std::string why;
+  BodyPose pose;
+  ASSERT_EQ(Parse({"--params", "p.bin", "--source", "replay:d"}, &o, &why), OptionsStatus::kOk) << why;
+  EXPECT_FALSE(InitialPoseOf(o, &pose));
+  ASSERT_EQ(Parse({"--params", "p.bin", "--source", "replay:d", "--initial-pose", "12.5,-30,4,1.5,-2,120",
+                   "--initial-sigma", "5,0.5"},
+                  &o, &why),
+            OptionsStatus::kOk)
+      << why;
+  ASSERT_TRUE(InitialPoseOf(o, &pose));
+  EXPECT_NEAR(pose.r_w_wb.x(), 0.0125, 1e-12);
+  EXPECT_NEAR(pose.r_w_wb.y(), -0.030, 1e-12);
+  EXPECT_NEAR(pose.r_w_wb.z(), 0.004, 1e-12);
+  const EulerAngles e = MatrixToEuler(pose.C_w_b.transpose());
+  EXPECT_NEAR(RadToDeg(e.phi), 1.5, 1e-9);
+  EXPECT_NEAR(RadToDeg(e.theta), -2.0, 1e-9);
+  EXPECT_NEAR(RadToDeg(e.psi), 120.0, 1e-9);
+  // Yaw alone: C_w_b turns body x towards world y.
+  ASSERT_EQ(Parse({"--params", "p.bin", "--source", "replay:d", "--initial-pose", "0,0,0,0,0,90"}, &o, &why),
+            OptionsStatus::kOk);
+  ASSERT_TRUE(InitialPoseOf(o, &pose));
+  EXPECT_NEAR((pose.C_w_b * Eigen::Vector3d::UnitX() - Eigen::Vector3d::UnitY()).norm(), 0.0, 1e-12);
+  EXPECT_DOUBLE_EQ(o.initial_sigma_mm, 10.0);
+  EXPECT_DOUBLE_EQ(o.initial_sigma_deg, 1.0);
+  for (const char* bad : {"1,2,3,4,5", "1,2,3,4,5,6,7", "1,2,3,4,5,x", "1,2,3,4,5,nan", "", "1,,3,4,5,6"}) {
+    EXPECT_EQ(Parse({"--params", "p.bin", "--source", "replay:d", "--initial-pose", bad}, &o, &why),
+              OptionsStatus::kError)
+        << bad;
+    EXPECT_NE(why.find("--initial-pose"), std::string::npos) << why;
+  }
+  for (const char* bad : {"5", "-1,1", "5,200", "a,b"}) {
+    EXPECT_EQ(Parse({"--params", "p.bin", "--source", "replay:d", "--initial-sigma", bad}, &o, &why),
+              OptionsStatus::kError)
+        << bad;
+    EXPECT_NE(why.find("--initial-sigma"), std::string::npos) << why;
+  }
 }
 
 TEST(NavdOptions, V4l2DevicesAndTrigger) {

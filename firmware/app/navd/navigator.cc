@@ -30,6 +30,8 @@ bool Navigator::Init(const Rig& rig, const NavigatorOptions& options, const char
     return false;
   }
   options_ = options;
+  pending_pose_ = have_last_ = false;
+  if (options_.scale_gates_to_rig) options_.track.ScalePixelGates(PixelGateScale(rig));
   // The gates must allow for the surveyed map's error (rig.beacon_sigma), seen at the range
   // the tracker sizes its gates for; derived from the caller's options at every Init (reload).
   options_.track.AllowForMapError(BeaconMapErrorPx(rig, options_.track.gate_depth_m));
@@ -38,7 +40,13 @@ bool Navigator::Init(const Rig& rig, const NavigatorOptions& options, const char
 
 void Navigator::Step(const BlobObs* blobs, int num_blobs, std::uint64_t t_ns, std::uint32_t delivered,
                      bool cameras_down, NavOutput* out) {
+  if (pending_pose_) {
+    tracker_.SetPose(initial_pose_, t_ns, initial_sigma_m_, initial_sigma_rad_);
+    pending_pose_ = false;
+  }
   const TrackStatus s = tracker_.Track(blobs, num_blobs, t_ns, options_.track, &result_, delivered);
+  have_last_ = s != TrackStatus::kLost;
+  if (have_last_) last_pose_ = result_.pose;
   out->source = result_.source;
   out->reason = ToNavReason(result_.reason);
   out->num_matches = 0;
@@ -63,6 +71,18 @@ void Navigator::Step(const BlobObs* blobs, int num_blobs, std::uint64_t t_ns, st
   out->num_matches = result_.matches.num_matches;
   for (int i = 0; i < out->num_matches; ++i)
     out->matches[static_cast<std::size_t>(i)] = result_.matches.matches[static_cast<std::size_t>(i)];
+}
+
+void Navigator::SetInitialPose(const BodyPose& pose, double sigma_m, double sigma_rad) {
+  initial_pose_ = pose;
+  initial_sigma_m_ = sigma_m;
+  initial_sigma_rad_ = sigma_rad;
+  pending_pose_ = true;
+}
+
+bool Navigator::LastPose(BodyPose* pose) const {
+  if (have_last_) *pose = last_pose_;
+  return have_last_;
 }
 
 }  // namespace mfns::fw

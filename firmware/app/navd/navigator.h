@@ -16,7 +16,10 @@
 namespace mfns::fw {
 
 struct NavigatorOptions {
-  TrackOptions track;
+  TrackOptions track;  // pixel gates sized for kGateReferencePxPerRad (the paper's cameras)
+  // Scale the track's pixel gates at every Init by the rig's focal length (PixelGateScale), so
+  // that they keep their angular size on other cameras.
+  bool scale_gates_to_rig = true;
   bool IsValid(const char** why = nullptr) const { return track.IsValid(why); }
 };
 
@@ -46,12 +49,24 @@ class Navigator {
   // camera is set aside (a fix is then reported degraded, reason kCameraDown).
   void Step(const BlobObs* blobs, int num_blobs, std::uint64_t t_ns, std::uint32_t delivered, bool cameras_down,
             NavOutput* out);
+  // Starts the track from a known pose (the dock; the pose before a parameter reload) with
+  // its 1-sigma errors (m, rad): taken at the next Step, as of that frame set's time, so that
+  // its first frame set with >= 3 beacons is a fix without the acquisition (tracker.h SetPose).
+  // Init forgets a pending pose.
+  void SetInitialPose(const BodyPose& pose, double sigma_m, double sigma_rad);
+  // The pose of the last Step, when it was not lost (fix or degraded).
+  bool LastPose(BodyPose* pose) const;
   const TrackCounters& counters() const { return tracker_.counters(); }
 
  private:
   NavigatorOptions options_;
   Tracker tracker_;
   TrackResult result_;
+  bool pending_pose_ = false;
+  BodyPose initial_pose_;
+  double initial_sigma_m_ = 0.0, initial_sigma_rad_ = 0.0;
+  bool have_last_ = false;
+  BodyPose last_pose_;
 };
 
 }  // namespace mfns::fw

@@ -60,6 +60,8 @@ struct SweepResult {
   int first_fix = -1;               // frame set of the first accepted pose
   int frames_3plus = 0;             // frame sets with >= 3 visible beacons after the first fix
   int fixes_3plus = 0;              // ... of them with a fix
+  int frames_3plus_all = 0;         // frame sets with >= 3 visible beacons, from the first on
+  int fixes_3plus_all = 0;          // ... of them with a fix
   int wrong = 0, fixes = 0;
   int lis_decidable = 0;            // frame sets that lost-in-space alone fixes
   int lis_decidable_fixed = 0;      // ... of them with a fix
@@ -68,7 +70,14 @@ struct SweepResult {
 // A yaw sweep of the paper rig (18.6 frame sets per second): `step_deg` per frame set,
 // centroid noise 0.1 px, `spurious` random blobs per frame set. Every accepted pose is checked
 // against the truth (pose and every identity).
-SweepResult Sweep(int spurious, int step_deg, std::uint64_t seed, bool with_lis_reference = false) {
+// start: a known start pose given to the navigator (SetInitialPose) with its 1-sigma errors.
+struct Start {
+  BodyPose pose;
+  double sigma_m = 0.0, sigma_rad = 0.0;
+};
+
+SweepResult Sweep(int spurious, int step_deg, std::uint64_t seed, bool with_lis_reference = false,
+                  const Start* start = nullptr) {
   static const Rig rig = PaperRig();
   static Navigator nav;
   static LostInSpace lis;  // the reference: lost-in-space alone on each frame set
@@ -78,6 +87,7 @@ SweepResult Sweep(int spurious, int step_deg, std::uint64_t seed, bool with_lis_
   const char* why = nullptr;
   EXPECT_TRUE(nav.Init(rig, opt, &why)) << (why ? why : "");
   EXPECT_TRUE(lis.Reset(rig));
+  if (start != nullptr) nav.SetInitialPose(start->pose, start->sigma_m, start->sigma_rad);
   std::mt19937_64 rng(seed);
   SweepResult r;
   NavOutput out;
@@ -88,6 +98,10 @@ SweepResult Sweep(int spurious, int step_deg, std::uint64_t seed, bool with_lis_
     nav.Step(s.blobs.data(), n, 1'000'000'000ull + static_cast<std::uint64_t>(i) * 53763441ull, kAllCameras, false,
              &out);
     const bool fix = out.status != NavStatus::kLost;
+    if (s.visible >= 3) {
+      ++r.frames_3plus_all;
+      r.fixes_3plus_all += fix;
+    }
     if (r.first_fix >= 0 && s.visible >= 3) {
       ++r.frames_3plus;
       r.fixes_3plus += fix;
@@ -132,6 +146,40 @@ TEST(Navigator, YawSweepFixesEveryFrameSetWithThreeBeacons) {
   EXPECT_GT(r.frames_3plus, 280);
   EXPECT_EQ(r.fixes_3plus, r.frames_3plus);
   EXPECT_EQ(r.wrong, 0);
+}
+
+// A known start pose (the dock) replaces the acquisition: a fix in every frame set with >= 3
+// beacons from the first on, also when the start pose is off by about its 1-sigma (5 mm,
+// 0.6 deg) and with spurious blobs; never a wrong fix.
+TEST(Navigator, InitialPoseFixesFromTheFirstFrameSet) {
+  Start start;
+  start.sigma_m = 0.01;
+  start.sigma_rad = DegToRad(1.0);
+  start.pose.r_w_wb = Eigen::Vector3d(0.005, -0.004, 0.003);
+  start.pose.C_w_b = Yaw(0.0).C_w_b * ExpSO3(Eigen::Vector3d(0.003, -0.004, 0.008));
+  const SweepResult r = Sweep(0, 1, 7, false, &start);
+  EXPECT_EQ(r.first_fix, 1);  // frame set 0 sees 2 beacons
+  EXPECT_GT(r.frames_3plus_all, 300);
+  EXPECT_EQ(r.fixes_3plus_all, r.frames_3plus_all);
+  EXPECT_EQ(r.wrong, 0);
+  const SweepResult noisy = Sweep(2, 1, 8, false, &start);
+  EXPECT_EQ(noisy.wrong, 0);
+  EXPECT_LE(noisy.first_fix, 3);
+  EXPECT_GT(noisy.fixes_3plus_all, noisy.frames_3plus_all * 9 / 10);
+}
+
+// A start pose that is wrong (90 deg off in yaw) gives no wrong fix and does not stop the
+// acquisition for good: the seed expires (max_seed_s) or a lost-in-space fix replaces it.
+TEST(Navigator, WrongInitialPoseGivesNoWrongFix) {
+  Start start;
+  start.pose = Yaw(90.0);
+  start.sigma_m = 0.01;
+  start.sigma_rad = DegToRad(1.0);
+  const SweepResult r = Sweep(0, 1, 9, false, &start);
+  EXPECT_EQ(r.wrong, 0);
+  EXPECT_GE(r.first_fix, 0);
+  EXPECT_LT(r.first_fix, 100);
+  EXPECT_EQ(r.fixes_3plus, r.frames_3plus);
 }
 
 TEST(Navigator, SpuriousBlobsNeverGiveAWrongFix) {

@@ -106,13 +106,24 @@ void TrackOptions::AllowForMapError(double map_px) {
   for (double* rms : {&max_rms_px, &lis.max_rms_px}) grow(rms, 2.0);
 }
 
-double BeaconMapErrorPx(const Rig& rig, double range_m) {
-  if (!(range_m > 0.0) || !(rig.beacon_sigma > 0.0)) return 0.0;
+namespace {
+double LargestFocalPx(const Rig& rig) {
   double px_per_rad = 0.0;
   for (int k = 0; k < rig.num_cameras; ++k)
     px_per_rad = std::max({px_per_rad, rig.cameras[static_cast<std::size_t>(k)].intrinsics.alpha_x,
                            rig.cameras[static_cast<std::size_t>(k)].intrinsics.alpha_y});
-  return px_per_rad * rig.beacon_sigma / range_m;
+  return px_per_rad;
+}
+}  // namespace
+
+double PixelGateScale(const Rig& rig) {
+  const double f = LargestFocalPx(rig);
+  return f > 0.0 && std::isfinite(f) ? f / kGateReferencePxPerRad : 1.0;
+}
+
+double BeaconMapErrorPx(const Rig& rig, double range_m) {
+  if (!(range_m > 0.0) || !(rig.beacon_sigma > 0.0)) return 0.0;
+  return LargestFocalPx(rig) * rig.beacon_sigma / range_m;
 }
 
 bool Tracker::Reset(const Rig& rig) {
@@ -132,14 +143,17 @@ bool Tracker::Reset(const Rig& rig) {
   return true;
 }
 
-void Tracker::SetPose(const BodyPose& pose, std::uint64_t t_ns) {
+void Tracker::SetPose(const BodyPose& pose, std::uint64_t t_ns, double sigma_m, double sigma_rad) {
   prev_num_blobs_ = -1;
   has_pose_ = has_seed_ = true;
   has_velocity_ = false;
   last_pose_ = pose;
   last_t_ns_ = t_ns;
-  last_sigma_m_ = last_sigma_rad_ = 0.0;
-  hist_n_ = 1;
+  last_sigma_m_ = std::isfinite(sigma_m) ? std::max(0.0, sigma_m) : 0.0;
+  last_sigma_rad_ = std::isfinite(sigma_rad) ? std::max(0.0, sigma_rad) : 0.0;
+  // An uncertain pose is no velocity sample: its error over one frame period would read as a
+  // fast motion and send the next prediction astray.
+  hist_n_ = last_sigma_m_ == 0.0 && last_sigma_rad_ == 0.0 ? 1 : 0;
   hist_[0] = pose;
   hist_t_ns_[0] = t_ns;
   chain_n_ = 0;

@@ -143,6 +143,12 @@ struct TrackOptions {
   void AllowForMapError(double map_px);
 };
 
+// The focal length (px/rad) the pixel gates of TrackOptions are sized for: the paper's cameras.
+inline constexpr double kGateReferencePxPerRad = 1600.0;
+// The factor for TrackOptions::ScalePixelGates that keeps the gates' angular size on `rig`:
+// its largest focal length over kGateReferencePxPerRad (1 when the rig has no camera).
+double PixelGateScale(const Rig& rig);
+
 // The image error (px, 1-sigma) that the beacon map's uncertainty (rig.beacon_sigma, m per
 // coordinate) causes at range_m with the rig's largest focal length; 0 when it is unknown.
 double BeaconMapErrorPx(const Rig& rig, double range_m);
@@ -177,9 +183,13 @@ class Tracker {
   // Forgets every pose. The rig must stay alive and unchanged until the next Reset.
   bool Reset(const Rig& rig);
 
-  // Starts tracking from a known pose at t_ns (e.g. the flyer leaves its dock): no velocity
-  // yet, so the next frame set is matched with hold_gate_px.
-  void SetPose(const BodyPose& pose, std::uint64_t t_ns);
+  // Starts tracking from a known pose at t_ns (e.g. the flyer leaves its dock, or the track
+  // carried over a parameter reload): no velocity yet, so the next frame set is matched with
+  // hold_gate_px, and the pose's 1-sigma errors (m, rad; 0: exact) widen the prediction's
+  // bounds by gate_sigmas of them. While the gate covering them exceeds max_gate_px, the pose
+  // seeds lost-in-space instead (only poses within the bounds are sought): a three-beacon
+  // frame set is then settled at once, without the acquisition's motion.
+  void SetPose(const BodyPose& pose, std::uint64_t t_ns, double sigma_m = 0.0, double sigma_rad = 0.0);
 
   // Identifies and solves one frame set; t_ns is its capture time (monotonic, ns). cameras: bit k
   // set when camera k delivered a frame in this frame set (a camera set aside or timed out

@@ -4,6 +4,7 @@
 
 #include <Eigen/Cholesky>
 
+#include <algorithm>
 #include <cstdio>
 #include <cstdlib>
 #include <random>
@@ -280,6 +281,25 @@ TEST(TrackerTest, SurveyedMapKeepsTheTrack) {
   o.AllowForMapError(0.0);
   EXPECT_EQ(o.max_rms_px, TrackOptions{}.max_rms_px);
   EXPECT_EQ(o.solve.outlier_threshold_px, TrackOptions{}.solve.outlier_threshold_px);
+}
+
+// The gates keep their angular size: the factor is the rig's largest focal length over the
+// paper cameras' 1600 px/rad (the same optics at a quarter of the pixels: a quarter).
+TEST(TrackerTest, PixelGateScaleFollowsTheFocalLength) {
+  Rig rig = PaperRig();
+  double f = 0.0;
+  for (int k = 0; k < rig.num_cameras; ++k)
+    f = std::max({f, rig.cameras[static_cast<std::size_t>(k)].intrinsics.alpha_x,
+                  rig.cameras[static_cast<std::size_t>(k)].intrinsics.alpha_y});
+  EXPECT_NEAR(PixelGateScale(rig), f / 1600.0, 1e-12);
+  EXPECT_NEAR(PixelGateScale(rig), 1.0, 0.01);  // Table 2's cameras: ~1600 px/rad
+  for (int k = 0; k < rig.num_cameras; ++k) {
+    rig.cameras[static_cast<std::size_t>(k)].intrinsics.alpha_x /= 4;
+    rig.cameras[static_cast<std::size_t>(k)].intrinsics.alpha_y /= 4;
+  }
+  EXPECT_NEAR(PixelGateScale(rig), f / 6400.0, 1e-12);
+  rig.num_cameras = 0;
+  EXPECT_EQ(PixelGateScale(rig), 1.0);
 }
 
 TEST(TrackerTest, StatusesCountersAndOptions) {

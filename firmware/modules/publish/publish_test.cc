@@ -173,6 +173,7 @@ TEST(PoseLog, WritesTheDesignCsvAndRenamesOnClose) {
   r.q_w_b = Eigen::Quaterniond(EulerToMatrix({DegToRad(1), DegToRad(2), DegToRad(30)}).transpose());
   r.num_beacons = 4;
   r.residual_rms_px = 0.25f;
+  r.reason = NavReason::kCameraDown;
   ASSERT_EQ(log.Write(r), PublishStatus::kOk);
   EXPECT_FALSE(std::filesystem::exists(path));  // only the .partial until Close
   ASSERT_EQ(log.Close(), PublishStatus::kOk);
@@ -180,8 +181,8 @@ TEST(PoseLog, WritesTheDesignCsvAndRenamesOnClose) {
   std::string header, row;
   std::getline(in, header);
   std::getline(in, row);
-  EXPECT_EQ(header, "frame,t_ns,status,x_mm,y_mm,z_mm,roll_deg,pitch_deg,yaw_deg,n_beacons,rms_px");
-  EXPECT_EQ(row, "12,1053763441,fix,1.0000,-2.0000,3.5000,1.000000,2.000000,30.000000,4,0.2500");
+  EXPECT_EQ(header, "frame,t_ns,status,x_mm,y_mm,z_mm,roll_deg,pitch_deg,yaw_deg,n_beacons,rms_px,reason");
+  EXPECT_EQ(row, "12,1053763441,fix,1.0000,-2.0000,3.5000,1.000000,2.000000,30.000000,4,0.2500,camera down");
   EXPECT_FALSE(std::filesystem::exists(path + ".partial"));
   EXPECT_EQ(log.Open((tmpl + "/missing/x.csv").c_str()), PublishStatus::kFileError);
   std::filesystem::remove_all(tmpl);

@@ -96,7 +96,7 @@ PublishStatus PoseLog::Open(const char* path) {
   file_ = std::fopen(partial_, "w");
   if (file_ == nullptr) return PublishStatus::kFileError;
   std::setvbuf(file_, buffer_, _IOFBF, sizeof(buffer_));  // our buffer: no heap in stdio
-  if (std::fputs("frame,t_ns,status,x_mm,y_mm,z_mm,roll_deg,pitch_deg,yaw_deg,n_beacons,rms_px\n", file_) < 0) {
+  if (std::fputs("frame,t_ns,status,x_mm,y_mm,z_mm,roll_deg,pitch_deg,yaw_deg,n_beacons,rms_px,reason\n", file_) < 0) {
     ++counters_.log_errors;
     return PublishStatus::kFileError;
   }
@@ -107,10 +107,10 @@ PublishStatus PoseLog::Write(const PoseRecord& r) {
   if (file_ == nullptr) return PublishStatus::kNotOpen;
   const Eigen::Vector3d p_mm = r.r_w_wb * 1e3;
   const EulerAngles e = MatrixToEuler(r.q_w_b.toRotationMatrix().transpose());  // of C_b_w
-  const int n = std::fprintf(file_, "%u,%llu,%s,%.4f,%.4f,%.4f,%.6f,%.6f,%.6f,%u,%.4f\n", r.frame_set,
+  const int n = std::fprintf(file_, "%u,%llu,%s,%.4f,%.4f,%.4f,%.6f,%.6f,%.6f,%u,%.4f,%s\n", r.frame_set,
                              static_cast<unsigned long long>(r.t_capture_ns), ToString(r.status), p_mm.x(), p_mm.y(),
                              p_mm.z(), RadToDeg(e.phi), RadToDeg(e.theta), RadToDeg(e.psi), r.num_beacons,
-                             static_cast<double>(r.residual_rms_px));
+                             static_cast<double>(r.residual_rms_px), ToString(r.reason));
   if (n < 0 || std::fflush(file_) != 0) {
     ++counters_.log_errors;
     return PublishStatus::kFileError;

@@ -52,7 +52,8 @@ class UdpPublisher {
 };
 
 // The poses CSV (DESIGN.md): frame,t_ns,status,x_mm,y_mm,z_mm,roll_deg,pitch_deg,yaw_deg,
-// n_beacons,rms_px. Rows go to "<path>.partial" and are flushed per frame set (a crash keeps
+// n_beacons,rms_px, plus an extension column `reason` (NavReason's text; readers find columns
+// by name, README "Extensions"). Rows go to "<path>.partial" and are flushed per frame set (a crash keeps
 // what was logged); Close renames it to <path>, so <path> only ever holds a finished log.
 class PoseLog {
  public:
