@@ -5,7 +5,7 @@
 # stage and number.
 #
 #   scripts/demo.sh [OUT] [--out DIR] [--frames N] [--seed S] [--threads N] [--fast-detect]
-#                   [--no-build] [--bin DIR]
+#                   [--cold-start] [--no-build] [--bin DIR]
 #
 #   1. calibration dataset   mfns-sim calib-dataset --preset paper-calibration (Section 4.2 with the
 #                            paper's error sources: centroid noise, 8 arcsec turntable angles)
@@ -14,7 +14,10 @@
 #                            beacon map's 0.4 mm survey error; the TRUE rig renders the frames
 #   4. the flyer's blob      the ml cameras + the surveyed map (mfns-sim merge-rig, mfns-calib blob)
 #   5. flash                 mfns-flash into the local flyer store OUT/flyer/store
-#   6. navigate              mfns-navd --params OUT/flyer/store --source replay:OUT/sweep --log
+#   6. navigate              mfns-navd --params OUT/flyer/store --source replay:OUT/sweep --log,
+#                            starting from the turntable's home pose (--initial-pose 0,0,0,0,0,0:
+#                            the sweep starts there); --cold-start: no start pose, lost-in-space
+#                            and the acquisition over ~20 frame sets instead
 #   7. the paper's pipeline  mfns-sim solve-given: Newton on the true correspondences, CPC rig
 #   8. tables + report       mfns-sim report (stdout, OUT/report.html)
 #
@@ -30,6 +33,7 @@ threads=$(nproc)
 build=1
 bin=build/host/bin
 calib_opts=()
+start_pose=(--initial-pose 0,0,0,0,0,0)
 while [ $# -gt 0 ]; do
   case "$1" in
     --out) out=$2; shift 2 ;;
@@ -38,8 +42,9 @@ while [ $# -gt 0 ]; do
     --threads) threads=$2; shift 2 ;;
     --no-build) build=0; shift ;;
     --fast-detect) calib_opts+=(--fast-detect); shift ;;
+    --cold-start) start_pose=(); shift ;;
     --bin) bin=$2; shift 2 ;;
-    -h|--help) sed -n '2,23p' "$0"; exit 0 ;;
+    -h|--help) sed -n '2,25p' "$0"; exit 0 ;;
     -*) echo "demo: unknown option $1 (see --help)" >&2; exit 1 ;;
     *) out=$1; shift ;;
   esac
@@ -101,7 +106,7 @@ run flash "$bin/mfns-flash" "$out/flyer.bin" "$out/flyer/store" --no-signal
 
 say "6/8 navigate: mfns-navd replays $frames frame sets with the store's parameters"
 run navd "$bin/mfns-navd" --params "$out/flyer/store" --source "replay:$sweep" --log "$out/navd-poses.csv" \
-  --pid-file '' --quiet
+  --pid-file '' --quiet "${start_pose[@]}"
 
 say "7/8 the paper's pipeline: CPC rig, Newton on the true correspondences"
 run merge-paper "$bin/mfns-sim" merge-rig --cameras "$out/calib-paper/rig.yaml" --beacons "$sweep/believed-rig.yaml" \

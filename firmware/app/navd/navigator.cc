@@ -34,7 +34,12 @@ bool Navigator::Init(const Rig& rig, const NavigatorOptions& options, const char
   if (options_.scale_gates_to_rig) options_.track.ScalePixelGates(PixelGateScale(rig));
   // The gates must allow for the surveyed map's error (rig.beacon_sigma), seen at the range
   // the tracker sizes its gates for; derived from the caller's options at every Init (reload).
-  options_.track.AllowForMapError(BeaconMapErrorPx(rig, options_.track.gate_depth_m));
+  const double map_px = BeaconMapErrorPx(rig, options_.track.gate_depth_m);
+  options_.track.AllowForMapError(map_px);
+  // The solve's covariance counts centroid noise only (the tracker's bounds want that); the
+  // published one adds the map's error as image noise, so that its 1-sigma is honest.
+  const double sigma_px = options_.track.solve.sigma_px;
+  covariance_scale_ = map_px > 0.0 ? (sigma_px * sigma_px + map_px * map_px) / (sigma_px * sigma_px) : 1.0;
   return true;
 }
 
@@ -64,7 +69,8 @@ void Navigator::Step(const BlobObs* blobs, int num_blobs, std::uint64_t t_ns, st
   }
   const SolveResult& r = result_.solve;
   out->pose = result_.pose;
-  out->covariance = r.has_covariance ? r.covariance : Eigen::Matrix<double, 6, 6>::Zero();
+  out->covariance = r.has_covariance ? Eigen::Matrix<double, 6, 6>(covariance_scale_ * r.covariance)
+                                     : Eigen::Matrix<double, 6, 6>::Zero();
   out->num_beacons = r.num_beacons;
   out->beacons_per_camera = r.inliers_per_camera;
   out->rms_px = r.rms_px;

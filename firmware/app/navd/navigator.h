@@ -23,6 +23,9 @@ struct NavigatorOptions {
   bool IsValid(const char** why = nullptr) const { return track.IsValid(why); }
 };
 
+// covariance: of the pose, for the image noise sigma_px plus the beacon map's error
+// (BeaconMapErrorPx at the gates' depth) as if it were image noise: with a 0.4 mm survey the
+// map's ~1.3 px dominates 0.1-0.15 px of centroid noise.
 struct NavOutput {
   NavStatus status = NavStatus::kLost;
   NavReason reason = NavReason::kNoFrames;
@@ -67,6 +70,7 @@ class Navigator {
   double initial_sigma_m_ = 0.0, initial_sigma_rad_ = 0.0;
   bool have_last_ = false;
   BodyPose last_pose_;
+  double covariance_scale_ = 1.0;  // published covariance / the solve's (map error)
 };
 
 }  // namespace mfns::fw

@@ -103,7 +103,7 @@ void TrackOptions::AllowForMapError(double map_px) {
   for (double* gate : {&refine_gate_px, &solve.outlier_threshold_px, &lis.refine_match.gate_px,
                        &lis.solve.outlier_threshold_px})
     if (*gate > 0.0) grow(gate, 4.0);  // (an outlier threshold <= 0 means no rejection: kept)
-  for (double* rms : {&max_rms_px, &lis.max_rms_px}) grow(rms, 2.0);
+  for (double* rms : {&max_rms_px, &lis.max_rms_px, &degraded_rms_px}) grow(rms, 2.0);
 }
 
 namespace {

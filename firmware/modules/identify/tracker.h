@@ -132,14 +132,17 @@ struct TrackOptions {
   // (e.g. 0.25 for the same optics at 320 x 256), so that they keep their angular size.
   // (Residual bounds in px are left: they follow the centroid noise, not the focal length.)
   void ScalePixelGates(double factor);
-  // The residual bounds above (max_rms_px, refine_gate_px, solve.outlier_threshold_px, and
-  // lost-in-space's max_rms_px, refine_match.gate_px, solve.outlier_threshold_px) are sized for
+  // The residual bounds above (max_rms_px, degraded_rms_px, refine_gate_px,
+  // solve.outlier_threshold_px, and lost-in-space's max_rms_px, refine_match.gate_px,
+  // solve.outlier_threshold_px) are sized for
   // centroid noise (~0.1 px). A surveyed beacon map adds map_px (1-sigma, px; BeaconMapErrorPx)
   // to every residual, and a three-beacon pose passes it on, amplified, to the beacons it
   // predicts: then a true beacon entering the view is dropped as an outlier or found "missing",
   // the track is refuted and re-acquisition takes many frame sets. Each bound b becomes
   // sqrt(b^2 + (k map_px)^2), k = 4 for residual gates and 2 for the RMS bounds (map_px <= 0:
-  // unchanged). Call once on the options (not cumulative).
+  // unchanged). Call once on the options (not cumulative). (The covariance is left at the
+  // centroid noise: the prediction's bounds grow with it, and the map's error, the same for
+  // frame sets that see the same beacons, does not spread the motion estimate like noise.)
   void AllowForMapError(double map_px);
 };
 

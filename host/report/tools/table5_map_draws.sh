@@ -6,11 +6,15 @@
 #   paper  CPC cameras + map S -> mfns-sim solve-given (Newton, true correspondences)
 # and prints per pipeline and axis the RMS over draws of the sweep's std and of its mean.
 #   host/report/tools/table5_map_draws.sh BIN_DIR DEMO_OUT [N] [extra mfns-sim report options]
-# DEMO_OUT is the --out of scripts/demo.sh (sweep/, calib-ml/, calib-paper/).
+# DEMO_OUT is the --out of scripts/demo.sh (sweep/, calib-ml/, calib-paper/). mfns-navd starts
+# from the turntable's home pose like the demo (--initial-pose 0,0,0,0,0,0); COLD_START=1 in the
+# environment drops it (lost-in-space and the acquisition instead).
 set -euo pipefail
 bin=${1:?BIN_DIR (e.g. build/host/bin)}
 demo=${2:?DEMO_OUT (e.g. out/demo)}
 n=${3:-20}
+start_pose=(--initial-pose 0,0,0,0,0,0)
+[ "${COLD_START:-0}" = 1 ] && start_pose=()
 shift $(( $# < 3 ? $# : 3 ))
 work="$demo/map-draws"
 mkdir -p "$work"
@@ -22,7 +26,8 @@ for s in $(seq 1 "$n"); do
   "$bin/mfns-sim" merge-rig --cameras "$demo/calib-ml/rig.yaml" --beacons "$d/believed-rig.yaml" --out "$d/ml.yaml" 2> /dev/null
   "$bin/mfns-sim" merge-rig --cameras "$demo/calib-paper/rig.yaml" --beacons "$d/believed-rig.yaml" --out "$d/cpc.yaml" 2> /dev/null
   "$bin/mfns-calib" blob "$d/ml.yaml" --out "$d/ml.bin" --generation "$s" 2> /dev/null
-  "$bin/mfns-navd" --params "$d/ml.bin" --source "replay:$demo/sweep" --log "$d/navd.csv" --pid-file '' --quiet 2> /dev/null
+  "$bin/mfns-navd" --params "$d/ml.bin" --source "replay:$demo/sweep" --log "$d/navd.csv" --pid-file '' --quiet \
+    "${start_pose[@]}" 2> /dev/null
   "$bin/mfns-sim" solve-given "$demo/sweep" --rig "$d/cpc.yaml" --out "$d/given.csv" > /dev/null
   "$bin/mfns-sim" report --sim "$demo/sweep" --poses "ours=$d/navd.csv" --poses "paper=$d/given.csv" "$@" 2> /dev/null |
     tee "$d/table5.txt" | sed -n '3,8p' | sed "s/^/draw $s:/"
