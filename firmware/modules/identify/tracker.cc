@@ -84,6 +84,7 @@ bool TrackOptions::IsValid(const char** why) const {
 
   else if (!positive(twin_m) || !positive(twin_rad)) bad = "twin";
   else if (!positive(innovation_m) || !positive(innovation_rad)) bad = "innovation";
+  else if (!(map_error_px >= 0.0) || !std::isfinite(map_error_px)) bad = "map_error_px";
   else if (!solve.IsValid(&sub)) bad = sub;
   if (why != nullptr) *why = bad != nullptr ? bad : "ok";
   return bad == nullptr;
@@ -104,6 +105,7 @@ void TrackOptions::AllowForMapError(double map_px) {
                        &lis.solve.outlier_threshold_px})
     if (*gate > 0.0) grow(gate, 4.0);  // (an outlier threshold <= 0 means no rejection: kept)
   for (double* rms : {&max_rms_px, &lis.max_rms_px, &degraded_rms_px}) grow(rms, 2.0);
+  map_error_px = map_px;
 }
 
 namespace {
@@ -151,6 +153,7 @@ void Tracker::SetPose(const BodyPose& pose, std::uint64_t t_ns, double sigma_m, 
   last_t_ns_ = t_ns;
   last_sigma_m_ = std::isfinite(sigma_m) ? std::max(0.0, sigma_m) : 0.0;
   last_sigma_rad_ = std::isfinite(sigma_rad) ? std::max(0.0, sigma_rad) : 0.0;
+  last_map_sigma_m_ = last_map_sigma_rad_ = 0.0;
   // An uncertain pose is no velocity sample: its error over one frame period would read as a
   // fast motion and send the next prediction astray.
   hist_n_ = last_sigma_m_ == 0.0 && last_sigma_rad_ == 0.0 ? 1 : 0;
@@ -265,8 +268,16 @@ bool Tracker::TrackFrom(const BodyPose& predicted, double max_m, double max_rad,
   // Innovation test: the solved pose must be where the motion model allows. Three matches
   // fit any pose exactly, so one wrong match (a spurious blob in a beacon's gate) shows only
   // here, as a jump. (Not a refutation of the prior: a wrong match proves nothing about it.)
-  if ((r->pose.r_w_wb - predicted.r_w_wb).norm() > max_m ||
-      LogSO3(predicted.C_w_b.transpose() * r->pose.C_w_b).norm() > max_rad) {
+  double allow_m = max_m, allow_rad = max_rad;
+  if (o.map_error_px > 0.0 && r->solve.has_covariance) {
+    // The solved pose's own error for the map's error (its covariance is for sigma_px).
+    const double scale = std::hypot(1.0, o.map_error_px / o.solve.sigma_px);
+    const Eigen::Matrix<double, 6, 6>& P = r->solve.covariance;
+    allow_m += o.gate_sigmas * scale * std::sqrt(std::max({P(0, 0), P(1, 1), P(2, 2)}));
+    allow_rad += o.gate_sigmas * scale * std::sqrt(std::max({P(3, 3), P(4, 4), P(5, 5)}));
+  }
+  if ((r->pose.r_w_wb - predicted.r_w_wb).norm() > allow_m ||
+      LogSO3(predicted.C_w_b.transpose() * r->pose.C_w_b).norm() > allow_rad) {
     ++counters_.innovation_refused;
     return false;
   }
@@ -501,6 +512,9 @@ void Tracker::Accept(std::uint64_t t_ns, const TrackOptions& o, TrackResult* r) 
   const Eigen::Matrix<double, 6, 6>& P = r->solve.covariance;
   last_sigma_m_ = r->solve.has_covariance ? std::sqrt(std::max({P(0, 0), P(1, 1), P(2, 2)})) : 0.0;
   last_sigma_rad_ = r->solve.has_covariance ? std::sqrt(std::max({P(3, 3), P(4, 4), P(5, 5)})) : 0.0;
+  const double map_scale = o.map_error_px > 0.0 ? o.map_error_px / o.solve.sigma_px : 0.0;
+  last_map_sigma_m_ = map_scale * last_sigma_m_;
+  last_map_sigma_rad_ = map_scale * last_sigma_rad_;
   chain_n_ = 0;
   // Fix or degraded.
   const double sigma_r = last_sigma_m_, sigma_a = last_sigma_rad_;
@@ -570,10 +584,15 @@ TrackStatus Tracker::TrackOnce(const BlobObs* blobs, int num_blobs, std::uint64_
     const BodyPose predicted = Predict(t_ns);
     double max_m = 0.0, max_rad = 0.0;
     PredictionBounds(since, o, &max_m, &max_rad);
-    const double gate = (has_velocity_ ? o.gate_px : o.hold_gate_px) +
-                        px_per_rad_ * ((max_rad - o.innovation_rad) + (max_m - o.innovation_m) / o.gate_depth_m);
+    double gate = (has_velocity_ ? o.gate_px : o.hold_gate_px) +
+                  px_per_rad_ * ((max_rad - o.innovation_rad) + (max_m - o.innovation_m) / o.gate_depth_m);
     bool refuted = false;
     if (gate <= o.max_gate_px) {
+      // The map's error moves the last pose by last_map_sigma_* (a bias the frame sets that see
+      // the same beacons share): a beacon entering the view lands that much off its prediction
+      // (seen: 20 px after three-beacon poses of a 0.4 mm survey). Widened up to max_gate_px.
+      gate = std::min(o.max_gate_px, gate + o.gate_sigmas * px_per_rad_ *
+                                                (last_map_sigma_rad_ + last_map_sigma_m_ / o.gate_depth_m));
       // A beacon predicted well inside an image (by more than the gate) with no blob in its
       // gate refutes the prediction (a kidnapped body, a wrong track).
       matcher_.MatchPose(predicted, MatchOptions{gate, o.miss_margin_px + gate, false}, &set_);

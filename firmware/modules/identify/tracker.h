@@ -124,6 +124,11 @@ struct TrackOptions {
   // acceleration bounds over the elapsed time and gate_sigmas of the last pose's 1-sigma.
   double innovation_m = 0.02;
   double innovation_rad = 0.02;
+  // The beacon map's error seen as image noise (px, 1-sigma; set by AllowForMapError). A
+  // tracked pose may then also differ from the prediction by gate_sigmas of its own 1-sigma
+  // for that noise: when a beacon leaves the view, the pose on the remaining three jumps by the
+  // map's error, amplified by their weaker geometry.
+  double map_error_px = 0.0;
   SolveOptions solve;
 
   bool IsValid(const char** why = nullptr) const;
@@ -140,7 +145,7 @@ struct TrackOptions {
   // predicts: then a true beacon entering the view is dropped as an outlier or found "missing",
   // the track is refuted and re-acquisition takes many frame sets. Each bound b becomes
   // sqrt(b^2 + (k map_px)^2), k = 4 for residual gates and 2 for the RMS bounds (map_px <= 0:
-  // unchanged). Call once on the options (not cumulative). (The covariance is left at the
+  // unchanged), and map_error_px = map_px. Call once on the options (not cumulative). (The covariance is left at the
   // centroid noise: the prediction's bounds grow with it, and the map's error, the same for
   // frame sets that see the same beacons, does not spread the motion estimate like noise.)
   void AllowForMapError(double map_px);
@@ -247,6 +252,7 @@ class Tracker {
   double velocity_baseline_s_ = 1.0;
   double last_sigma_rad_ = 0.0;  // attitude 1-sigma of the last pose
   double last_sigma_m_ = 0.0;    // position 1-sigma of the last pose
+  double last_map_sigma_m_ = 0.0, last_map_sigma_rad_ = 0.0;  // its 1-sigma for the map's error
   double px_per_rad_ = 0.0;      // largest focal length of the rig
   int hist_n_ = 0;               // recent accepted poses, newest first
   std::array<BodyPose, limits::kMaxTrackHistory> hist_{};
