@@ -50,7 +50,7 @@
 #include "firmware/lib/in_process_source.h"
 #include "firmware/modules/detect/detect.h"
 #include "firmware/modules/identify/tracker.h"
-#include "firmware/modules/solve/testing_alloc.h"
+#include "firmware/lib/testing/alloc_counter.h"
 #include "host/sim/render/spot.h"
 #include "host/sim/render/visibility.h"
 #include "host/sim/scenario/scenario.h"
@@ -230,9 +230,9 @@ void BM_FrameSet_NavLoop(benchmark::State& state) {
     const std::uint64_t t_ns = CaptureNs(fs, r.n);
     for (int k = 0; k < fs.rig.num_cameras; ++k)
       source.Push(k, View(fs.images[f][static_cast<std::size_t>(k)], k, t_ns, static_cast<std::uint32_t>(r.n)));
-    const long a0 = testing_alloc::Count();
+    const auto a0 = static_cast<long>(mfns::fw::testing::AllocationCount());
     loop->Step(&rec);
-    allocs += testing_alloc::Count() - a0;
+    allocs += static_cast<long>(mfns::fw::testing::AllocationCount()) - a0;
     ++r.n;
   };
   const auto restart = [&]() { loop->Reload(fs.rig, 0, nullptr); };  // forgets the track

@@ -12,7 +12,7 @@
 #include "firmware/lib/in_process_source.h"
 #include "firmware/modules/detect/detect_testing.h"
 #include "firmware/modules/solve/synthetic_scene.h"
-#include "firmware/modules/solve/testing_alloc.h"
+#include "firmware/lib/testing/alloc_counter.h"
 
 namespace mfns::fw {
 namespace {
@@ -131,7 +131,7 @@ TEST(NavLoop, NoAllocationAfterStartAndFixesFromImages) {
   ASSERT_TRUE(loop->Configure(Config(), &why)) << why;
 
   const long sets = FrameSetsForAllocationTest();
-  const long before = testing_alloc::Count();
+  const std::uint64_t before = testing::AllocationCount();
   long first_fix = -1, sets_3plus = 0, fixes_3plus = 0, wrong = 0;
   PoseRecord rec;
   for (long n = 0; n < sets; ++n) {
@@ -151,7 +151,7 @@ TEST(NavLoop, NoAllocationAfterStartAndFixesFromImages) {
   std::printf("%ld frame sets of 320x256 images: first fix at %ld, then fix in %ld of %ld frame sets with >= 3 "
               "beacons, %ld wrong\n",
               sets, first_fix, fixes_3plus, sets_3plus, wrong);
-  EXPECT_EQ(testing_alloc::Count() - before, 0) << "heap allocations after start";
+  EXPECT_EQ(testing::AllocationCount() - before, 0u) << "heap allocations after start";
   EXPECT_GE(first_fix, 0);
   EXPECT_LT(first_fix, 40);
   // (Measured: 8221 of 8572. The frame sets without a fix follow the long gap of the sweep

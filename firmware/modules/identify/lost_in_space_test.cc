@@ -8,7 +8,7 @@
 #include "common/rig/paper_rig.h"
 #include "common/rotation/rotation.h"
 #include "firmware/modules/solve/synthetic_scene.h"
-#include "firmware/modules/solve/testing_alloc.h"
+#include "firmware/lib/testing/alloc_counter.h"
 
 namespace mfns::fw {
 namespace {
@@ -319,7 +319,7 @@ TEST(LostInSpaceTest, PriorKeepsOnlyNearbyPoses) {
 TEST(LostInSpaceTest, NoHeapAllocation) {
   const Rig rig = PaperRig();
   std::mt19937_64 rng(11);
-  const long before = testing_alloc::Count();
+  const std::uint64_t before = testing::AllocationCount();
   ASSERT_TRUE(g_lis.Reset(rig));
   int fixes = 0;
   for (int step = 0; step < 360; step += testing::Trials(12, 120)) {
@@ -327,7 +327,7 @@ TEST(LostInSpaceTest, NoHeapAllocation) {
     testing::AddSpurious(rig, 1, &rng, &g_scene);
     fixes += g_lis.Identify(g_scene.blobs.data(), g_scene.num_blobs, LisOptions{}, &g_res) == LisStatus::kFix;
   }
-  EXPECT_EQ(testing_alloc::Count() - before, 0);
+  EXPECT_EQ(testing::AllocationCount() - before, 0u);
   (void)fixes;
 }
 

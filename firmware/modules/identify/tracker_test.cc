@@ -12,7 +12,7 @@
 #include "common/rig/paper_rig.h"
 #include "common/rotation/rotation.h"
 #include "firmware/modules/solve/synthetic_scene.h"
-#include "firmware/modules/solve/testing_alloc.h"
+#include "firmware/lib/testing/alloc_counter.h"
 
 namespace mfns::fw {
 namespace {
@@ -123,7 +123,7 @@ TEST(TrackerTest, PaperYawSweep) {
     ASSERT_TRUE(g_tracker.Reset(rig));
     std::mt19937_64 rng(300 + static_cast<std::uint64_t>(spurious));
     Sweep run;
-    const long allocations = testing_alloc::Count();
+    const std::uint64_t allocations = testing::AllocationCount();
     const int frames = testing::Trials(720, 200);  // two turns
     for (int step = 0; step < frames; ++step) {
       testing::Observe(rig, testing::YawPose(DegToRad(step)), 0.2, &rng, &g_scene);
@@ -133,7 +133,7 @@ TEST(TrackerTest, PaperYawSweep) {
     char what[64];
     std::snprintf(what, sizeof what, "paper yaw sweep, %d spurious", spurious);
     run.Print(what);
-    EXPECT_EQ(testing_alloc::Count() - allocations, 0);
+    EXPECT_EQ(testing::AllocationCount() - allocations, 0u);
     EXPECT_EQ(run.wrong, 0);
     EXPECT_GE(run.first_fix, 0);
     EXPECT_LT(run.first_fix, 60);

@@ -11,7 +11,7 @@
 #include "common/rotation/rotation.h"
 #include "common/testing/numeric_diff.h"
 #include "firmware/modules/solve/synthetic_scene.h"
-#include "firmware/modules/solve/testing_alloc.h"
+#include "firmware/lib/testing/alloc_counter.h"
 
 namespace mfns::fw {
 namespace {
@@ -398,11 +398,11 @@ TEST(SolveTest, NoHeapAllocationOverManySolves) {
   const int n = TruthMatches(s, &m);
   s.blobs[0].uv_px.x() += 20.0;  // exercise the outlier path too
   const BodyPose start = Perturb(truth, 5.0, 0.05, &rng);
-  const long before = testing_alloc::Count();
+  const std::uint64_t before = testing::AllocationCount();
   int ok = 0;
   for (int i = 0; i < testing::Trials(2000, 200); ++i)
     ok += SolvePose(rig, s.blobs.data(), s.num_blobs, m.data(), n, start, {}, &r) == SolveStatus::kOk;
-  EXPECT_EQ(testing_alloc::Count() - before, 0);
+  EXPECT_EQ(testing::AllocationCount() - before, 0u);
   EXPECT_EQ(ok, testing::Trials(2000, 200));
 }
 
