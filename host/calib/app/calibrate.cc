@@ -48,30 +48,8 @@ RigCalibration FromHandEye(const CalibInput& in, const IntrinsicsStage& st, cons
     rig.cameras.push_back(c);
   }
   rig.residuals = RigResiduals(in, rig, st.view_T_w_k);
-  std::vector<double> sum2(in.cameras.size(), 0.0), n(in.cameras.size(), 0.0);
-  double all2 = 0, alln = 0;
-  for (const ViewResidual& r : rig.residuals) {
-    const std::size_t k = static_cast<std::size_t>(in.views[static_cast<std::size_t>(r.view)].camera);
-    for (const Eigen::Vector2d& e : r.residual)
-      if (e.allFinite()) {
-        sum2[k] += e.squaredNorm();
-        n[k] += 1;
-      }
-  }
-  for (std::size_t k = 0; k < in.cameras.size(); ++k) {
-    rig.cameras[k].rms_px = n[k] > 0 ? std::sqrt(sum2[k] / n[k]) : 0.0;
-    all2 += sum2[k];
-    alln += n[k];
-  }
-  rig.rms_px = alln > 0 ? std::sqrt(all2 / alln) : 0.0;
-  for (std::size_t v = 0; v < in.views.size(); ++v)
-    if (in.views[v].kind == ImageKind::kTurntable) {
-      AngleResult a;
-      a.view = static_cast<int>(v);
-      a.main_cmd = a.main_est = in.views[v].main_cmd;
-      a.aux_cmd = a.aux_est = in.views[v].aux_cmd;
-      rig.angles.push_back(a);
-    }
+  SetResidualRms(in, &rig);
+  AppendCommandedAngles(in, &rig);
   return rig;
 }
 

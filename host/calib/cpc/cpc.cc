@@ -199,30 +199,8 @@ RigCalibration SolveCpc(const CalibInput& in, const CpcStart& start, const CpcOp
   }
 
   rig.residuals = RigResiduals(in, rig, start.view_T_w_k);
-  std::vector<double> sum2(K, 0.0), n(K, 0.0);
-  double all2 = 0, alln = 0;
-  for (const ViewResidual& r : rig.residuals) {
-    const std::size_t k = static_cast<std::size_t>(in.views[static_cast<std::size_t>(r.view)].camera);
-    for (const Eigen::Vector2d& e : r.residual) {
-      if (!e.allFinite()) continue;
-      sum2[k] += e.squaredNorm();
-      n[k] += 1;
-    }
-  }
-  for (std::size_t k = 0; k < K; ++k) {
-    rig.cameras[k].rms_px = n[k] > 0 ? std::sqrt(sum2[k] / n[k]) : 0.0;
-    all2 += sum2[k];
-    alln += n[k];
-  }
-  rig.rms_px = alln > 0 ? std::sqrt(all2 / alln) : 0.0;
-  for (std::size_t v = 0; v < in.views.size(); ++v)
-    if (in.views[v].kind == ImageKind::kTurntable) {
-      AngleResult ar;
-      ar.view = static_cast<int>(v);
-      ar.main_cmd = ar.main_est = in.views[v].main_cmd;
-      ar.aux_cmd = ar.aux_est = in.views[v].aux_cmd;
-      rig.angles.push_back(ar);
-    }
+  SetResidualRms(in, &rig);
+  AppendCommandedAngles(in, &rig);
   std::ostringstream note;
   note << "paper: A10 from camera " << o.reference_camera << " (" << zv.size() << " images, " << single_axis
        << " single-axis with the paper's rows, the rest with all nine elements), residual RMS " << rot.rms

@@ -278,6 +278,37 @@ Eigen::Vector3d EulerSigma(const Eigen::Matrix3d& C_k_b, const Eigen::Matrix3d& 
   return cov.diagonal().cwiseMax(0.0).cwiseSqrt();
 }
 
+void SetResidualRms(const CalibInput& in, RigCalibration* rig) {
+  const std::size_t K = in.cameras.size();
+  std::vector<double> sum2(K, 0.0), n(K, 0.0);
+  for (const ViewResidual& r : rig->residuals) {
+    const auto k = static_cast<std::size_t>(in.views[static_cast<std::size_t>(r.view)].camera);
+    for (const Eigen::Vector2d& e : r.residual) {
+      if (!e.allFinite()) continue;
+      sum2[k] += e.squaredNorm();
+      n[k] += 1;
+    }
+  }
+  double all2 = 0, alln = 0;
+  for (std::size_t k = 0; k < K; ++k) {
+    rig->cameras[k].rms_px = n[k] > 0 ? std::sqrt(sum2[k] / n[k]) : 0.0;
+    all2 += sum2[k];
+    alln += n[k];
+  }
+  rig->rms_px = alln > 0 ? std::sqrt(all2 / alln) : 0.0;
+}
+
+void AppendCommandedAngles(const CalibInput& in, RigCalibration* rig) {
+  for (std::size_t v = 0; v < in.views.size(); ++v) {
+    if (in.views[v].kind != ImageKind::kTurntable) continue;
+    AngleResult a;
+    a.view = static_cast<int>(v);
+    a.main_cmd = a.main_est = in.views[v].main_cmd;
+    a.aux_cmd = a.aux_est = in.views[v].aux_cmd;
+    rig->angles.push_back(a);
+  }
+}
+
 std::vector<ViewResidual> RigResiduals(const CalibInput& in, const RigCalibration& rig,
                                        const std::vector<Transform>& view_T_w_k) {
   std::vector<ViewResidual> out;
@@ -395,22 +426,7 @@ RigCalibration SolveJointMl(const CalibInput& in, const MlStart& start, const Ml
     a.aux_est = p.ang[v][1];
     rig.angles.push_back(a);
   }
-  // RMS per camera and overall.
-  std::vector<double> sum2(K, 0.0), n(K, 0.0);
-  for (const ViewResidual& r : rig.residuals) {
-    const std::size_t k = static_cast<std::size_t>(in.views[static_cast<std::size_t>(r.view)].camera);
-    for (const Eigen::Vector2d& e : r.residual) {
-      sum2[k] += e.squaredNorm();
-      n[k] += 1;
-    }
-  }
-  double all2 = 0, alln = 0;
-  for (std::size_t k = 0; k < K; ++k) {
-    rig.cameras[k].rms_px = n[k] > 0 ? std::sqrt(sum2[k] / n[k]) : 0.0;
-    all2 += sum2[k];
-    alln += n[k];
-  }
-  rig.rms_px = alln > 0 ? std::sqrt(all2 / alln) : 0.0;
+  SetResidualRms(in, &rig);
   {
     std::ostringstream note;
     note << "ml: gauge fixed: C_p_b and r_p_pb (the mount); skew " << (o.fix_skew ? "fixed at 0" : "free") << ", kc5 "

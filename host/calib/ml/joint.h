@@ -61,6 +61,14 @@ RigCalibration SolveJointMl(const CalibInput& in, const MlStart& start, const Ml
 std::vector<ViewResidual> RigResiduals(const CalibInput& in, const RigCalibration& rig,
                                        const std::vector<Transform>& view_T_w_k);
 
+// Per-camera and overall residual RMS (rig->cameras[k].rms_px, rig->rms_px) from
+// rig->residuals (non-finite residuals skipped). rig->cameras must have in.cameras' size.
+void SetResidualRms(const CalibInput& in, RigCalibration* rig);
+
+// Appends every turntable view's angles to rig->angles as commanded (estimate = command), for
+// methods that do not estimate them.
+void AppendCommandedAngles(const CalibInput& in, RigCalibration* rig);
+
 // sigma of the 2-1-3 Euler angles of C_k_b from the covariance of small rotations about the
 // body axes (C_b_k <- Exp(phi) C_b_k), by central differences.
 Eigen::Vector3d EulerSigma(const Eigen::Matrix3d& C_k_b, const Eigen::Matrix3d& cov_phi_b);
