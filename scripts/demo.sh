@@ -9,7 +9,9 @@
 #
 #   1. calibration dataset   mfns-sim calib-dataset --preset paper-calibration (Section 4.2 with the
 #                            paper's error sources: centroid noise, 8 arcsec turntable angles)
-#   2. calibration           mfns-calib rig --method ml, and --method paper (CPC) for comparison
+#   2. calibration           mfns-calib rig --method ml, and --method paper (CPC) for comparison,
+#                            with --refine-corners (--fast-detect: SB corners without ACCURACY
+#                            and without the refinement, faster, less exact)
 #   3. turntable sweep       mfns-sim render: paper-turntable (Section 5, 1 deg steps) with the
 #                            beacon map's 0.4 mm survey error; the TRUE rig renders the frames
 #   4. the flyer's blob      the ml cameras + the surveyed map (mfns-sim merge-rig, mfns-calib blob)
@@ -32,7 +34,7 @@ seed=1
 threads=$(nproc)
 build=1
 bin=build/host/bin
-calib_opts=()
+calib_opts=(--refine-corners)
 start_pose=(--initial-pose 0,0,0,0,0,0)
 while [ $# -gt 0 ]; do
   case "$1" in
@@ -41,10 +43,10 @@ while [ $# -gt 0 ]; do
     --seed) seed=$2; shift 2 ;;
     --threads) threads=$2; shift 2 ;;
     --no-build) build=0; shift ;;
-    --fast-detect) calib_opts+=(--fast-detect); shift ;;
+    --fast-detect) calib_opts=(--fast-detect); shift ;;
     --cold-start) start_pose=(); shift ;;
     --bin) bin=$2; shift 2 ;;
-    -h|--help) sed -n '2,25p' "$0"; exit 0 ;;
+    -h|--help) sed -n '2,27p' "$0"; exit 0 ;;
     -*) echo "demo: unknown option $1 (see --help)" >&2; exit 1 ;;
     *) out=$1; shift ;;
   esac

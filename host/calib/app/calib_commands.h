@@ -32,6 +32,7 @@ struct RigCommandOptions {
   bool all_a10_rows = false;
   int jobs = 2;
   bool fast_detect = false;
+  bool refine_corners = false;  // corner_refine.h model fit after findChessboardCornersSB
   std::string rig_id;  // default: truth-rig.yaml's rig id, else "mfns-calibrated"
   std::uint64_t generation = 0;
   bool generation_set = false;
@@ -58,6 +59,7 @@ struct IntrinsicsCommandOptions {
   std::string camera = "camera";
   bool free_k3 = false;
   bool fast_detect = false;
+  bool refine_corners = false;
 };
 
 // Zhang's method on the images; writes camera-<camera>.yaml and report.txt into out_dir.

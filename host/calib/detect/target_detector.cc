@@ -101,7 +101,8 @@ Candidate Score(const cv::Mat& mono8, const std::vector<cv::Point2f>& raw, const
   return cand;
 }
 
-DetectResult DetectCheckerboard(const cv::Mat& mono8, const CheckerboardSpec& s, const DetectOptions& o) {
+// image: the original (mono8 or mono16) for the refinement; mono8: its 8-bit view for OpenCV.
+DetectResult DetectCheckerboard(const cv::Mat& image, const cv::Mat& mono8, const CheckerboardSpec& s, const DetectOptions& o) {
   DetectResult res;
   if (s.cols == s.rows) throw UserError("a square checkerboard (" + std::to_string(s.cols) + "x" + std::to_string(s.rows) +
                                         " inner corners) has no defined orientation; use cols != rows");
@@ -136,11 +137,18 @@ DetectResult DetectCheckerboard(const cv::Mat& mono8, const CheckerboardSpec& s,
   // What remains is one labelling, or two related by the board's 180-degree turn.
   const Candidate& chosen = keep.front();
   res.orientation_ambiguous = keep.size() > 1;
+  // Model fit per corner on the original image, in OpenCV's grid order (its neighbours).
+  std::vector<Eigen::Vector2d> refined;
+  refined.reserve(raw.size());
+  for (const cv::Point2f& p : raw) refined.emplace_back(p.x, p.y);
+  if (o.corner_refine) {
+    const std::vector<CornerFit> fits = RefineCheckerboardCorners(image, s.rows, s.cols, refined, o.refine, &res.refine_stats);
+    for (std::size_t n = 0; n < raw.size(); ++n) refined[n] = fits[n].uv;
+  }
   for (int r = 0; r < s.rows; ++r)
     for (int c = 0; c < s.cols; ++c) {
       const int i = chosen.map.flip_i ? s.rows - 1 - r : r, j = chosen.map.flip_j ? s.cols - 1 - c : c;
-      const cv::Point2f& p = raw[static_cast<std::size_t>(r * s.cols + c)];
-      res.corners.push_back({i * s.cols + j, Eigen::Vector2d(p.x, p.y)});
+      res.corners.push_back({i * s.cols + j, refined[static_cast<std::size_t>(r * s.cols + c)]});
     }
   std::sort(res.corners.begin(), res.corners.end(), [](const CornerObs& a, const CornerObs& b) { return a.id < b.id; });
   res.ok = true;
@@ -221,7 +229,7 @@ DetectResult DetectTarget(const cv::Mat& image, const CalibrationTarget& target,
     return r;
   }
   const cv::Mat mono8 = ToMono8(image);
-  return target.type() == TargetType::kCheckerboard ? DetectCheckerboard(mono8, target.checkerboard(), options)
+  return target.type() == TargetType::kCheckerboard ? DetectCheckerboard(image, mono8, target.checkerboard(), options)
                                                     : DetectAprilGrid(mono8, target.aprilgrid(), options);
 }
 
