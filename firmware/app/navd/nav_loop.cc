@@ -54,15 +54,15 @@ bool NavLoop::Reload(const Rig& rig, std::uint64_t generation, const char** why)
   const bool had_pose = navigator_.LastPose(&last);
   const Rig* old = rig_;
   rig_ = &rig;
-  if (!navigator_.Init(rig, config_.navigator, why)) {
+  const bool ok = navigator_.Init(rig, config_.navigator, why);
+  if (!ok) {
     rig_ = old;
     navigator_.Init(*old, config_.navigator, nullptr);
-    if (had_pose) navigator_.SetInitialPose(last, config_.reload_sigma_m, config_.reload_sigma_rad);
-    return false;
   }
+  // Either way the track goes on from the last pose.
   if (had_pose) navigator_.SetInitialPose(last, config_.reload_sigma_m, config_.reload_sigma_rad);
-  config_.param_generation = generation;
-  return true;
+  if (ok) config_.param_generation = generation;
+  return ok;
 }
 
 bool NavLoop::AcquireAll(std::uint64_t* t_capture_ns, bool* all_ended, std::uint32_t* delivered_set) {
