@@ -150,10 +150,16 @@ def main():
     c = time_v(os.path.join(cal, "time-v.txt"))
     if d:
         print(f"- dataset (mfns-sim calib-dataset): wall {d.get('wall_s', 0):.1f} s, exit {d.get('exit')}")
-    if c:
-        print(f"- mfns-calib rig --method ml: wall {c.get('wall_s', 0):.1f} s, user {c.get('user_s', 0):.1f} s, "
-              f"sys {c.get('sys_s', 0):.1f} s, peak RSS {c.get('max_rss_kb', 0) / 1024:.0f} MiB, exit {c.get('exit')}")
-    if not d and not c:
+    runs = [("time-v.txt", "mfns-calib rig --method ml"),
+            ("time-v-refined.txt", "mfns-calib rig --method ml --refine-corners")]
+    found = False
+    for name, label in runs:
+        c = time_v(os.path.join(cal, name))
+        if c:
+            found = True
+            print(f"- {label}: wall {c.get('wall_s', 0):.1f} s, user {c.get('user_s', 0):.1f} s, "
+                  f"sys {c.get('sys_s', 0):.1f} s, peak RSS {c.get('max_rss_kb', 0) / 1024:.0f} MiB, exit {c.get('exit')}")
+    if not d and not found:
         print("- (not run)")
 
 

@@ -8,7 +8,7 @@
 // Frame sets: the first kNumSets = 72 frames of `mfns-sim render --preset paper-turntable`
 // (1 deg yaw steps at 18.6 Hz, shot and read noise; the preset's centroid jitter is left out:
 // it does not change the work), rendered once at setup (not timed). They are replayed forwards
-// in passes; each pass starts from a cold start (NavLoop::Reload / Tracker::Reset) and its first
+// in passes; each pass starts from a cold start (NavLoop::Configure / Tracker::Reset) and its first
 // kWarmUpSets = 32 frame sets (acquisition: lost-in-space, then following its candidate poses
 // until one is left, ~22 frame sets) are not timed, so the timed frame sets 32-71 (3-4 beacons
 // each, 1-2 per camera) measure steady-state tracking.
@@ -235,7 +235,11 @@ void BM_FrameSet_NavLoop(benchmark::State& state) {
     allocs += static_cast<long>(mfns::fw::testing::AllocationCount()) - a0;
     ++r.n;
   };
-  const auto restart = [&]() { loop->Reload(fs.rig, 0, nullptr); };  // forgets the track
+  // A cold start: Configure re-initialises the navigator (Reload would keep the track going
+  // from the last pose, and the pass restarts at yaw 0).
+  const auto restart = [&]() {
+    if (!loop->Configure(NavLoopConfig{}, nullptr)) state.SkipWithError("NavLoop::Configure failed");
+  };
   for (auto _ : state) {
     const std::size_t f = NextTimed(state, &r, restart, step);
     step(f);

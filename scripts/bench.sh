@@ -15,7 +15,8 @@
 #                              sets, with --log and UDP output, counted by
 #                              benchmarks/malloc_count.cc through LD_PRELOAD)
 #   OUT/calib/                 `mfns-calib rig --method ml` on `mfns-sim calib-dataset --preset
-#                              paper-calibration`: time-v.txt and its outputs
+#                              paper-calibration`: time-v.txt and its outputs; the same with
+#                              --refine-corners (the demo's calibration): time-v-refined.txt
 #   OUT/summary.md             the tables of docs/benchmarks.md (benchmarks/bench_summary.py)
 #   OUT/aarch64/               with --arm: the firmware benchmarks cross-built (aarch64 preset,
 #                              no OpenCV baselines) and run once under qemu-aarch64 to show they
@@ -46,7 +47,7 @@ while [ $# -gt 0 ]; do
     --no-calib) calib=0; shift ;;
     --arm) arm=1; shift ;;
     --arm-build-dir) arm_build_dir=$2; shift 2 ;;
-    -h|--help) sed -n '2,27p' "$0"; exit 0 ;;
+    -h|--help) sed -n '2,26p' "$0"; exit 0 ;;
     *) echo "bench: unknown argument $1 (see --help)" >&2; exit 1 ;;
   esac
 done
@@ -123,6 +124,11 @@ if [ "$calib" = 1 ]; then
   if ! /usr/bin/time -v -o "$cal/time-v.txt" "$bin/mfns-calib" rig "$cal/dataset" --out "$cal/ml" --method ml \
       --jobs "$(nproc)" > "$cal/calib.log" 2>&1; then
     echo "bench: mfns-calib rig failed: $(tail -n 1 "$cal/calib.log") (not measured)" >&2
+  fi
+  say "mfns-calib rig --method ml --refine-corners --jobs $(nproc) (the demo's calibration)"
+  if ! /usr/bin/time -v -o "$cal/time-v-refined.txt" "$bin/mfns-calib" rig "$cal/dataset" --out "$cal/ml-refined" \
+      --method ml --refine-corners --jobs "$(nproc)" > "$cal/calib-refined.log" 2>&1; then
+    echo "bench: mfns-calib rig --refine-corners failed: $(tail -n 1 "$cal/calib-refined.log") (not measured)" >&2
   fi
 fi
 
