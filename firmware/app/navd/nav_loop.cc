@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 #include "common/rotation/rotation.h"
 
@@ -138,13 +139,24 @@ void NavLoop::Publish(const NavOutput& nav, std::uint64_t t_capture_ns, PoseReco
   for (int k = 0; k < rig_->num_cameras; ++k)
     r.beacons_per_camera[static_cast<std::size_t>(k)] =
         static_cast<std::uint8_t>(std::min(nav.beacons_per_camera[static_cast<std::size_t>(k)], 255));
-  r.r_w_wb = nav.pose.r_w_wb;
-  r.q_w_b = Eigen::Quaterniond(nav.pose.C_w_b).normalized();
-  const EulerAngles e = MatrixToEuler(nav.pose.C_w_b.transpose());
-  r.euler_deg = Eigen::Vector3f(static_cast<float>(RadToDeg(e.phi)), static_cast<float>(RadToDeg(e.theta)),
-                                static_cast<float>(RadToDeg(e.psi)));
-  r.residual_rms_px = static_cast<float>(nav.rms_px);
-  r.covariance = nav.covariance;
+  if (nav.status == NavStatus::kLost) {
+    // No pose this frame set: NaN (MAVLink's "unknown"), never the last pose's numbers, so a
+    // reader that ignores the status cannot mistake a lost row for a fix.
+    constexpr double kNan = std::numeric_limits<double>::quiet_NaN();
+    r.r_w_wb.setConstant(kNan);
+    r.q_w_b.coeffs().setConstant(kNan);
+    r.euler_deg.setConstant(std::numeric_limits<float>::quiet_NaN());
+    r.residual_rms_px = 0.0f;
+    r.covariance.setConstant(kNan);
+  } else {
+    r.r_w_wb = nav.pose.r_w_wb;
+    r.q_w_b = Eigen::Quaterniond(nav.pose.C_w_b).normalized();
+    const EulerAngles e = MatrixToEuler(nav.pose.C_w_b.transpose());
+    r.euler_deg = Eigen::Vector3f(static_cast<float>(RadToDeg(e.phi)), static_cast<float>(RadToDeg(e.theta)),
+                                  static_cast<float>(RadToDeg(e.psi)));
+    r.residual_rms_px = static_cast<float>(nav.rms_px);
+    r.covariance = nav.covariance;
+  }
   r.t_publish_ns = MonotonicNs();
   if (udp_ != nullptr && udp_->is_open()) {
     EncodePose(r, pose_bytes_);

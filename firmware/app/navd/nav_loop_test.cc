@@ -5,11 +5,13 @@
 #include <algorithm>
 #include <cstdio>
 #include <cstdlib>
+#include <string>
 #include <vector>
 
 #include "common/rig/paper_rig.h"
 #include "common/rotation/rotation.h"
 #include "firmware/lib/in_process_source.h"
+#include "firmware/modules/publish/publishers.h"
 #include "firmware/modules/detect/detect_testing.h"
 #include "firmware/modules/solve/synthetic_scene.h"
 #include "firmware/lib/testing/alloc_counter.h"
@@ -265,6 +267,47 @@ TEST(NavLoop, InitialPoseAndReloadKeepTheTrack) {
   NavLoopConfig bad = c;
   bad.initial_sigma_m = -1.0;
   EXPECT_FALSE(loop->Configure(bad, &why));
+}
+
+// A lost frame set after a fix carries no pose numbers (NaN in the record, the datagram and
+// the CSV), so a reader that skips the status cannot take the last pose for a new one.
+TEST(NavLoop, ALostFrameSetPublishesNaNNotTheLastPose) {
+  const Rig rig = SmallRig();
+  SweepRenderer sweep(rig);
+  InProcessSource source(rig.num_cameras);
+  ASSERT_EQ(source.Start(), SourceStatus::kOk);
+  const std::string path = ::testing::TempDir() + "nav_loop_lost.csv";
+  PoseLog log;
+  ASSERT_EQ(log.Open(path.c_str()), PublishStatus::kOk);
+  NavLoopConfig c = Config();
+  c.has_initial_pose = true;  // the sweep's start, exactly
+  NavLoop loop(rig, &source, nullptr, nullptr, &log);
+  ASSERT_TRUE(loop.Configure(c, nullptr));
+  const SweepRun run = Drive(&loop, &sweep, &source, 0, 10);
+  ASSERT_GT(run.fixes_3plus, 0);
+  // Then every camera sees only background.
+  std::vector<std::uint8_t> dark(static_cast<std::size_t>(320 * 256), 10);
+  for (int k = 0; k < rig.num_cameras; ++k) {
+    FrameView v = sweep.View(k, 1'000'000'000ull + 10 * kFrameNs, 10);
+    v.data = dark.data();
+    ASSERT_TRUE(source.Push(k, v));
+  }
+  PoseRecord rec;
+  ASSERT_EQ(loop.Step(&rec), StepStatus::kOk);
+  EXPECT_EQ(rec.status, NavStatus::kLost);
+  EXPECT_TRUE(rec.r_w_wb.array().isNaN().all());
+  EXPECT_TRUE(rec.q_w_b.coeffs().array().isNaN().all());
+  EXPECT_TRUE(rec.euler_deg.array().isNaN().all());
+  EXPECT_TRUE(rec.covariance.array().isNaN().all());
+  ASSERT_EQ(log.Close(), PublishStatus::kOk);
+  std::FILE* f = std::fopen(path.c_str(), "r");
+  ASSERT_NE(f, nullptr);
+  char line[256];
+  std::string last;
+  while (std::fgets(line, sizeof(line), f) != nullptr) last = line;
+  std::fclose(f);
+  std::remove(path.c_str());
+  EXPECT_NE(last.find(",lost,nan,nan,nan,nan,nan,nan,"), std::string::npos) << last;
 }
 
 TEST(NavLoop, EndOfStreamAndNoFrames) {

@@ -63,6 +63,8 @@ inline constexpr std::size_t kPoseMessageBytes = 208;
 inline constexpr std::size_t kHealthMessageBytes = 140;
 inline constexpr std::uint8_t kMessageVersion = 1;
 
+// One frame set's output. When status is kLost there is no pose: r_w_wb, q_w_b, euler_deg and
+// covariance are NaN (set by the producer, NavLoop::Publish) and residual_rms_px is 0.
 struct PoseRecord {
   std::uint32_t sequence = 0;
   std::uint32_t frame_set = 0;

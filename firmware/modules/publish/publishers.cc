@@ -10,6 +10,7 @@
 #include <cerrno>
 #include <cstdlib>
 #include <cstring>
+#include <limits>
 
 #include "common/rotation/rotation.h"
 
@@ -106,7 +107,8 @@ PublishStatus PoseLog::Open(const char* path) {
 PublishStatus PoseLog::Write(const PoseRecord& r) {
   if (file_ == nullptr) return PublishStatus::kNotOpen;
   const Eigen::Vector3d p_mm = r.r_w_wb * 1e3;
-  const EulerAngles e = MatrixToEuler(r.q_w_b.toRotationMatrix().transpose());  // of C_b_w
+  EulerAngles e = MatrixToEuler(r.q_w_b.toRotationMatrix().transpose());  // of C_b_w
+  if (!r.q_w_b.coeffs().allFinite()) e.phi = e.theta = e.psi = std::numeric_limits<double>::quiet_NaN();  // no pose
   const int n = std::fprintf(file_, "%u,%llu,%s,%.4f,%.4f,%.4f,%.6f,%.6f,%.6f,%u,%.4f,%s\n", r.frame_set,
                              static_cast<unsigned long long>(r.t_capture_ns), ToString(r.status), p_mm.x(), p_mm.y(),
                              p_mm.z(), RadToDeg(e.phi), RadToDeg(e.theta), RadToDeg(e.psi), r.num_beacons,
