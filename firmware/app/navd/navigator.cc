@@ -38,8 +38,8 @@ bool Navigator::Init(const Rig& rig, const NavigatorOptions& options, const char
   options_.track.AllowForMapError(map_px);
   // The solve's covariance counts centroid noise only (the tracker's bounds want that); the
   // published one adds the map's error as image noise, so that its 1-sigma is honest.
-  const double sigma_px = options_.track.solve.sigma_px;
-  covariance_scale_ = map_px > 0.0 ? (sigma_px * sigma_px + map_px * map_px) / (sigma_px * sigma_px) : 1.0;
+  const double k = options_.track.MapToCentroidRatio();
+  covariance_scale_ = 1.0 + k * k;
   return true;
 }
 

@@ -271,7 +271,7 @@ bool Tracker::TrackFrom(const BodyPose& predicted, double max_m, double max_rad,
   double allow_m = max_m, allow_rad = max_rad;
   if (o.map_error_px > 0.0 && r->solve.has_covariance) {
     // The solved pose's own error for the map's error (its covariance is for sigma_px).
-    const double scale = std::hypot(1.0, o.map_error_px / o.solve.sigma_px);
+    const double scale = std::hypot(1.0, o.MapToCentroidRatio());
     const Eigen::Matrix<double, 6, 6>& P = r->solve.covariance;
     allow_m += o.gate_sigmas * scale * std::sqrt(std::max({P(0, 0), P(1, 1), P(2, 2)}));
     allow_rad += o.gate_sigmas * scale * std::sqrt(std::max({P(3, 3), P(4, 4), P(5, 5)}));
@@ -512,7 +512,7 @@ void Tracker::Accept(std::uint64_t t_ns, const TrackOptions& o, TrackResult* r) 
   const Eigen::Matrix<double, 6, 6>& P = r->solve.covariance;
   last_sigma_m_ = r->solve.has_covariance ? std::sqrt(std::max({P(0, 0), P(1, 1), P(2, 2)})) : 0.0;
   last_sigma_rad_ = r->solve.has_covariance ? std::sqrt(std::max({P(3, 3), P(4, 4), P(5, 5)})) : 0.0;
-  const double map_scale = o.map_error_px > 0.0 ? o.map_error_px / o.solve.sigma_px : 0.0;
+  const double map_scale = o.MapToCentroidRatio();
   last_map_sigma_m_ = map_scale * last_sigma_m_;
   last_map_sigma_rad_ = map_scale * last_sigma_rad_;
   chain_n_ = 0;

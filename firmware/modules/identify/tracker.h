@@ -149,6 +149,11 @@ struct TrackOptions {
   // centroid noise: the prediction's bounds grow with it, and the map's error, the same for
   // frame sets that see the same beacons, does not spread the motion estimate like noise.)
   void AllowForMapError(double map_px);
+  // map_error_px / solve.sigma_px (0 without a map error): the solve's covariance is for the
+  // centroid noise alone; the map's share of a pose's 1-sigma is this times it.
+  double MapToCentroidRatio() const {
+    return map_error_px > 0.0 && solve.sigma_px > 0.0 ? map_error_px / solve.sigma_px : 0.0;
+  }
 };
 
 // The focal length (px/rad) the pixel gates of TrackOptions are sized for: the paper's cameras.
