@@ -516,8 +516,10 @@ void Tracker::Accept(std::uint64_t t_ns, const TrackOptions& o, TrackResult* r) 
   last_map_sigma_m_ = map_scale * last_sigma_m_;
   last_map_sigma_rad_ = map_scale * last_sigma_rad_;
   chain_n_ = 0;
-  // Fix or degraded.
-  const double sigma_r = last_sigma_m_, sigma_a = last_sigma_rad_;
+  // Fix or degraded, judged on the pose's whole 1-sigma: centroid noise and the map's error
+  // (the covariance Navigator publishes), so that a fix never carries a 1-sigma above the bounds.
+  const double total = std::hypot(1.0, o.MapToCentroidRatio());
+  const double sigma_r = total * last_sigma_m_, sigma_a = total * last_sigma_rad_;
   r->status = TrackStatus::kDegraded;
   if (r->matches.num_beacons < o.fix_min_beacons) r->reason = TrackReason::kFewBeacons;
   else if (r->solve.rms_px > o.degraded_rms_px) r->reason = TrackReason::kLargeResidual;

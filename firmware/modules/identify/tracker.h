@@ -29,7 +29,8 @@
 //    when reflections are in view (blobs the pose leaves unexplained). When nothing is
 //    consistent near the prediction, a lost-in-space fix on its own still counts.
 // 3. An accepted pose is reported as fix, or degraded (fewer than fix_min_beacons beacons,
-//    residual above degraded_rms_px, or 1-sigma position / attitude above their bounds);
+//    residual above degraded_rms_px, or 1-sigma position / attitude above their bounds, the
+//    1-sigma counting the map's error: map_error_px beside the solve's sigma_px);
 //    otherwise the frame is lost with a reason.
 //
 // Memory: one object (about 400 kB, mostly lost-in-space) holds every buffer; construct it at

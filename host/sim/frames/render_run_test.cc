@@ -5,6 +5,7 @@
 #include <fstream>
 #include <sstream>
 
+#include "host/rigio/rig_yaml.h"
 #include "host/sim/render/image.h"
 #include "host/util/atomic_file.h"
 
@@ -63,7 +64,9 @@ TEST(RenderRun, WritesTheDesignLayoutAndTruth) {
   EXPECT_NEAR(std::stod(truth[4][7]), 90.0, 1e-6);  // frame 3 at 30 deg steps: yaw 90
   const auto crb = ReadCsv(dir / "crb.csv");
   ASSERT_EQ(crb.size(), 13u);
-  EXPECT_TRUE(std::filesystem::exists(dir / "rig.yaml"));
+  // rig.yaml is the truth (exact map: no beacon_sigma, whatever the scenario's rig quotes).
+  EXPECT_GT(s.rig.beacon_sigma, 0.0);
+  EXPECT_EQ(ReadRigYaml(dir / "rig.yaml").beacon_sigma, 0.0);
   EXPECT_TRUE(std::filesystem::exists(dir / "believed-rig.yaml"));
   EXPECT_TRUE(std::filesystem::exists(dir / "turntable.csv"));
   // blobs.csv lists exactly the beacons crb.csv counts as visible.

@@ -335,6 +335,8 @@ Rig BelievedRig(const Scenario& s) {
     for (int i = 0; i < rig.num_beacons; ++i)
       rig.beacons_w[static_cast<std::size_t>(i)] += Eigen::Vector3d(n01(rng), n01(rng), n01(rng)) * e.beacon_sigma;
     rig.beacon_sigma = e.beacon_sigma;
+  } else {
+    rig.beacon_sigma = 0.0;  // the believed map is the true one
   }
   return rig;
 }

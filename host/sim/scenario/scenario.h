@@ -158,7 +158,8 @@ struct FrameTruth {
 std::vector<FrameTruth> SimulateTrajectory(const Scenario& s);
 
 // The believed rig: truth perturbed by the enabled error sources (seeded, independent of the
-// trajectory's draws).
+// trajectory's draws). Its beacon_sigma is the survey error's when beacon_map is enabled, else
+// 0 (the believed map is the true one).
 Rig BelievedRig(const Scenario& s);
 
 }  // namespace mfns::host

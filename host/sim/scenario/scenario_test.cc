@@ -69,6 +69,8 @@ TEST(Scenario, BelievedRigPerturbsOnlyWhatIsEnabled) {
   const Rig same = BelievedRig(s);  // only pixel noise on: belief == truth
   for (int i = 0; i < s.rig.num_beacons; ++i) EXPECT_EQ(same.beacons_w[i], s.rig.beacons_w[i]);
   EXPECT_EQ(same.cameras[0].C_k_b, s.rig.cameras[0].C_k_b);
+  EXPECT_GT(s.rig.beacon_sigma, 0.0);  // the preset quotes a survey accuracy...
+  EXPECT_EQ(same.beacon_sigma, 0.0);   // ...but the believed map is the true one
 
   s.errors.beacon_map = true;
   s.errors.beacon_sigma = 0.4e-3;
@@ -77,6 +79,7 @@ TEST(Scenario, BelievedRigPerturbsOnlyWhatIsEnabled) {
   for (int i = 0; i < s.rig.num_beacons; ++i) sum2 += (b.beacons_w[i] - s.rig.beacons_w[i]).squaredNorm();
   EXPECT_NEAR(std::sqrt(sum2 / (3.0 * s.rig.num_beacons)) / 0.4e-3, 1.0, 0.2);
   EXPECT_EQ(b.cameras[1].r_b_bk, s.rig.cameras[1].r_b_bk);
+  EXPECT_EQ(b.beacon_sigma, 0.4e-3);
 
   s.errors.extrinsic_rotation = true;
   const Rig r = BelievedRig(s);
