@@ -32,7 +32,7 @@ struct RigCommandOptions {
   bool all_a10_rows = false;
   int jobs = 2;
   bool fast_detect = false;
-  bool refine_corners = false;  // corner_refine.h model fit after findChessboardCornersSB
+  bool refine_corners = false;  // corner_refine.h model fit after findChessboardCornersSB (--refine-corners)
   std::string rig_id;  // default: truth-rig.yaml's rig id, else "mfns-calibrated"
   std::uint64_t generation = 0;
   bool generation_set = false;

@@ -127,6 +127,11 @@ CalibInput DetectDataset(const CalibDataset& ds, const DetectOptions& detect, in
   for (int t = 1; t < std::max(1, jobs); ++t) threads.emplace_back(work);
   work();
   for (std::thread& t : threads) t.join();
+  if (progress != nullptr && detect.corner_refine) {
+    CornerRefineStats refine;
+    for (const Slot& s : slots) refine.Add(s.det.refine_stats);
+    *progress << "corner refinement: " << ToString(refine) << "\n";
+  }
 
   for (std::size_t i = 0; i < ds.images.size(); ++i) {
     const DatasetImage& im = ds.images[i];

@@ -9,18 +9,20 @@
 namespace mfns::host {
 namespace {
 
-constexpr int kGaussNodes = 20;
-constexpr double kFar = 8.5;  // standardised distance beyond which an edge's side is certain
+// Standardised distance beyond which an edge's side is taken as certain: Phi(-6) = 1e-9 of the
+// contrast (8.5 before: 30 % more of the window in the edge profiles, for nothing measurable).
+constexpr double kFar = 6.0;
 constexpr double kMaxAbsRho = 0.95;  // edges closer than ~18 deg to parallel: not a corner
 constexpr int kNumParams = 10;  // u, v, th1, th2, s, m, h, gx, gy, a
 enum Param : int { kU = 0, kV, kTh1, kTh2, kS, kM, kH, kGx, kGy, kA };
 constexpr double kMaxTap = 0.25;  // [a, 1 - 2a, a] stays a unimodal blur
 
 // Gauss-Legendre nodes and weights on [-1, 1] (Newton on P_n from the Chebyshev guesses).
+constexpr int kMaxGaussNodes = 20;
 struct GaussLegendre {
-  std::array<double, kGaussNodes> x{}, w{};
-  GaussLegendre() {
-    const int n = kGaussNodes;
+  int n = 0;
+  std::array<double, kMaxGaussNodes> x{}, w{};
+  explicit GaussLegendre(int nodes) : n(nodes) {
     for (int i = 0; i < n; ++i) {
       double z = std::cos(std::numbers::pi * (i + 0.75) / (n + 0.5));
       double dp = 1.0;
@@ -42,69 +44,129 @@ struct GaussLegendre {
   }
 };
 
-const GaussLegendre& Nodes() {
-  static const GaussLegendre g;
-  return g;
+// Genz (2004, "Numerical computation of rectangular bivariate and trivariate normal and t
+// probabilities"): the integrand over asin(rho) is smooth enough for double precision with 6
+// nodes when |rho| < 0.3, 12 when |rho| < 0.75, 20 above (tested against a quadrature).
+const GaussLegendre& Nodes(double abs_rho) {
+  static const GaussLegendre g6(6), g12(12), g20(20);
+  return abs_rho < 0.3 ? g6 : (abs_rho < 0.75 ? g12 : g20);
 }
 
 constexpr double kInvSqrt2 = 0.5 * std::numbers::sqrt2;
 constexpr double kInvSqrt2Pi = kInvSqrt2 * std::numbers::inv_sqrtpi;
-double NormalCdf(double x) { return 0.5 * std::erfc(-x * kInvSqrt2); }
-double NormalPdf(double x) { return kInvSqrt2Pi * std::exp(-0.5 * x * x); }
+
+// Phi(x) and phi(x) from one exp: Phi(x) = erfc(-x / sqrt 2) / 2 with erfc(t) = erfcx(t) exp(-t^2),
+// where erfcx, the scaled complementary error function, is smooth and slowly varying: a Taylor
+// polynomial of degree 8 about the centre of each 1/16-wide interval of [0, 4.5] (|x| < 6.36,
+// where the fit evaluates edge profiles), from erfcx' = 2 t erfcx - 2 / sqrt(pi) and std::erfc
+// at the centres (error ~1e-16). std::erfc alone costs two exps in its tail; this halves the
+// cost of the edge profiles, the fit's largest part. Beyond 4.5: std::erfc.
+class Erfcx {
+ public:
+  static constexpr int kDeg = 8, kIntervals = 72;
+  static constexpr double kWidth = 1.0 / 16.0, kMax = kIntervals * kWidth;
+  Erfcx() {
+    for (int i = 0; i < kIntervals; ++i) {
+      const double t0 = (i + 0.5) * kWidth;
+      std::array<double, kDeg + 1>& a = c_[static_cast<std::size_t>(i)];
+      a[0] = std::erfc(t0) * std::exp(t0 * t0);
+      a[1] = 2.0 * t0 * a[0] - 2.0 * std::numbers::inv_sqrtpi;
+      for (std::size_t k = 1; k < static_cast<std::size_t>(kDeg); ++k)
+        a[k + 1] = 2.0 * (t0 * a[k] + a[k - 1]) / static_cast<double>(k + 1);
+    }
+  }
+  // 0 <= t < kMax.
+  double operator()(double t) const {
+    const int i = std::min(static_cast<int>(t * (1.0 / kWidth)), kIntervals - 1);
+    const double h = t - (i + 0.5) * kWidth;
+    const std::array<double, kDeg + 1>& a = c_[static_cast<std::size_t>(i)];
+    double v = a[kDeg];
+    for (int k = kDeg - 1; k >= 0; --k) v = v * h + a[static_cast<std::size_t>(k)];
+    return v;
+  }
+
+ private:
+  std::array<std::array<double, kDeg + 1>, kIntervals> c_{};
+};
+
+const Erfcx& ErfcxTable() {
+  static const Erfcx table;
+  return table;
+}
+
+struct NormalCdfPdf {
+  double cdf, pdf;
+};
+// erfcx: ErfcxTable(), passed in to keep the static's guard out of the inner loops.
+NormalCdfPdf NormalBoth(double x, const Erfcx& erfcx) {
+  const double t = std::abs(x) * kInvSqrt2, e = std::exp(-0.5 * x * x);
+  if (!(t < Erfcx::kMax)) return {0.5 * std::erfc(-x * kInvSqrt2), kInvSqrt2Pi * e};
+  const double half_tail = 0.5 * erfcx(t) * e;  // Phi(-|x|)
+  return {x < 0.0 ? half_tail : 1.0 - half_tail, kInvSqrt2Pi * e};
+}
+
 
 // The rho-dependent part of Genz's formula, prepared once per correlation:
 //   Phi2(h, k; rho) = Phi(h) Phi(k) + asin(rho) / (4 pi) sum_i w_i exp((sn_i h k - (h^2 + k^2) / 2) / (1 - sn_i^2)),
 //   sn_i = sin(asin(rho) (x_i + 1) / 2).
 class PreparedRho {
  public:
-  explicit PreparedRho(double rho) : rho_(rho) {
-    const GaussLegendre& g = Nodes();
+  explicit PreparedRho(double rho) : rho_(rho), g_(&Nodes(std::abs(rho))) {
+    const GaussLegendre& g = *g_;
     const double asr = std::asin(rho);
     scale_ = asr / (4.0 * std::numbers::pi);
-    for (std::size_t i = 0; i < g.x.size(); ++i) {
+    for (std::size_t i = 0; i < static_cast<std::size_t>(g.n); ++i) {
       sn_[i] = std::sin(asr * (g.x[i] + 1.0) / 2.0);
       inv_[i] = 1.0 / (1.0 - sn_[i] * sn_[i]);
     }
     s_ = std::sqrt(1.0 - rho * rho);
   }
 
-  double Cdf(double h, double k) const {
-    const GaussLegendre& g = Nodes();
-    const double hk = h * k, hs = 0.5 * (h * h + k * k);
-    double sum = 0.0;
-    for (std::size_t i = 0; i < g.x.size(); ++i) sum += g.w[i] * std::exp((sn_[i] * hk - hs) * inv_[i]);
-    return NormalCdf(h) * NormalCdf(k) + scale_ * sum;
-  }
+  double Cdf(double h, double k) const { return CdfGiven(h, k, NormalBoth(h, *erfcx_).cdf, NormalBoth(k, *erfcx_).cdf); }
 
   CornerProfile Corner(double mu1, double mu2) const {
     CornerProfile p;
-    // Far from one edge its sign is certain (Phi(-8.5) < 1e-17): one edge's profile, or a constant.
+    // Far from one edge its sign is certain (Phi(-6) = 1e-9): one edge's profile, or a constant.
     if (std::abs(mu1) > kFar || std::abs(mu2) > kFar) {
       const bool far1 = std::abs(mu1) > kFar, far2 = std::abs(mu2) > kFar;
       const double sg1 = mu1 > 0 ? 1.0 : -1.0, sg2 = mu2 > 0 ? 1.0 : -1.0;
       if (far1 && far2) {
         p.f = sg1 * sg2;
       } else if (far2) {
-        p.f = sg2 * (2.0 * NormalCdf(mu1) - 1.0);
-        p.df_dmu1 = sg2 * 2.0 * NormalPdf(mu1);
+        const NormalCdfPdf n1 = NormalBoth(mu1, *erfcx_);
+        p.f = sg2 * (2.0 * n1.cdf - 1.0);
+        p.df_dmu1 = sg2 * 2.0 * n1.pdf;
       } else {
-        p.f = sg1 * (2.0 * NormalCdf(mu2) - 1.0);
-        p.df_dmu2 = sg1 * 2.0 * NormalPdf(mu2);
+        const NormalCdfPdf n2 = NormalBoth(mu2, *erfcx_);
+        p.f = sg1 * (2.0 * n2.cdf - 1.0);
+        p.df_dmu2 = sg1 * 2.0 * n2.pdf;
       }
       return p;
     }
-    const double c1 = NormalCdf(mu1), c2 = NormalCdf(mu2);
-    p.f = 4.0 * Cdf(mu1, mu2) - 2.0 * c1 - 2.0 * c2 + 1.0;
-    p.df_dmu1 = 2.0 * NormalPdf(mu1) * (2.0 * NormalCdf((mu2 - rho_ * mu1) / s_) - 1.0);
-    p.df_dmu2 = 2.0 * NormalPdf(mu2) * (2.0 * NormalCdf((mu1 - rho_ * mu2) / s_) - 1.0);
+    const NormalCdfPdf n1 = NormalBoth(mu1, *erfcx_), n2 = NormalBoth(mu2, *erfcx_);
+    p.f = 4.0 * CdfGiven(mu1, mu2, n1.cdf, n2.cdf) - 2.0 * n1.cdf - 2.0 * n2.cdf + 1.0;
+    p.df_dmu1 = 2.0 * n1.pdf * (2.0 * NormalBoth((mu2 - rho_ * mu1) / s_, *erfcx_).cdf - 1.0);
+    p.df_dmu2 = 2.0 * n2.pdf * (2.0 * NormalBoth((mu1 - rho_ * mu2) / s_, *erfcx_).cdf - 1.0);
     p.df_drho = 4.0 * std::exp(-(mu1 * mu1 - 2.0 * rho_ * mu1 * mu2 + mu2 * mu2) / (2.0 * s_ * s_)) /
                 (2.0 * std::numbers::pi * s_);
     return p;
   }
 
  private:
-  double rho_, scale_ = 0.0, s_ = 1.0;
-  std::array<double, kGaussNodes> sn_{}, inv_{};
+  // Phi2(h, k) given Phi(h) and Phi(k).
+  double CdfGiven(double h, double k, double cdf_h, double cdf_k) const {
+    const GaussLegendre& g = *g_;
+    const double hk = h * k, hs = 0.5 * (h * h + k * k);
+    double sum = 0.0;
+    for (std::size_t i = 0; i < static_cast<std::size_t>(g.n); ++i) sum += g.w[i] * std::exp((sn_[i] * hk - hs) * inv_[i]);
+    return cdf_h * cdf_k + scale_ * sum;
+  }
+
+  double rho_;
+  const GaussLegendre* g_;
+  const Erfcx* erfcx_ = &ErfcxTable();
+  double scale_ = 0.0, s_ = 1.0;
+  std::array<double, kMaxGaussNodes> sn_{}, inv_{};
 };
 
 struct Pixel {
@@ -121,6 +183,7 @@ struct Window {
   double dx0 = 0, dy0 = 0;     // position of grid cell (0, 0) relative to x0 (px)
   std::vector<Pixel> pixels;
   std::vector<char> needed;    // cells a pixel uses without the 3-tap kernel
+  std::vector<char> reached;   // cells a pixel uses with it (its 3 x 3 neighbourhood)
 };
 
 using Vec = Eigen::Matrix<double, kNumParams, 1>;
@@ -137,6 +200,7 @@ double Taper(double rho_px, double r) {
 // The pixel's area: F is averaged over n x n points at the centres of n x n equal sub-squares.
 struct SubSamples {
   int n = 1, count = 1;
+  double reach = 0.0;  // largest distance of a point from the pixel centre (px)
   std::array<double, 64> dx{}, dy{};
   explicit SubSamples(int per_axis) {
     n = std::clamp(per_axis, 1, 8);
@@ -147,6 +211,7 @@ struct SubSamples {
         dy[static_cast<std::size_t>(count)] = (j + 0.5) / n - 0.5;
         ++count;
       }
+    reach = std::numbers::sqrt2 * (0.5 - 0.5 / n) + 1e-9;
   }
 };
 
@@ -157,40 +222,56 @@ struct PixelProfile {
 
 // Geometry of one parameter vector, shared by every pixel.
 struct Geometry {
-  double c1, s1, c2, s2, sin12;
-  explicit Geometry(const Vec& p)
+  double c1, s1, c2, s2, sin12, inv_s;
+  double far_px;  // a pixel centre this far from both edges has every sub-sample beyond kFar
+  Geometry(const Vec& p, const SubSamples& sub)
       : c1(std::cos(p[kTh1])), s1(std::sin(p[kTh1])), c2(std::cos(p[kTh2])), s2(std::sin(p[kTh2])),
-        sin12(std::sin(p[kTh1] - p[kTh2])) {}
+        sin12(std::sin(p[kTh1] - p[kTh2])), inv_s(1.0 / p[kS]), far_px(kFar * p[kS] + sub.reach) {}
 };
 
-PixelProfile Profile(const Vec& p, const Geometry& G, const PreparedRho& pr, const SubSamples& sub, double cell_dx,
-                     double cell_dy, bool derivatives) {
-  PixelProfile out;
-  const double s = p[kS];
+// The cell's profile; false (and F = +-1, no derivatives) when the whole pixel is far from both
+// edges, as most of the window is: exactly what the sub-samples would give, for no work.
+bool Profile(const Vec& p, const Geometry& G, const PreparedRho& pr, const SubSamples& sub, double cell_dx,
+             double cell_dy, PixelProfile* out_profile) {
+  PixelProfile& out = *out_profile;
+  out = PixelProfile{};
+  {
+    const double ex = cell_dx - p[kU], ey = cell_dy - p[kV];
+    const double d1 = G.c1 * ex + G.s1 * ey, d2 = G.c2 * ex + G.s2 * ey;
+    if (std::abs(d1) > G.far_px && std::abs(d2) > G.far_px) {
+      out.f = (d1 > 0) == (d2 > 0) ? 1.0 : -1.0;
+      return false;
+    }
+  }
   for (int n = 0; n < sub.count; ++n) {
     const double ex = cell_dx + sub.dx[static_cast<std::size_t>(n)] - p[kU];
     const double ey = cell_dy + sub.dy[static_cast<std::size_t>(n)] - p[kV];
-    const double a1 = G.c1 * ex + G.s1 * ey, b1 = -G.s1 * ex + G.c1 * ey;
-    const double a2 = G.c2 * ex + G.s2 * ey, b2 = -G.s2 * ex + G.c2 * ey;
-    const double mu1 = a1 / s, mu2 = a2 / s;
+    const double a1 = G.c1 * ex + G.s1 * ey, a2 = G.c2 * ex + G.s2 * ey;
+    const double mu1 = a1 * G.inv_s, mu2 = a2 * G.inv_s;
+    if (std::abs(mu1) > kFar && std::abs(mu2) > kFar) {  // as Corner() would say, without the call
+      out.f += (mu1 > 0) == (mu2 > 0) ? 1.0 : -1.0;
+      continue;
+    }
     const CornerProfile f = pr.Corner(mu1, mu2);
     out.f += f.f;
-    if (!derivatives || (f.df_dmu1 == 0.0 && f.df_dmu2 == 0.0 && f.df_drho == 0.0)) continue;
+    if (f.df_dmu1 == 0.0 && f.df_dmu2 == 0.0 && f.df_drho == 0.0) continue;
     // d d_i / d c = -n_i; d d_i / d th_i = t_i . (x - c) = b_i with t_i = (-sin th_i, cos th_i).
-    out.du -= (f.df_dmu1 * G.c1 + f.df_dmu2 * G.c2) / s;
-    out.dv -= (f.df_dmu1 * G.s1 + f.df_dmu2 * G.s2) / s;
-    out.dth1 += f.df_dmu1 * b1 / s - f.df_drho * G.sin12;
-    out.dth2 += f.df_dmu2 * b2 / s + f.df_drho * G.sin12;
-    out.ds -= (f.df_dmu1 * mu1 + f.df_dmu2 * mu2) / s;
+    const double b1 = -G.s1 * ex + G.c1 * ey, b2 = -G.s2 * ex + G.c2 * ey;
+    out.du -= f.df_dmu1 * G.c1 + f.df_dmu2 * G.c2;
+    out.dv -= f.df_dmu1 * G.s1 + f.df_dmu2 * G.s2;
+    out.dth1 += f.df_dmu1 * b1 * G.inv_s - f.df_drho * G.sin12;
+    out.dth2 += f.df_dmu2 * b2 * G.inv_s + f.df_drho * G.sin12;
+    out.ds -= f.df_dmu1 * mu1 + f.df_dmu2 * mu2;
   }
-  const double inv = 1.0 / sub.count;
+  // du, dv and ds above still lack their common factor 1 / s.
+  const double inv = 1.0 / sub.count, inv_s = inv * G.inv_s;
   out.f *= inv;
-  out.du *= inv;
-  out.dv *= inv;
+  out.du *= inv_s;
+  out.dv *= inv_s;
   out.dth1 *= inv;
   out.dth2 *= inv;
-  out.ds *= inv;
-  return out;
+  out.ds *= inv_s;
+  return true;
 }
 
 double Rho(const Vec& p) { return std::cos(p[kTh1] - p[kTh2]); }
@@ -205,61 +286,90 @@ void AddScaled(double c, const PixelProfile& q, PixelProfile* acc) {
   acc->ds += c * q.ds;
 }
 
-// Weighted sum of squared residuals; accumulates the normal equations when H, g are given.
+// Per-fit buffers of Accumulate (one per cell of the window's grid).
+struct Scratch {
+  std::vector<PixelProfile> cells;
+  std::vector<char> edge;  // the cell has derivatives (not far from both edges)
+};
+
+// Weighted sum of squared residuals and the normal equations H, g at p.
 // With the 3-tap kernel, a pixel's profile is sum_kl w_k w_l F(cell + (k, l)), w = [a, 1 - 2a, a].
-double Accumulate(const Vec& p, const Window& win, const SubSamples& sub, bool taps, Mat* H, Vec* g) {
+double Accumulate(const Vec& p, const Window& win, const SubSamples& sub, bool taps, Scratch* scratch, Mat* H, Vec* g) {
   const PreparedRho pr(Rho(p));
-  const Geometry G(p);
-  const bool derivatives = H != nullptr;
-  std::vector<PixelProfile> cells(win.needed.size());
+  const Geometry G(p, sub);
+  const std::vector<char>& use = taps ? win.reached : win.needed;
+  std::vector<PixelProfile>& cells = scratch->cells;
+  std::vector<char>& edge = scratch->edge;
+  cells.resize(use.size());
+  edge.resize(use.size());
   for (int iy = 0; iy < win.ny; ++iy)
     for (int ix = 0; ix < win.nx; ++ix) {
       const std::size_t c = static_cast<std::size_t>(iy * win.nx + ix);
-      if (taps || win.needed[c]) cells[c] = Profile(p, G, pr, sub, win.dx0 + ix, win.dy0 + iy, derivatives);
+      if (use[c]) edge[c] = Profile(p, G, pr, sub, win.dx0 + ix, win.dy0 + iy, &cells[c]) ? 1 : 0;
     }
   const double a = taps ? p[kA] : 0.0;
   const std::array<double, 3> w{a, 1.0 - 2.0 * a, a}, dw{1.0, -2.0, 1.0};
   double cost = 0.0;
   Vec J;
-  if (derivatives) {
-    H->setZero();
-    g->setZero();
-  }
+  // The upper triangle of H, row by row, and g: rank-1 updates written out (the 10 x 10 and
+  // 5 x 5 products through Eigen's general path cost a tenth of the fit).
+  std::array<double, kNumParams*(kNumParams + 1) / 2> h{};
+  std::array<double, kNumParams> gg{};
   for (const Pixel& px : win.pixels) {
     PixelProfile f;
     double df_da = 0.0;
+    bool any_edge = false;
     if (taps) {
       for (int l = -1; l <= 1; ++l)
         for (int k = -1; k <= 1; ++k) {
-          const PixelProfile& q = cells[static_cast<std::size_t>(px.cell + l * win.nx + k)];
+          const std::size_t c = static_cast<std::size_t>(px.cell + l * win.nx + k);
+          const PixelProfile& q = cells[c];
           const std::size_t ik = static_cast<std::size_t>(k + 1), il = static_cast<std::size_t>(l + 1);
-          AddScaled(w[ik] * w[il], q, &f);
+          if (edge[c]) {
+            AddScaled(w[ik] * w[il], q, &f);
+            any_edge = true;
+          } else {
+            f.f += w[ik] * w[il] * q.f;
+          }
           df_da += (dw[ik] * w[il] + w[ik] * dw[il]) * q.f;
         }
     } else {
       f = cells[static_cast<std::size_t>(px.cell)];
+      any_edge = edge[static_cast<std::size_t>(px.cell)] != 0;
     }
     const double L = 1.0 + p[kGx] * px.dx + p[kGy] * px.dy;
     const double B = p[kM] + p[kH] * f.f;
     const double r = L * B - px.value;
     cost += px.w * r * r;
-    if (derivatives) {
-      const double lh = L * p[kH];
+    const double lh = L * p[kH];
+    J[kM] = L;
+    J[kH] = L * f.f;
+    J[kGx] = px.dx * B;
+    J[kGy] = px.dy * B;
+    J[kA] = lh * df_da;
+    // Far from both edges only the levels, the gradient and a act (m .. a, the last five).
+    static_assert(kM == kNumParams - 5 && kA == kNumParams - 1);
+    int first = kM;
+    if (any_edge) {
       J[kU] = lh * f.du;
       J[kV] = lh * f.dv;
       J[kTh1] = lh * f.dth1;
       J[kTh2] = lh * f.dth2;
       J[kS] = lh * f.ds;
-      J[kM] = L;
-      J[kH] = L * f.f;
-      J[kGx] = px.dx * B;
-      J[kGy] = px.dy * B;
-      J[kA] = lh * df_da;
-      H->selfadjointView<Eigen::Upper>().rankUpdate(J, px.w);
-      *g += px.w * r * J;
+      first = 0;
+    }
+    for (int i = first; i < kNumParams; ++i) {
+      const double wj = px.w * J[i];
+      gg[static_cast<std::size_t>(i)] += wj * r;
+      double* row = &h[static_cast<std::size_t>(i * kNumParams - i * (i - 1) / 2 - i)];
+      for (int j = i; j < kNumParams; ++j) row[j] += wj * J[j];
     }
   }
-  if (derivatives) *H = H->selfadjointView<Eigen::Upper>();
+  for (int i = 0; i < kNumParams; ++i) {
+    (*g)[i] = gg[static_cast<std::size_t>(i)];
+    for (int j = i; j < kNumParams; ++j)
+      (*H)(i, j) = (*H)(j, i) = h[static_cast<std::size_t>(i * kNumParams - i * (i - 1) / 2 - i + j)];
+  }
   return cost;
 }
 
@@ -288,6 +398,20 @@ int CornerRefineStats::Kept() const {
   int n = 0;
   for (std::size_t i = 1; i < count.size(); ++i) n += count[i];
   return n;
+}
+
+void CornerRefineStats::Add(const CornerRefineStats& other) {
+  for (std::size_t i = 0; i < count.size(); ++i) count[i] += other.count[i];
+}
+
+std::string ToString(const CornerRefineStats& s) {
+  std::string out = std::to_string(s.Refined()) + " refined, " + std::to_string(s.Kept()) + " kept";
+  std::string reasons;
+  for (std::size_t i = 1; i < s.count.size(); ++i)
+    if (s.count[i] > 0)
+      reasons += (reasons.empty() ? "" : ", ") + std::to_string(s.count[i]) + " " +
+                 ToString(static_cast<CornerRefineStatus>(i));
+  return reasons.empty() ? out : out + " (" + reasons + ")";
 }
 
 double BivariateNormalCdf(double h, double k, double rho) {
@@ -332,6 +456,10 @@ CornerFit RefineCorner(const cv::Mat& image, const Eigen::Vector2d& uv0, const E
       win.pixels.push_back({dx, dy, PixelValue(image, x, y), w, cell});
       win.needed[static_cast<std::size_t>(cell)] = 1;
     }
+  win.reached.assign(win.needed.size(), 0);
+  for (const Pixel& px : win.pixels)
+    for (int l = -1; l <= 1; ++l)
+      for (int k = -1; k <= 1; ++k) win.reached[static_cast<std::size_t>(px.cell + l * win.nx + k)] = 1;
   const std::vector<Pixel>& pixels = win.pixels;
 
   // Start: edges from the grid, blur 1 px, then the levels by linear least squares.
@@ -339,7 +467,10 @@ CornerFit RefineCorner(const cv::Mat& image, const Eigen::Vector2d& uv0, const E
   const Eigen::Vector2d n1 = Perp(edge1_px).normalized(), n2 = Perp(edge2_px).normalized();
   p[kTh1] = std::atan2(n1.y(), n1.x());
   p[kTh2] = std::atan2(n2.y(), n2.x());
-  p[kS] = 1.0;
+  // A sharp start: the first evaluations cost in proportion to the blur (the edge profiles' reach),
+  // and the simulated and the measured images fit s ~0.1-0.15 px (the 3-tap kernel and the pixel
+  // area carry most of the blur). Blurrier optics are reached from it (corner_refine_test).
+  p[kS] = 0.25;
   if (!(std::abs(Rho(p)) < kMaxAbsRho)) {
     fit.status = CornerRefineStatus::kBadFit;
     return fit;
@@ -372,7 +503,8 @@ CornerFit RefineCorner(const cv::Mat& image, const Eigen::Vector2d& uv0, const E
   free[kA] = o.fit_pixel_kernel;
   Mat H;
   Vec g;
-  double cost = Accumulate(p, win, sub, o.fit_pixel_kernel, &H, &g);
+  Scratch scratch;
+  double cost = Accumulate(p, win, sub, o.fit_pixel_kernel, &scratch, &H, &g);
   double lambda = 1e-3;
   bool converged = false;
   int it = 0;
@@ -381,13 +513,22 @@ CornerFit RefineCorner(const cv::Mat& image, const Eigen::Vector2d& uv0, const E
   constexpr int kSettle = 8;
   std::array<Eigen::Vector2d, kSettle> recent{};
   int accepted_steps = 0;
+  // Or: the corner's Gauss-Newton steps have shrunk below 1e-4 then 1e-5 px (they shrink
+  // geometrically, so it has < ~1e-5 px left to move: 100 times below the noise).
+  double last_step_px = 1e9;
   for (; it < o.max_iterations && !converged; ++it) {
     bool accepted = false;
+    // A bounded parameter at its bound that the descent direction -g pushes outwards is held
+    // there for this step (an active set): clamping the free step instead made LM raise its
+    // damping and crawl, e.g. a at 0.25 and s at s_min on dim, blurry images (16 -> 8 iterations).
+    std::array<bool, kNumParams> held{};
+    held[kS] = p[kS] <= s_min && g[kS] > 0.0;
+    held[kA] = (p[kA] <= 0.0 && g[kA] > 0.0) || (p[kA] >= kMaxTap && g[kA] < 0.0);
     for (int tries = 0; tries < 12 && !accepted; ++tries) {
       Mat A = H;
       Vec rhs = -g;
       for (int i = 0; i < kNumParams; ++i) {
-        if (!free[static_cast<std::size_t>(i)]) {
+        if (!free[static_cast<std::size_t>(i)] || held[static_cast<std::size_t>(i)]) {
           A.row(i).setZero();
           A.col(i).setZero();
           A(i, i) = 1.0;
@@ -406,15 +547,26 @@ CornerFit RefineCorner(const cv::Mat& image, const Eigen::Vector2d& uv0, const E
         lambda *= 10.0;
         continue;
       }
-      const double new_cost = Accumulate(q, win, sub, o.fit_pixel_kernel, nullptr, nullptr);
+      // The normal equations come with the trial's cost: nearly every trial step is taken.
+      Mat Hq;
+      Vec gq;
+      const double new_cost = Accumulate(q, win, sub, o.fit_pixel_kernel, &scratch, &Hq, &gq);
       if (new_cost <= cost) {
         accepted = true;
         const double decrease = cost - new_cost;
         p = q;
-        cost = Accumulate(p, win, sub, o.fit_pixel_kernel, &H, &g);
+        cost = new_cost;
+        H = Hq;
+        g = gq;
+        const double step_px = std::hypot(dp[kU], dp[kV]);
+        // Nearly Gauss-Newton (the diagonal raised by <= 10 %): a small step is then not just damped.
+        // Dim, blurry images settle at 1e-2..1e-1 (s and a trade along a valley).
+        const bool gauss_newton = lambda <= 0.1;
         lambda = std::max(lambda / 10.0, 1e-9);
         // Converged when the corner and the edges have stopped moving.
-        converged = std::hypot(dp[kU], dp[kV]) < 1e-6 && std::abs(dp[kTh1]) + std::abs(dp[kTh2]) < 1e-7;
+        converged = step_px < 1e-6 && std::abs(dp[kTh1]) + std::abs(dp[kTh2]) < 1e-7;
+        converged = converged || (gauss_newton && step_px < 1e-5 && last_step_px < 1e-4);
+        last_step_px = gauss_newton ? step_px : 1e9;
         converged = converged || decrease <= 1e-12 * cost;
         const Eigen::Vector2d uv_now(p[kU], p[kV]);
         Eigen::Vector2d& slot = recent[static_cast<std::size_t>(accepted_steps % kSettle)];
