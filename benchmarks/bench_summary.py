@@ -13,7 +13,8 @@ import os
 import re
 import sys
 
-BENCHMARKS = ["detect_benchmark", "identify_benchmark", "solve_benchmark", "frame_set_benchmark"]
+BENCHMARKS = ["detect_benchmark", "identify_benchmark", "solve_benchmark", "frame_set_benchmark",
+              "corner_refine_benchmark"]
 UNIT_NS = {"ns": 1.0, "us": 1e3, "ms": 1e6, "s": 1e9}
 
 

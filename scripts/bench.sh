@@ -8,7 +8,8 @@
 #   OUT/machine.txt            date (UTC), CPU model, cores, build type, compiler, `uptime`
 #                              before and after (the load while measuring)
 #   OUT/<name>.json / .txt     Google Benchmark JSON and console output of detect_benchmark,
-#                              identify_benchmark, solve_benchmark, frame_set_benchmark
+#                              identify_benchmark, solve_benchmark, frame_set_benchmark,
+#                              corner_refine_benchmark (host calibration)
 #   OUT/navd/                  mfns-navd replaying a rendered paper-turntable sequence (60 frame
 #                              sets): time-v.txt (`/usr/bin/time -v`: peak RSS, wall time),
 #                              poses.csv, malloc-<N>.txt (malloc calls of whole runs of N frame
@@ -47,7 +48,7 @@ while [ $# -gt 0 ]; do
     --no-calib) calib=0; shift ;;
     --arm) arm=1; shift ;;
     --arm-build-dir) arm_build_dir=$2; shift 2 ;;
-    -h|--help) sed -n '2,26p' "$0"; exit 0 ;;
+    -h|--help) sed -n '2,27p' "$0"; exit 0 ;;
     *) echo "bench: unknown argument $1 (see --help)" >&2; exit 1 ;;
   esac
 done
@@ -55,7 +56,7 @@ done
 t0=$(date +%s)
 say() { echo "bench [$(( $(date +%s) - t0 ))s] $*" >&2; }
 bin=$build_dir/bin
-benchmarks=(detect_benchmark identify_benchmark solve_benchmark frame_set_benchmark)
+benchmarks=(detect_benchmark identify_benchmark solve_benchmark frame_set_benchmark corner_refine_benchmark)
 
 if [ "$build" = 1 ]; then
   say "configure $build_dir (host preset, MFNS_BUILD_BENCHMARKS=ON) and build with -j$jobs"
