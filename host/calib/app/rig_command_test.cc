@@ -20,6 +20,7 @@
 
 #include "common/blob/param_blob.h"
 #include "common/rotation/rotation.h"
+#include "host/calib/core/dataset.h"
 #include "host/calib/report/compare.h"
 #include "host/calib/testing/synth_calib.h"
 #include "host/rigio/rig_yaml.h"
@@ -237,17 +238,13 @@ TEST_F(RigCommandTest, CornersFromCsvAndWrittenBack) {
   }
 }
 
-// The corners of a corners.csv-format file, per image ("camera,image").
-std::map<std::string, std::vector<Eigen::Vector2d>> ReadCornerCsv(const fs::path& path) {
+// The corners of a corners.csv-format file, per image ("camera/image"), read by the tool's own
+// reader (CornersFromCsv).
+std::map<std::string, std::vector<Eigen::Vector2d>> ReadCornerCsv(const CalibDataset& ds, const fs::path& path) {
+  const CalibInput in = CornersFromCsv(ds, path.string());
   std::map<std::string, std::vector<Eigen::Vector2d>> out;
-  std::istringstream in(ReadFile(path));
-  std::string line;
-  std::getline(in, line);  // header
-  while (std::getline(in, line)) {
-    const std::size_t a = line.find(','), b = line.find(',', a + 1), c = line.find(',', b + 1), d = line.find(',', c + 1);
-    if (d == std::string::npos) continue;
-    out[line.substr(0, b)].emplace_back(std::stod(line.substr(c + 1, d - c - 1)), std::stod(line.substr(d + 1)));
-  }
+  for (const ViewObservation& v : in.views)
+    for (const CornerObs& c : v.corners) out[in.cameras[static_cast<std::size_t>(v.camera)].name + "/" + v.image].push_back(c.uv);
   return out;
 }
 
@@ -284,10 +281,11 @@ TEST_F(RigCommandTest, RefineCornersFlagsChangeTheCorners) {
     return ReadFile(err);
   };
   const std::string log_on = run("--refine-corners", "refined"), log_off = run("--no-refine-corners", "sb");
-  const auto truth = ReadCornerCsv(*root_ / "data" / "corners.csv");
+  const CalibDataset ds = ReadCalibDataset(*root_ / "data");
+  const auto truth = ReadCornerCsv(ds, *root_ / "data" / "corners.csv");
   std::size_t n_on = 0, n_off = 0;
-  const double rms_on = CornerRms(ReadCornerCsv(*root_ / "refined.csv"), truth, &n_on);
-  const double rms_off = CornerRms(ReadCornerCsv(*root_ / "sb.csv"), truth, &n_off);
+  const double rms_on = CornerRms(ReadCornerCsv(ds, *root_ / "refined.csv"), truth, &n_on);
+  const double rms_off = CornerRms(ReadCornerCsv(ds, *root_ / "sb.csv"), truth, &n_off);
   std::printf("corners against corners.csv: refined %.4f px, SB %.4f px per axis (%zu corners)\n", rms_on, rms_off, n_on);
   ASSERT_GT(n_on, 500u);
   EXPECT_EQ(n_on, n_off);
