@@ -14,6 +14,10 @@ double Seconds(std::uint64_t later_ns, std::uint64_t earlier_ns) {
                                 : -static_cast<double>(earlier_ns - later_ns) * 1e-9;
 }
 
+// The largest 1-sigma of a [position (m); attitude (rad)] covariance's position and attitude.
+double PositionSigma(const Eigen::Matrix<double, 6, 6>& P) { return std::sqrt(std::max({P(0, 0), P(1, 1), P(2, 2)})); }
+double AttitudeSigma(const Eigen::Matrix<double, 6, 6>& P) { return std::sqrt(std::max({P(3, 3), P(4, 4), P(5, 5)})); }
+
 }  // namespace
 
 const char* ToString(TrackStatus s) {
@@ -272,9 +276,8 @@ bool Tracker::TrackFrom(const BodyPose& predicted, double max_m, double max_rad,
   if (o.map_error_px > 0.0 && r->solve.has_covariance) {
     // The solved pose's own error for the map's error (its covariance is for sigma_px).
     const double scale = std::hypot(1.0, o.MapToCentroidRatio());
-    const Eigen::Matrix<double, 6, 6>& P = r->solve.covariance;
-    allow_m += o.gate_sigmas * scale * std::sqrt(std::max({P(0, 0), P(1, 1), P(2, 2)}));
-    allow_rad += o.gate_sigmas * scale * std::sqrt(std::max({P(3, 3), P(4, 4), P(5, 5)}));
+    allow_m += o.gate_sigmas * scale * PositionSigma(r->solve.covariance);
+    allow_rad += o.gate_sigmas * scale * AttitudeSigma(r->solve.covariance);
   }
   if ((r->pose.r_w_wb - predicted.r_w_wb).norm() > allow_m ||
       LogSO3(predicted.C_w_b.transpose() * r->pose.C_w_b).norm() > allow_rad) {
@@ -509,16 +512,15 @@ void Tracker::Accept(std::uint64_t t_ns, const TrackOptions& o, TrackResult* r) 
   has_pose_ = has_seed_ = true;
   last_pose_ = r->pose;
   last_t_ns_ = t_ns;
-  const Eigen::Matrix<double, 6, 6>& P = r->solve.covariance;
-  last_sigma_m_ = r->solve.has_covariance ? std::sqrt(std::max({P(0, 0), P(1, 1), P(2, 2)})) : 0.0;
-  last_sigma_rad_ = r->solve.has_covariance ? std::sqrt(std::max({P(3, 3), P(4, 4), P(5, 5)})) : 0.0;
+  last_sigma_m_ = r->solve.has_covariance ? PositionSigma(r->solve.covariance) : 0.0;
+  last_sigma_rad_ = r->solve.has_covariance ? AttitudeSigma(r->solve.covariance) : 0.0;
   const double map_scale = o.MapToCentroidRatio();
   last_map_sigma_m_ = map_scale * last_sigma_m_;
   last_map_sigma_rad_ = map_scale * last_sigma_rad_;
   chain_n_ = 0;
   // Fix or degraded, judged on the pose's whole 1-sigma: centroid noise and the map's error
   // (the covariance Navigator publishes), so that a fix never carries a 1-sigma above the bounds.
-  const double total = std::hypot(1.0, o.MapToCentroidRatio());
+  const double total = std::hypot(1.0, map_scale);
   const double sigma_r = total * last_sigma_m_, sigma_a = total * last_sigma_rad_;
   r->status = TrackStatus::kDegraded;
   if (r->matches.num_beacons < o.fix_min_beacons) r->reason = TrackReason::kFewBeacons;
