@@ -73,6 +73,7 @@ const char* ToString(RigStatus s) {
     case RigStatus::kNotARotation: return "C_k_b is not a rotation matrix";
     case RigStatus::kNonFinite: return "NaN or infinite value";
     case RigStatus::kBadSigma: return "negative sigma";
+    case RigStatus::kBadFacing: return "beacon normal not a unit vector or beam half-angle outside (0, 180] deg";
   }
   return "unknown rig status";
 }
@@ -101,7 +102,25 @@ RigStatus ValidateRig(const Rig& rig, int* camera_index) {
     if (!rig.beacons_w[static_cast<std::size_t>(i)].allFinite()) return RigStatus::kNonFinite;
   if (!std::isfinite(rig.beacon_sigma)) return RigStatus::kNonFinite;
   if (rig.beacon_sigma < 0.0) return RigStatus::kBadSigma;
+  for (int i = 0; rig.has_facing && i < rig.num_beacons; ++i) {
+    const auto idx = static_cast<std::size_t>(i);
+    const Eigen::Vector3d& n = rig.beacon_normal_w[idx];
+    const double half = rig.beacon_half_angle[idx];
+    if (!n.allFinite() || !std::isfinite(half)) return RigStatus::kNonFinite;
+    if (std::abs(n.norm() - 1.0) > 1e-6 || !(half > 0.0) || half > kPi) return RigStatus::kBadFacing;
+  }
   return RigStatus::kOk;
+}
+
+bool BeaconFaces(const Rig& rig, int m, const Eigen::Vector3d& p_w, double margin_rad) {
+  if (!rig.has_facing) return true;
+  const auto idx = static_cast<std::size_t>(m);
+  const double half = rig.beacon_half_angle[idx] + margin_rad;
+  if (half >= kPi) return true;
+  const Eigen::Vector3d u = p_w - rig.beacons_w[idx];
+  const double len = u.norm();
+  if (!(len > 0.0)) return true;
+  return u.dot(rig.beacon_normal_w[idx]) >= std::cos(half) * len;
 }
 
 BodyPose Retract(const BodyPose& pose, const PoseDelta& delta) {

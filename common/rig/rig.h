@@ -37,7 +37,18 @@ struct Rig {
   int num_beacons = 0;
   std::array<Eigen::Vector3d, limits::kMaxBeacons> beacons_w{};  // world frame, m
   double beacon_sigma = 0.0;  // 1-sigma of each beacon coordinate (m); 0 = unknown
+  // Optional facing of every beacon (all or none): the unit normal of its emitting side
+  // (world frame) and its beam half-angle (rad, in (0, pi]). Beacon m is visible from a point
+  // p_w only when the angle between p_w - P_m and its normal is at most the half-angle (an LED
+  // on a wall is not seen from behind it). Without facing data every direction is allowed.
+  bool has_facing = false;
+  std::array<Eigen::Vector3d, limits::kMaxBeacons> beacon_normal_w{};
+  std::array<double, limits::kMaxBeacons> beacon_half_angle{};
 };
+
+// Whether beacon m (0 <= m < rig.num_beacons) can be seen from p_w by its facing (always true
+// without facing data). margin_rad widens the beam (>= 0) for points known only roughly.
+bool BeaconFaces(const Rig& rig, int m, const Eigen::Vector3d& p_w, double margin_rad = 0.0);
 
 // Why a rig is not usable; kOk when it is.
 enum class RigStatus : unsigned char {
@@ -52,6 +63,7 @@ enum class RigStatus : unsigned char {
   kNotARotation,      // C_k_b not orthonormal with det +1 (1e-6)
   kNonFinite,         // NaN or Inf anywhere
   kBadSigma,          // negative sigma
+  kBadFacing,         // beacon normal not a unit vector (1e-6) or half-angle outside (0, pi]
 };
 const char* ToString(RigStatus s);
 
