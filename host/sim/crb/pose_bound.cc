@@ -5,6 +5,7 @@
 #include <cmath>
 
 #include "common/rotation/rotation.h"
+#include "host/sim/render/visibility.h"
 
 namespace mfns::host {
 namespace {
@@ -22,15 +23,12 @@ std::vector<VisibleBeacon> VisibleBeacons(const Rig& rig, const BodyPose& pose, 
                                           const std::vector<int>& occluded) {
   std::vector<VisibleBeacon> out;
   for (int k = 0; k < rig.num_cameras; ++k) {
-    const RigCamera& cam = rig.cameras[static_cast<std::size_t>(k)];
     for (int i = 0; i < rig.num_beacons; ++i) {
       bool hidden = false;
       for (int o : occluded) hidden = hidden || o == i;
-      Eigen::Vector2d uv;
-      if (hidden || ProjectBeacon(cam, pose, rig.beacons_w[static_cast<std::size_t>(i)], &uv) != ProjectStatus::kOk ||
-          !InImage(cam.intrinsics, uv, margin_px))
-        continue;
-      out.push_back({k, i, uv});
+      if (hidden) continue;
+      const BeaconSight sight = SightBeacon(rig, pose, k, i, margin_px);
+      if (sight.visible) out.push_back({k, i, sight.projection.uv_px});
     }
   }
   return out;

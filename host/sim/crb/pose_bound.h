@@ -22,7 +22,8 @@ struct VisibleBeacon {
   Eigen::Vector2d uv_px = Eigen::Vector2d::Zero();  // true image position
 };
 
-// Beacons in front of each camera and inside its image shrunk by margin_px; beacons listed in
+// Beacons each camera sees (host/sim/render/visibility.h SightBeacon: facing the camera, in
+// front, inside the image shrunk by margin_px, not a distortion ghost); beacons listed in
 // `occluded` are skipped.
 std::vector<VisibleBeacon> VisibleBeacons(const Rig& rig, const BodyPose& pose, double margin_px = 0.0,
                                           const std::vector<int>& occluded = {});

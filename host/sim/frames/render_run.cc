@@ -51,9 +51,10 @@ LedFrameSpec FrameSpec(const Scenario& s, const BodyPose& pose, int camera, int 
     // Draw the jitter for every beacon, seen or not, so streams do not depend on visibility.
     const Eigen::Vector2d offset(jitter(*rng), jitter(*rng));
     if (Occluded(s, b)) continue;
-    const Eigen::Vector3d p_k = WorldToCamera(cam, pose, s.rig.beacons_w[static_cast<std::size_t>(b)]);
-    const ProjectedPoint geom = ProjectVisible(cam.intrinsics, p_k, 0.0);
-    if (geom.status != ProjectStatus::kOk) continue;
+    const BeaconSight sight = SightBeacon(s.rig, pose, camera, b, 0.0);
+    if (!sight.Drawn()) continue;  // behind the camera or the camera outside its beam
+    const Eigen::Vector3d& p_k = sight.p_k;
+    const ProjectedPoint& geom = sight.projection;
     // Move the spot by the centroid noise in the image: the same depth, a shifted ray.
     Eigen::Vector2d x_n;
     if (Unproject(cam.intrinsics, geom.uv_px + offset, &x_n) != UnprojectStatus::kOk) continue;
@@ -63,7 +64,7 @@ LedFrameSpec FrameSpec(const Scenario& s, const BodyPose& pose, int camera, int 
     in_view.appearance.sigma_px = s.sensor.psf_sigma_px;
     in_view.appearance.flux_e = s.sensor.flux_e_at_1m / p_k.squaredNorm();
     spec.beacons.push_back(in_view);
-    if (geom.visible && !spec.blank) blobs->push_back({camera, b, geom.uv_px + offset, geom.uv_px});
+    if (sight.visible && !spec.blank) blobs->push_back({camera, b, geom.uv_px + offset, geom.uv_px});
   }
   std::uniform_real_distribution<double> u(0.0, cam.intrinsics.width - 1.0), v(0.0, cam.intrinsics.height - 1.0);
   for (int i = 0; i < s.clutter.reflections_per_frame; ++i) {

@@ -18,4 +18,18 @@ ProjectedPoint ProjectVisible(const CameraIntrinsics& cam, const Eigen::Vector3d
   return out;
 }
 
+Eigen::Vector3d CameraCentreWorld(const RigCamera& cam, const BodyPose& pose) {
+  return pose.r_w_wb + pose.C_w_b * cam.r_b_bk;
+}
+
+BeaconSight SightBeacon(const Rig& rig, const BodyPose& pose, int camera, int beacon, double margin_px) {
+  const RigCamera& cam = rig.cameras[static_cast<std::size_t>(camera)];
+  BeaconSight out;
+  out.p_k = WorldToCamera(cam, pose, rig.beacons_w[static_cast<std::size_t>(beacon)]);
+  out.faces = BeaconFaces(rig, beacon, CameraCentreWorld(cam, pose));
+  out.projection = ProjectVisible(cam.intrinsics, out.p_k, margin_px);
+  out.visible = out.faces && out.projection.visible;
+  return out;
+}
+
 }  // namespace mfns::host
