@@ -37,8 +37,10 @@ constexpr std::uint16_t kKnownFlags = kFlagHasSigma;
 // Payload sections.
 constexpr std::size_t kSectionHeaderBytes = 8;  // u16 type, u16 version, u32 body length
 constexpr std::uint16_t kSectionVersion = 1;
-enum SectionType : std::uint16_t { kCameras = 1, kExtrinsics = 2, kBeacons = 3, kSigma = 4 };
-constexpr std::size_t kNumSectionSlots = 5;  // indexed by SectionType
+enum SectionType : std::uint16_t {
+  kCameras = 1, kExtrinsics = 2, kBeacons = 3, kSigma = 4, kFacing = 5
+};
+constexpr std::size_t kNumSectionSlots = 6;  // indexed by SectionType
 
 constexpr std::size_t kCountBytes = 4;        // u32 count at the start of every known body
 constexpr std::size_t kNameBytes = limits::kMaxCameraNameChars + 1;
@@ -47,24 +49,32 @@ constexpr std::size_t kExtrinsicRecordBytes = 12 * 8;                   // C_k_b
 constexpr std::size_t kBeaconRecordBytes = 3 * 8;                        // x, y, z
 constexpr std::size_t kBeaconFixedBytes = 8;                             // beacon_sigma
 constexpr std::size_t kSigmaRecordBytes = 16 * 8;  // intrinsics 5, kc 5, euler 3, r_b_bk 3
+constexpr std::size_t kFacingRecordBytes = 4 * 8;  // normal x, y, z, half-angle
 
 constexpr std::size_t SectionBytes(std::size_t fixed, std::size_t count, std::size_t record) {
   return kSectionHeaderBytes + kCountBytes + fixed + count * record;
 }
 
-constexpr std::size_t PayloadBytes(std::size_t cameras, std::size_t beacons, bool sigma) {
+constexpr std::size_t PayloadBytes(std::size_t cameras, std::size_t beacons, bool sigma, bool facing) {
   return SectionBytes(0, cameras, kCameraRecordBytes) +
          SectionBytes(0, cameras, kExtrinsicRecordBytes) +
          SectionBytes(kBeaconFixedBytes, beacons, kBeaconRecordBytes) +
-         (sigma ? SectionBytes(0, cameras, kSigmaRecordBytes) : 0);
+         (sigma ? SectionBytes(0, cameras, kSigmaRecordBytes) : 0) +
+         (facing ? SectionBytes(0, beacons, kFacingRecordBytes) : 0);
 }
 
 constexpr std::size_t kLargestBlobBytes =
-    kBlobHeaderBytes + PayloadBytes(limits::kMaxCameras, limits::kMaxBeacons, true);
+    kBlobHeaderBytes + PayloadBytes(limits::kMaxCameras, limits::kMaxBeacons, true, true);
 static_assert(kLargestBlobBytes <= limits::kMaxBlobBytes,
-              "the largest rig (kMaxCameras with sigma, kMaxBeacons) must fit kMaxBlobBytes");
+              "the largest rig (kMaxCameras with sigma, kMaxBeacons with facing) must fit kMaxBlobBytes");
 static_assert(limits::kMaxBlobBytes - kBlobHeaderBytes <= 0xFFFF,
               "the payload length field is a u16: a larger kMaxBlobBytes needs format v2");
+// The sizes README.md states: 1412 + 56 B bytes for 4 cameras with sigma and B beacons with
+// facing, i.e. 15748 bytes at kMaxBeacons = 256.
+static_assert(limits::kMaxCameras != 4 || kLargestBlobBytes == 1412 + 56 * std::size_t{limits::kMaxBeacons},
+              "common/blob/README.md states the largest blob's size: update it");
+static_assert(limits::kMaxCameras != 4 || limits::kMaxBeacons != 256 || kLargestBlobBytes == 15748,
+              "common/blob/README.md states the largest blob's size: update it");
 
 // Every section is at least a section header, so a payload holds at most this many: the
 // section walk's loop bound.
@@ -134,7 +144,7 @@ struct Section {
 };
 using SectionTable = std::array<Section, kNumSectionSlots>;
 
-bool IsKnownSection(std::uint16_t type) { return type >= kCameras && type <= kSigma; }
+bool IsKnownSection(std::uint16_t type) { return type >= kCameras && type <= kFacing; }
 
 // Walks the section headers: every length must stay inside the payload; unknown types are
 // skipped (forward compatibility); a known type appears at most once, in version 1.
@@ -171,10 +181,10 @@ BlobStatus CheckCount(std::span<const std::uint8_t> body, std::uint32_t max_coun
 }
 
 struct Counts {
-  std::uint32_t cameras = 0, extrinsics = 0, beacons = 0, sigma = 0;
+  std::uint32_t cameras = 0, extrinsics = 0, beacons = 0, sigma = 0, facing = 0;
 };
 
-BlobStatus CheckCounts(const SectionTable& t, bool has_sigma, Counts* n) {
+BlobStatus CheckCounts(const SectionTable& t, bool has_sigma, bool has_facing, Counts* n) {
   constexpr auto kMaxCam = static_cast<std::uint32_t>(limits::kMaxCameras);
   constexpr auto kMaxBea = static_cast<std::uint32_t>(limits::kMaxBeacons);
   constexpr BlobStatus kCam = BlobStatus::kTooManyCameras;
@@ -186,8 +196,12 @@ BlobStatus CheckCounts(const SectionTable& t, bool has_sigma, Counts* n) {
                    kBeaconRecordBytes, &n->beacons);
   if (s == BlobStatus::kOk && has_sigma)
     s = CheckCount(t[kSigma].body, kMaxCam, kCam, 0, kSigmaRecordBytes, &n->sigma);
+  if (s == BlobStatus::kOk && has_facing)
+    s = CheckCount(t[kFacing].body, kMaxBea, BlobStatus::kTooManyBeacons, 0, kFacingRecordBytes,
+                   &n->facing);
   if (s != BlobStatus::kOk) return s;
-  if (n->extrinsics != n->cameras || (has_sigma && n->sigma != n->cameras))
+  if (n->extrinsics != n->cameras || (has_sigma && n->sigma != n->cameras) ||
+      (has_facing && n->facing != n->beacons))
     return BlobStatus::kCountMismatch;
   return BlobStatus::kOk;
 }
@@ -204,11 +218,13 @@ void ReadVector(ByteReader& r, Eigen::Vector3d* v) {
 }
 
 // Reads every record (counts and lengths already checked) into *rig, then the values.
-BlobStatus ReadRecords(const SectionTable& t, bool has_sigma, const Counts& n, Rig* rig) {
+BlobStatus ReadRecords(const SectionTable& t, bool has_sigma, bool has_facing, const Counts& n,
+                       Rig* rig) {
   ByteReader cam(t[kCameras].body.subspan(kCountBytes));
   ByteReader ext(t[kExtrinsics].body.subspan(kCountBytes));
   ByteReader bea(t[kBeacons].body.subspan(kCountBytes));
   ByteReader sig(has_sigma ? t[kSigma].body.subspan(kCountBytes) : std::span<const std::uint8_t>());
+  ByteReader fac(has_facing ? t[kFacing].body.subspan(kCountBytes) : std::span<const std::uint8_t>());
   bool names_ok = true;
   rig->num_cameras = static_cast<int>(n.cameras);
   for (std::size_t i = 0; i < n.cameras; ++i) {
@@ -238,9 +254,14 @@ BlobStatus ReadRecords(const SectionTable& t, bool has_sigma, const Counts& n, R
   rig->beacon_sigma = bea.F64();
   rig->num_beacons = static_cast<int>(n.beacons);
   for (std::size_t i = 0; i < n.beacons; ++i) ReadVector(bea, &rig->beacons_w[i]);
+  rig->has_facing = has_facing;
+  for (std::size_t i = 0; has_facing && i < n.beacons; ++i) {  // n.facing == n.beacons
+    ReadVector(fac, &rig->beacon_normal_w[i]);
+    rig->beacon_half_angle[i] = fac.F64();
+  }
 
-  if (!cam.ok() || !ext.ok() || !bea.ok() || !sig.ok()) return BlobStatus::kBadSection;
-  if (!cam.finite() || !ext.finite() || !bea.finite() || !sig.finite())
+  if (!cam.ok() || !ext.ok() || !bea.ok() || !sig.ok() || !fac.ok()) return BlobStatus::kBadSection;
+  if (!cam.finite() || !ext.finite() || !bea.finite() || !sig.finite() || !fac.finite())
     return BlobStatus::kNonFiniteValue;
   if (!names_ok || ValidateRig(*rig) != RigStatus::kOk) return BlobStatus::kInvalidValue;
   return BlobStatus::kOk;
@@ -254,10 +275,11 @@ BlobStatus DecodePayload(std::span<const std::uint8_t> payload, bool has_sigma, 
       (has_sigma && !table[kSigma].present))
     return BlobStatus::kMissingSection;
   if (!has_sigma && table[kSigma].present) return BlobStatus::kBadSection;  // flag says none
+  const bool has_facing = table[kFacing].present;  // optional, no flag: older decoders skip it
   Counts counts;
-  s = CheckCounts(table, has_sigma, &counts);
+  s = CheckCounts(table, has_sigma, has_facing, &counts);
   if (s != BlobStatus::kOk) return s;
-  return ReadRecords(table, has_sigma, counts, rig);
+  return ReadRecords(table, has_sigma, has_facing, counts, rig);
 }
 
 // ---- Encoder ----
@@ -316,15 +338,25 @@ void WritePayload(const Rig& rig, ByteWriter& w) {
   w.F64(rig.beacon_sigma);
   for (std::size_t i = 0; i < n_bea; ++i) WriteVector(w, rig.beacons_w[i]);
 
-  if (!rig.has_sigma) return;
-  WriteSectionHeader(w, kSigma, SectionBytes(0, n_cam, kSigmaRecordBytes));
-  w.U32(static_cast<std::uint32_t>(n_cam));
-  for (std::size_t i = 0; i < n_cam; ++i) {
-    const RigCameraSigma& s = rig.sigma[i];
-    WriteArray(w, s.intrinsics);
-    WriteArray(w, s.distortion);
-    WriteVector(w, s.euler);
-    WriteVector(w, s.r_b_bk);
+  if (rig.has_sigma) {
+    WriteSectionHeader(w, kSigma, SectionBytes(0, n_cam, kSigmaRecordBytes));
+    w.U32(static_cast<std::uint32_t>(n_cam));
+    for (std::size_t i = 0; i < n_cam; ++i) {
+      const RigCameraSigma& s = rig.sigma[i];
+      WriteArray(w, s.intrinsics);
+      WriteArray(w, s.distortion);
+      WriteVector(w, s.euler);
+      WriteVector(w, s.r_b_bk);
+    }
+  }
+
+  if (rig.has_facing) {
+    WriteSectionHeader(w, kFacing, SectionBytes(0, n_bea, kFacingRecordBytes));
+    w.U32(static_cast<std::uint32_t>(n_bea));
+    for (std::size_t i = 0; i < n_bea; ++i) {
+      WriteVector(w, rig.beacon_normal_w[i]);
+      w.F64(rig.beacon_half_angle[i]);
+    }
   }
 }
 
@@ -347,7 +379,7 @@ const char* ToString(BlobStatus s) {
     case BlobStatus::kDuplicateSection: return "a section appears more than once";
     case BlobStatus::kTooManyCameras: return "more cameras than limits::kMaxCameras";
     case BlobStatus::kTooManyBeacons: return "more beacons than limits::kMaxBeacons";
-    case BlobStatus::kCountMismatch: return "sections disagree on the number of cameras";
+    case BlobStatus::kCountMismatch: return "sections disagree on the number of cameras or beacons";
     case BlobStatus::kNonFiniteValue: return "NaN or infinite value";
     case BlobStatus::kInvalidValue: return "rig fails validation (e.g. C_k_b not a rotation)";
     case BlobStatus::kRigIdMismatch: return "blob is for another rig id";
@@ -362,7 +394,7 @@ BlobStatus EncodeParamBlob(const Rig& rig, std::uint64_t generation, std::span<s
   if (valid != BlobStatus::kOk) return valid;
   const std::size_t payload_bytes =
       PayloadBytes(static_cast<std::size_t>(rig.num_cameras),
-                   static_cast<std::size_t>(rig.num_beacons), rig.has_sigma);
+                   static_cast<std::size_t>(rig.num_beacons), rig.has_sigma, rig.has_facing);
   const std::size_t total = kBlobHeaderBytes + payload_bytes;
   if (out.size() < total) return BlobStatus::kBufferTooSmall;
 

@@ -6,7 +6,8 @@
 //     u16 payload length, rig id (32 bytes, NUL-padded), u64 generation, u32 payload CRC32,
 //     u32 header CRC32 (the fields fill the 64 bytes exactly; README.md says why u16)
 //   payload: sections, each {u16 type, u16 version, u32 length, bytes}: cameras (intrinsics and
-//     image size), extrinsics (C_k_b, r_b_bk), beacons (map and its 1-sigma), sigma (optional).
+//     image size), extrinsics (C_k_b, r_b_bk), beacons (map and its 1-sigma), sigma (optional),
+//     beacon facing (optional: normal and beam half-angle per beacon; Rig::has_facing).
 // The decoder never trusts a length or a count: every failure is a typed BlobStatus.
 #pragma once
 
@@ -37,7 +38,7 @@ enum class BlobStatus : unsigned char {
   kDuplicateSection,
   kTooManyCameras,      // count above limits::kMaxCameras
   kTooManyBeacons,      // count above limits::kMaxBeacons
-  kCountMismatch,       // sections disagree on the number of cameras
+  kCountMismatch,       // sections disagree on the number of cameras or of beacons
   kNonFiniteValue,      // NaN or Inf in any number
   kInvalidValue,        // decoded rig fails ValidateRig (e.g. C_k_b not a rotation)
   kRigIdMismatch,       // blob for another rig than the one expected

@@ -91,7 +91,7 @@ struct TestSection {
   std::optional<std::uint32_t> length;  // default: body.size()
 };
 
-enum : std::uint16_t { kCam = 1, kExt = 2, kBea = 3, kSig = 4 };
+enum : std::uint16_t { kCam = 1, kExt = 2, kBea = 3, kSig = 4, kFac = 5 };
 
 Bytes Assemble(const TestHeader& h, const std::vector<TestSection>& sections) {
   Bytes payload;
@@ -161,6 +161,17 @@ Bytes SigmaBody(const Rig& r, int records, std::uint32_t count) {
   return b;
 }
 
+Bytes FacingBody(const Rig& r, int records, std::uint32_t count) {
+  Bytes b;
+  PutLe(&b, count, 4);
+  for (int i = 0; i < records; ++i) {
+    const auto m = static_cast<std::size_t>(i % std::max(r.num_beacons, 1));
+    PutVec(&b, r.beacon_normal_w[m]);
+    PutF64(&b, r.beacon_half_angle[m]);
+  }
+  return b;
+}
+
 std::vector<TestSection> SectionsOf(const Rig& r) {
   const int nc = r.num_cameras;
   const int nb = r.num_beacons;
@@ -169,6 +180,7 @@ std::vector<TestSection> SectionsOf(const Rig& r) {
                                 {kExt, 1, ExtrinsicsBody(r, nc, unc), {}},
                                 {kBea, 1, BeaconsBody(r, nb, static_cast<std::uint32_t>(nb)), {}}};
   if (r.has_sigma) s.push_back({kSig, 1, SigmaBody(r, nc, unc), {}});
+  if (r.has_facing) s.push_back({kFac, 1, FacingBody(r, nb, static_cast<std::uint32_t>(nb)), {}});
   return s;
 }
 
@@ -241,6 +253,29 @@ Rig MaxRig() {
   return r;
 }
 
+// Facing for every beacon of r: random unit normals (one exactly an axis, one with a -0.0),
+// half-angles across (0, pi], the boundary pi and a tiny one included.
+Rig WithFacing(Rig r) {
+  std::mt19937_64 rng(99);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  r.has_facing = true;
+  for (std::size_t m = 0; m < static_cast<std::size_t>(r.num_beacons); ++m) {
+    Eigen::Vector3d n(u(rng), u(rng), u(rng));
+    r.beacon_normal_w[m] = n.normalized();
+    r.beacon_half_angle[m] = std::max(1e-3, (0.5 + 0.5 * u(rng)) * kPi);
+  }
+  if (r.num_beacons >= 3) {
+    r.beacon_normal_w[0] = Eigen::Vector3d(-0.0, 0.0, 1.0);
+    r.beacon_half_angle[0] = kPi;                                   // the largest allowed
+    r.beacon_normal_w[1] = Eigen::Vector3d(1.0, 0.0, 0.0);
+    r.beacon_half_angle[1] = std::numeric_limits<double>::denorm_min();  // the smallest
+    r.beacon_half_angle[2] = DegToRad(60.0);
+  }
+  return r;
+}
+
+Rig PaperRigWithFacing() { return WithFacing(PaperRig()); }
+
 bool Same(double a, double b) { return std::bit_cast<std::uint64_t>(a) == std::bit_cast<std::uint64_t>(b); }
 
 ::testing::AssertionResult RigsBitEqual(const Rig& a, const Rig& b) {
@@ -251,6 +286,7 @@ bool Same(double a, double b) { return std::bit_cast<std::uint64_t>(a) == std::b
   check(a.rig_id == b.rig_id, "rig_id");
   check(a.num_cameras == b.num_cameras, "num_cameras");
   check(a.has_sigma == b.has_sigma, "has_sigma");
+  check(a.has_facing == b.has_facing, "has_facing");
   check(a.num_beacons == b.num_beacons, "num_beacons");
   check(Same(a.beacon_sigma, b.beacon_sigma), "beacon_sigma");
   if (!diff.str().empty()) return ::testing::AssertionFailure() << "differ: " << diff.str();
@@ -279,6 +315,11 @@ bool Same(double a, double b) { return std::bit_cast<std::uint64_t>(a) == std::b
   }
   for (std::size_t i = 0; i < static_cast<std::size_t>(a.num_beacons) && i < a.beacons_w.size(); ++i)
     for (int e = 0; e < 3; ++e) check(Same(a.beacons_w[i](e), b.beacons_w[i](e)), "beacon " + std::to_string(i));
+  for (std::size_t i = 0; a.has_facing && i < static_cast<std::size_t>(a.num_beacons) && i < a.beacons_w.size(); ++i) {
+    for (int e = 0; e < 3; ++e)
+      check(Same(a.beacon_normal_w[i](e), b.beacon_normal_w[i](e)), "normal " + std::to_string(i));
+    check(Same(a.beacon_half_angle[i], b.beacon_half_angle[i]), "half-angle " + std::to_string(i));
+  }
   if (!diff.str().empty()) return ::testing::AssertionFailure() << "differ: " << diff.str();
   return ::testing::AssertionSuccess();
 }
@@ -344,14 +385,37 @@ TEST(ParamBlob, ToStringGivesADistinctReasonForEveryStatus) {
 }
 
 TEST(ParamBlob, EncoderWritesTheDocumentedLayout) {
-  for (const Rig& rig : {PaperRig(), PaperRigNoSigma(), MaxRig()}) {
+  for (const Rig& rig : {PaperRig(), PaperRigNoSigma(), MaxRig(), PaperRigWithFacing(), WithFacing(MaxRig()),
+                         WithFacing(PaperRigNoSigma())}) {
     const Bytes blob = Encode(rig, kGeneration);
     EXPECT_EQ(blob, Reference(rig, kGeneration)) << rig.rig_id.data();
     const std::size_t nc = static_cast<std::size_t>(rig.num_cameras);
     const std::size_t nb = static_cast<std::size_t>(rig.num_beacons);
     EXPECT_EQ(blob.size(), 64 + (12 + 96 * nc) + (12 + 96 * nc) + (20 + 24 * nb) +
-                               (rig.has_sigma ? 12 + 128 * nc : 0));
+                               (rig.has_sigma ? 12 + 128 * nc : 0) + (rig.has_facing ? 12 + 32 * nb : 0));
   }
+  // README.md's sizes: the paper rig (3 cameras, 10 beacons) and the largest rig.
+  EXPECT_EQ(Encode(PaperRig(), 1).size(), 1320u);
+  EXPECT_EQ(Encode(PaperRigNoSigma(), 1).size(), 924u);
+  EXPECT_EQ(Encode(PaperRigWithFacing(), 1).size(), 1652u);
+  EXPECT_EQ(Encode(WithFacing(MaxRig()), 1).size(), 1412u + 56u * limits::kMaxBeacons);
+  EXPECT_LE(1412u + 56u * limits::kMaxBeacons, limits::kMaxBlobBytes);
+
+  // The facing section (type 5) comes last, after SIGMA; its first record checked literally.
+  const Rig facing = PaperRigWithFacing();
+  const Bytes f = Encode(facing, kGeneration);
+  const std::size_t at = f.size() - (12 + 32 * 10);
+  EXPECT_EQ(GetLe(f, 14, 2), f.size() - 64);
+  EXPECT_EQ(GetLe(f, at, 2), 5u);            // BEACON_FACING
+  EXPECT_EQ(GetLe(f, at + 2, 2), 1u);        // its version
+  EXPECT_EQ(GetLe(f, at + 4, 4), 4u + 32 * 10);
+  EXPECT_EQ(GetLe(f, at + 8, 4), 10u);       // beacon count
+  EXPECT_EQ(GetLe(f, at + 12, 8), 0x8000000000000000ull);  // normal x of beacon 0: -0.0
+  EXPECT_EQ(GetLe(f, at + 20, 8), 0u);                     // y: +0.0
+  EXPECT_EQ(GetLe(f, at + 28, 8), std::bit_cast<std::uint64_t>(1.0));
+  EXPECT_EQ(GetLe(f, at + 36, 8), std::bit_cast<std::uint64_t>(kPi));  // half-angle, rad
+  EXPECT_EQ(GetLe(f, 12, 2), 1u);  // flags: sigma only; facing has no flag bit
+
   // A few bytes of README.md's table checked literally on the paper rig.
   const Bytes b = Encode(PaperRig(), kGeneration);
   EXPECT_EQ(std::string(b.begin(), b.begin() + 8), "MFNSPRM1");
@@ -376,7 +440,7 @@ TEST(ParamBlob, EncoderWritesTheDocumentedLayout) {
 }
 
 TEST(ParamBlob, RoundTripIsBitExact) {
-  for (const Rig& rig : {PaperRig(), PaperRigNoSigma(), MaxRig()}) {
+  for (const Rig& rig : {PaperRig(), PaperRigNoSigma(), MaxRig(), PaperRigWithFacing(), WithFacing(MaxRig())}) {
     for (const std::uint64_t generation : {std::uint64_t{0}, kGeneration, ~std::uint64_t{0}}) {
       const Bytes blob = Encode(rig, generation);
       EXPECT_LE(blob.size(), limits::kMaxBlobBytes);
@@ -406,7 +470,7 @@ TEST(ParamBlob, RoundTripIsBitExact) {
 // Corruption classes on the encoder's own output.
 
 TEST(ParamBlob, EveryTruncationIsTruncated) {
-  for (const Rig& rig : {PaperRig(), MaxRig()}) {
+  for (const Rig& rig : {PaperRig(), MaxRig(), PaperRigWithFacing()}) {
     const Bytes blob = Encode(rig, kGeneration);
     for (std::size_t n = 0; n < blob.size(); ++n) {
       Rig out = Sentinel();
@@ -501,21 +565,31 @@ TEST(ParamBlob, HeaderFieldFlipsWithRepairedCrcGiveTheFieldsError) {
 // catch it, or the result is a valid rig that re-encodes to exactly these bytes (the encoding
 // is canonical, so nothing decodes "successfully" to something else).
 TEST(ParamBlob, PayloadFlipsWithRepairedCrcsAreCaughtOrCanonical) {
-  const Bytes blob = Encode(PaperRig(), kGeneration);
   std::map<BlobStatus, int> seen;
-  for (std::size_t i = 64; i < blob.size(); ++i) {
-    for (int bit = 0; bit < 8; ++bit) {
-      Bytes b = blob;
-      b[i] = static_cast<std::uint8_t>(b[i] ^ (1u << bit));
-      RepairCrcs(&b);
-      Rig out = Sentinel();
-      BlobInfo info;
-      const BlobStatus s = DecodeParamBlob(b, nullptr, &out, &info);
-      ++seen[s];
-      if (s == BlobStatus::kOk) {
-        ASSERT_EQ(Encode(out, info.generation), b) << "byte " << i << " bit " << bit;
-      } else {
-        EXPECT_EQ(out.num_cameras, -7);
+  int skipped = 0;
+  for (const Rig& rig : {PaperRig(), PaperRigWithFacing()}) {
+    const Bytes blob = Encode(rig, kGeneration);
+    // The facing section is optional and has no flag (an older decoder skips it), so a type
+    // flipped to an unknown one is skipped like any unknown section: the CRCs guard that.
+    const std::size_t facing_type = blob.size() - (12 + 32 * static_cast<std::size_t>(rig.num_beacons));
+    for (std::size_t i = 64; i < blob.size(); ++i) {
+      for (int bit = 0; bit < 8; ++bit) {
+        Bytes b = blob;
+        b[i] = static_cast<std::uint8_t>(b[i] ^ (1u << bit));
+        RepairCrcs(&b);
+        Rig out = Sentinel();
+        BlobInfo info;
+        const BlobStatus s = DecodeParamBlob(b, nullptr, &out, &info);
+        ++seen[s];
+        if (s == BlobStatus::kOk && rig.has_facing && !out.has_facing) {
+          ASSERT_TRUE(i >= facing_type && i < facing_type + 2) << "byte " << i << " bit " << bit;
+          ASSERT_TRUE(RigsBitEqual(out, PaperRig()));
+          ++skipped;
+        } else if (s == BlobStatus::kOk) {
+          ASSERT_EQ(Encode(out, info.generation), b) << "byte " << i << " bit " << bit;
+        } else {
+          EXPECT_EQ(out.num_cameras, -7);
+        }
       }
     }
   }
@@ -527,6 +601,8 @@ TEST(ParamBlob, PayloadFlipsWithRepairedCrcsAreCaughtOrCanonical) {
                              BlobStatus::kDuplicateSection, BlobStatus::kTooManyCameras,
                              BlobStatus::kTooManyBeacons, BlobStatus::kInvalidValue})
     EXPECT_GT(seen[s], 0) << ToString(s) << "; seen " << record.str();
+  // Type 5's bits: 0 -> 4 (SIGMA twice), 2 -> 1 (CAMERAS twice), the other 14 -> unknown.
+  EXPECT_EQ(skipped, 14);
 }
 
 TEST(ParamBlob, TrailingBytes) {
@@ -820,6 +896,215 @@ TEST(ParamBlob, InvalidRigsAreRefused) {
 }
 
 // ---------------------------------------------------------------------------------------------
+// Section 5, BEACON_FACING (optional; no header flag, so older decoders skip it).
+
+TEST(ParamBlob, FacingRoundTripsAtTheBeaconLimitWithAndWithoutFacing) {
+  const Rig without = MaxRig();
+  const Rig with = WithFacing(MaxRig());
+  ASSERT_EQ(with.num_beacons, limits::kMaxBeacons);
+  for (const Rig& rig : {without, with}) {
+    const Bytes blob = Encode(rig, kGeneration);
+    EXPECT_EQ(blob, Reference(rig, kGeneration));
+    Rig out = Sentinel();
+    ASSERT_EQ(DecodeParamBlob(blob, rig.rig_id.data(), &out, nullptr), BlobStatus::kOk);
+    EXPECT_TRUE(RigsBitEqual(out, rig));
+    EXPECT_EQ(out.has_facing, rig.has_facing);
+  }
+}
+
+// README.md's largest blob: 4 cameras with sigma, 256 beacons with facing.
+TEST(ParamBlob, TheLargestBlobIs15748BytesAt256BeaconsWithFacing) {
+  if constexpr (limits::kMaxBeacons >= 256 && limits::kMaxCameras >= 4) {
+    Rig r256 = WithFacing(MaxRig());
+    r256.num_beacons = 256;
+    r256.num_cameras = 4;
+    const Bytes blob = Encode(r256, 1);
+    EXPECT_EQ(blob.size(), 15748u);
+    Rig out = Sentinel();
+    ASSERT_EQ(DecodeParamBlob(blob, nullptr, &out, nullptr), BlobStatus::kOk);
+    EXPECT_TRUE(RigsBitEqual(out, r256));
+    r256.has_facing = false;
+    EXPECT_EQ(Encode(r256, 1).size(), 15748u - (12 + 32 * 256));
+  } else {
+    GTEST_SKIP() << "the 256-beacon case needs limits::kMaxBeacons >= 256 (now " << limits::kMaxBeacons << ")";
+  }
+}
+
+// A version-1 blob as written before section 5 existed decodes, without facing.
+TEST(ParamBlob, BlobsWithoutTheFacingSectionDecodeWithoutFacing) {
+  for (const Rig& rig : {PaperRig(), PaperRigNoSigma(), MaxRig()}) {
+    Rig out = Sentinel();
+    out.has_facing = true;
+    out.beacon_half_angle[0] = 1.0;
+    ASSERT_EQ(DecodeParamBlob(Reference(rig, 4), nullptr, &out, nullptr), BlobStatus::kOk);
+    EXPECT_FALSE(out.has_facing);
+    EXPECT_EQ(out.beacon_half_angle[0], 0.0);  // the whole rig is replaced, no stale facing
+    EXPECT_TRUE(RigsBitEqual(out, rig));
+  }
+  // The facing rig's blob with section 5 left out: the same rig without facing.
+  const Rig facing = PaperRigWithFacing();
+  std::vector<TestSection> s = SectionsOf(facing);
+  ASSERT_EQ(s.back().type, kFac);
+  s.pop_back();
+  Rig out = Sentinel();
+  ASSERT_EQ(DecodeParamBlob(Assemble(HeaderOf(facing, 4), s), nullptr, &out, nullptr), BlobStatus::kOk);
+  EXPECT_TRUE(RigsBitEqual(out, PaperRig()));
+}
+
+// Section 5 anywhere in the payload, with unknown sections (types 6 and up) around it.
+TEST(ParamBlob, FacingInAnyOrderAndUnknownSection6AreFine) {
+  const Rig rig = PaperRigWithFacing();
+  const std::vector<TestSection> good = SectionsOf(rig);
+  std::vector<TestSection> s = good;
+  std::rotate(s.begin(), s.end() - 1, s.end());  // facing first
+  s.insert(s.begin() + 2, {6, 1, Bytes(40, 0x5A), {}});
+  s.push_back({6, 2, Bytes{}, {}});  // unknown types may repeat: they are not read
+  Rig out = Sentinel();
+  ASSERT_EQ(DecodeParamBlob(Assemble(HeaderOf(rig, 1), s), nullptr, &out, nullptr), BlobStatus::kOk);
+  EXPECT_TRUE(RigsBitEqual(out, rig));
+  // An unknown section 6 that looks like a facing section does not make facing.
+  std::vector<TestSection> six = SectionsOf(PaperRig());
+  six.push_back({6, 1, FacingBody(rig, 10, 10), {}});
+  out = Sentinel();
+  ASSERT_EQ(DecodeParamBlob(Assemble(HeaderOf(rig, 1), six), nullptr, &out, nullptr), BlobStatus::kOk);
+  EXPECT_FALSE(out.has_facing);
+  EXPECT_TRUE(RigsBitEqual(out, PaperRig()));
+}
+
+TEST(ParamBlob, FacingCountMustEqualTheBeaconCount) {
+  const Rig rig = PaperRigWithFacing();  // 10 beacons
+  auto decode = [&rig](const Bytes& facing_body) {
+    std::vector<TestSection> s = SectionsOf(rig);
+    s.back().body = facing_body;
+    return Decode(Assemble(HeaderOf(rig, 1), s));
+  };
+  EXPECT_EQ(decode(FacingBody(rig, 10, 10)), BlobStatus::kOk);
+  EXPECT_EQ(decode(FacingBody(rig, 9, 9)), BlobStatus::kCountMismatch);
+  EXPECT_EQ(decode(FacingBody(rig, 11, 11)), BlobStatus::kCountMismatch);
+  EXPECT_EQ(decode(FacingBody(rig, 0, 0)), BlobStatus::kCountMismatch);
+  // Beacons and facing agree with each other but not with 10: fine, they are the rig's.
+  Rig nine = rig;
+  nine.num_beacons = 9;
+  std::vector<TestSection> s = SectionsOf(nine);
+  EXPECT_EQ(Decode(Assemble(HeaderOf(nine, 1), s)), BlobStatus::kOk);
+  s[2].body = BeaconsBody(nine, 10, 10);
+  EXPECT_EQ(Decode(Assemble(HeaderOf(nine, 1), s)), BlobStatus::kCountMismatch);
+  // No beacons, with facing: an empty facing section.
+  Rig none = rig;
+  none.num_beacons = 0;
+  Rig out = Sentinel();
+  ASSERT_EQ(DecodeParamBlob(Encode(none, 1), nullptr, &out, nullptr), BlobStatus::kOk);
+  EXPECT_TRUE(out.has_facing);
+  EXPECT_EQ(out.num_beacons, 0);
+}
+
+TEST(ParamBlob, FacingSectionLengthsAndCountsAreNeverTrusted) {
+  const Rig rig = PaperRigWithFacing();
+  const std::vector<TestSection> good = SectionsOf(rig);
+  auto decode = [&rig](const std::vector<TestSection>& s) { return Decode(Assemble(HeaderOf(rig, 1), s)); };
+  std::vector<TestSection> s = good;
+  s.back().body.resize(s.back().body.size() - 8);  // truncated record
+  EXPECT_EQ(decode(s), BlobStatus::kBadSection);
+  s = good;
+  s.back().body.resize(s.back().body.size() - 32);  // a whole record short of its count
+  EXPECT_EQ(decode(s), BlobStatus::kBadSection);
+  s = good;
+  s.back().body.push_back(0);  // one byte too many
+  EXPECT_EQ(decode(s), BlobStatus::kBadSection);
+  s = good;
+  s.back().body.resize(s.back().body.size() + 32);  // a whole record too many
+  EXPECT_EQ(decode(s), BlobStatus::kBadSection);
+  for (const Bytes& tiny : {Bytes{}, Bytes{10}, Bytes{10, 0, 0}}) {  // too short for the count
+    s = good;
+    s.back().body = tiny;
+    EXPECT_EQ(decode(s), BlobStatus::kBadSection) << tiny.size();
+  }
+  s = good;
+  s.back().length = static_cast<std::uint32_t>(s.back().body.size() + 1);  // overruns the payload
+  EXPECT_EQ(decode(s), BlobStatus::kBadSection);
+  s = good;
+  s.back().length = 0xFFFFFFFFu;
+  EXPECT_EQ(decode(s), BlobStatus::kBadSection);
+  s = good;
+  s.back().version = 2;
+  EXPECT_EQ(decode(s), BlobStatus::kBadSection);
+  s = good;
+  s.push_back(good.back());
+  EXPECT_EQ(decode(s), BlobStatus::kDuplicateSection);
+  // Counts above kMaxBeacons, before any record is read: consistent and lying.
+  constexpr int kTooMany = limits::kMaxBeacons + 1;
+  s = good;
+  s.back().body = FacingBody(rig, kTooMany, static_cast<std::uint32_t>(kTooMany));
+  EXPECT_EQ(decode(s), BlobStatus::kTooManyBeacons);
+  for (const std::uint32_t count : {static_cast<std::uint32_t>(kTooMany), 0xFFFFFFFFu}) {
+    s = good;
+    SetLe(&s.back().body, 0, count, 4);
+    EXPECT_EQ(decode(s), BlobStatus::kTooManyBeacons) << count;
+  }
+}
+
+TEST(ParamBlob, InvalidFacingIsRefused) {
+  using Edit = void (*)(Rig*);
+  const std::vector<std::pair<const char*, Edit>> edits = {
+      {"normal length 1.001", [](Rig* r) { r->beacon_normal_w[3] *= 1.001; }},
+      {"normal length 0.5", [](Rig* r) { r->beacon_normal_w[3] *= 0.5; }},
+      {"normal length 1 + 2e-6", [](Rig* r) { r->beacon_normal_w[9] = Eigen::Vector3d(0, 1 + 2e-6, 0); }},
+      {"normal zero", [](Rig* r) { r->beacon_normal_w[0].setZero(); }},
+      {"half-angle 0", [](Rig* r) { r->beacon_half_angle[4] = 0.0; }},
+      {"half-angle -0", [](Rig* r) { r->beacon_half_angle[4] = -0.0; }},
+      {"half-angle negative", [](Rig* r) { r->beacon_half_angle[4] = -0.5; }},
+      {"half-angle just above pi", [](Rig* r) { r->beacon_half_angle[5] = std::nextafter(kPi, 4.0); }},
+      {"half-angle 2 pi", [](Rig* r) { r->beacon_half_angle[5] = 2 * kPi; }},
+  };
+  for (const auto& [name, edit] : edits) {
+    Rig rig = PaperRigWithFacing();
+    edit(&rig);
+    ASSERT_EQ(ValidateRig(rig), RigStatus::kBadFacing) << name;
+    Rig out = Sentinel();
+    EXPECT_EQ(DecodeParamBlob(Reference(rig, 1), nullptr, &out, nullptr), BlobStatus::kInvalidValue) << name;
+    EXPECT_EQ(out.num_cameras, -7);
+    Bytes buffer(limits::kMaxBlobBytes, 0xA5);
+    EXPECT_EQ(EncodeParamBlob(rig, 1, buffer, nullptr), BlobStatus::kInvalidValue) << name;
+    EXPECT_TRUE(std::all_of(buffer.begin(), buffer.end(), [](std::uint8_t c) { return c == 0xA5; })) << name;
+  }
+  // The limits themselves are valid: pi exactly, the smallest positive half-angle, a normal
+  // within 1e-6 of unit length (the decoder keeps it as it is).
+  Rig edge = PaperRigWithFacing();
+  edge.beacon_half_angle[6] = kPi;
+  edge.beacon_half_angle[7] = std::numeric_limits<double>::denorm_min();
+  edge.beacon_normal_w[8] = Eigen::Vector3d(0, 0, 1 + 5e-7);
+  Rig out = Sentinel();
+  ASSERT_EQ(DecodeParamBlob(Reference(edge, 1), nullptr, &out, nullptr), BlobStatus::kOk);
+  EXPECT_TRUE(RigsBitEqual(out, edge));
+}
+
+TEST(ParamBlob, NonFiniteFacingIsRefused) {
+  using Edit = void (*)(Rig*, double);
+  const std::vector<std::pair<const char*, Edit>> places = {
+      {"normal x", [](Rig* r, double v) { r->beacon_normal_w[0].x() = v; }},
+      {"normal z", [](Rig* r, double v) { r->beacon_normal_w[9].z() = v; }},
+      {"half-angle", [](Rig* r, double v) { r->beacon_half_angle[2] = v; }},
+  };
+  for (const auto& [name, edit] : places) {
+    for (const double bad : {kNaN, -kNaN, kInf, -kInf}) {
+      Rig rig = PaperRigWithFacing();
+      edit(&rig, bad);
+      Rig out = Sentinel();
+      EXPECT_EQ(DecodeParamBlob(Reference(rig, 1), nullptr, &out, nullptr), BlobStatus::kNonFiniteValue)
+          << name << " = " << bad;
+      EXPECT_EQ(out.num_cameras, -7);
+      Bytes buffer(limits::kMaxBlobBytes);
+      EXPECT_EQ(EncodeParamBlob(rig, 1, buffer, nullptr), BlobStatus::kNonFiniteValue) << name;
+    }
+  }
+  // Non-finite beats an invalid facing elsewhere (checks in README.md's order: 6 before 7).
+  Rig rig = PaperRigWithFacing();
+  rig.beacon_half_angle[1] = 0.0;
+  rig.beacon_half_angle[8] = kNaN;
+  EXPECT_EQ(Decode(Reference(rig, 1)), BlobStatus::kNonFiniteValue);
+}
+
+// ---------------------------------------------------------------------------------------------
 // Encoder.
 
 TEST(ParamBlob, EncoderNeedsABufferLargeEnoughAndLeavesItAloneOtherwise) {
@@ -944,7 +1229,8 @@ void Mutate(SplitMix64& rng, Bytes* b) {
 }
 
 TEST(ParamBlob, RandomMutationsNeverCrashOrDecodeToAnotherRig) {
-  const std::vector<Rig> rigs = {PaperRig(), PaperRigNoSigma(), MaxRig()};
+  const std::vector<Rig> rigs = {PaperRig(), PaperRigNoSigma(), MaxRig(), PaperRigWithFacing(),
+                                 WithFacing(MaxRig())};
   std::vector<Bytes> blobs;
   for (const Rig& r : rigs) blobs.push_back(Encode(r, kGeneration));
   SplitMix64 rng(0x0B10B5EEDull);
