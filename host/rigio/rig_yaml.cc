@@ -1,5 +1,6 @@
 #include "host/rigio/rig_yaml.h"
 
+#include <algorithm>
 #include <charconv>
 #include <cmath>
 #include <cstring>
@@ -91,6 +92,35 @@ void ReadCamera(const YAML::Node& n, const YamlCtx& ctx, RigCamera* cam, RigCame
   }
 }
 
+// A length or an angle for an error message: 6 significant digits, no trailing zeros ("0.5").
+std::string Short(double v) {
+  char buf[64];
+  const auto r = std::to_chars(buf, buf + sizeof(buf), v, std::chars_format::general, 6);
+  return std::string(buf, r.ptr);
+}
+
+// beacon_facing: [[nx, ny, nz, half_angle_deg], ...], one per beacons_mm entry, in its order.
+// A normal within 1e-3 of unit length is normalised (hand-typed or rounded values); anything
+// further off is an error, as is a half-angle outside (0, 180] deg.
+void ReadFacing(const YAML::Node& f, const YamlCtx& ctx, Rig* rig) {
+  if (!f.IsSequence()) ctx.Fail(f, "expected a list of [nx, ny, nz, half_angle_deg]");
+  if (f.size() != static_cast<std::size_t>(rig->num_beacons))
+    ctx.Fail(f, "expected " + std::to_string(rig->num_beacons) + " entries (one per beacons_mm entry), got " +
+                    std::to_string(f.size()));
+  for (std::size_t i = 0; i < f.size(); ++i) {
+    const YamlCtx ictx = ctx.Index(i);
+    const auto v = Numbers<4>(f[i], ictx);
+    const Eigen::Vector3d n(v[0], v[1], v[2]);
+    const double length = n.norm();
+    if (!(std::abs(length - 1.0) <= 1e-3)) ictx.Fail(f[i], "normal length " + Short(length) + ", expected 1");
+    if (!(v[3] > 0.0 && v[3] <= 180.0))
+      ictx.Fail(f[i], "half-angle " + Short(v[3]) + " deg, expected (0, 180]");
+    rig->beacon_normal_w[i] = n / length;
+    rig->beacon_half_angle[i] = std::min(DegToRad(v[3]), kPi);
+  }
+  rig->has_facing = true;
+}
+
 // 15 significant digits: any decimal of up to 15 digits (every published or measured value)
 // prints back as written, and a computed double comes back within 1e-15 relative.
 std::string Num(double v) {
@@ -145,6 +175,8 @@ Rig ParseRigYaml(const std::string& text, const std::string& source) {
     rig.beacon_sigma = Number(bs, ctx.Sub("beacon_sigma_mm")) * kMm;
     if (rig.beacon_sigma < 0) ctx.Sub("beacon_sigma_mm").Fail(bs, "must not be negative");
   }
+  const YAML::Node facing = root["beacon_facing"];
+  if (facing.IsDefined() && !facing.IsNull()) ReadFacing(facing, ctx.Sub("beacon_facing"), &rig);
 
   int bad_camera = -1;
   const RigStatus status = ValidateRig(rig, &bad_camera);
@@ -195,6 +227,14 @@ std::string FormatRigYaml(const Rig& rig) {
     }
   }
   if (rig.beacon_sigma > 0) o << "beacon_sigma_mm: " << Num(rig.beacon_sigma / kMm) << "\n";
+  if (rig.has_facing) {
+    o << "beacon_facing:" << (rig.num_beacons == 0 ? " []" : "") << "  # [nx, ny, nz, half_angle_deg] per beacon\n";
+    for (int i = 0; i < rig.num_beacons; ++i) {
+      const auto m = static_cast<std::size_t>(i);
+      const Eigen::Vector3d& n = rig.beacon_normal_w[m];
+      o << "  - " << List({n.x(), n.y(), n.z(), RadToDeg(rig.beacon_half_angle[m])}) << "\n";
+    }
+  }
   return o.str();
 }
 

@@ -13,6 +13,13 @@
 //       sigma: {intrinsics: [5], distortion: [5], euler_deg: [3], r_b_bk_mm: [3]}  # optional
 //   beacons_mm: [[x, y, z], ...]                           # world frame; optional
 //   beacon_sigma_mm: 0.3963                                # optional (MFNS extension)
+//   beacon_facing: [[nx, ny, nz, half_angle_deg], ...]    # optional, one per beacons_mm entry
+//
+// beacon_facing (Rig::has_facing): the unit normal of each LED's emitting side (world frame)
+// and its beam half-angle, in (0, 180] deg; the list has exactly as many entries as beacons_mm,
+// in its order. A normal within 1e-3 of unit length is normalised on reading, one further off
+// is an error ("rig.yaml:40: beacon_facing[3]: normal length 0.5, expected 1"). Written back
+// (normalised, 15 digits) whenever the rig has facing; absent means no facing data.
 //
 // Reading: C_k_b wins; when euler_deg is given too it must describe the same rotation within
 // 1e-6 rad, and when only euler_deg is given C_k_b is computed from it. Sigma is all-or-none

@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <cstdlib>
 #include <filesystem>
 
@@ -34,6 +35,12 @@ void ExpectRigNear(const Rig& a, const Rig& b, double tol) {
     EXPECT_LT((a.beacons_w[k] - b.beacons_w[k]).cwiseAbs().maxCoeff(), tol);
   }
   EXPECT_NEAR(a.beacon_sigma, b.beacon_sigma, tol);
+  EXPECT_EQ(a.has_facing, b.has_facing);
+  for (int i = 0; a.has_facing && i < a.num_beacons; ++i) {
+    const auto k = static_cast<std::size_t>(i);
+    EXPECT_LT((a.beacon_normal_w[k] - b.beacon_normal_w[k]).cwiseAbs().maxCoeff(), tol) << "beacon " << i;
+    EXPECT_NEAR(a.beacon_half_angle[k], b.beacon_half_angle[k], tol) << "beacon " << i;
+  }
 }
 
 TEST(RigYaml, RoundTripOfThePaperRig) {
@@ -106,6 +113,115 @@ TEST(RigYaml, ErrorsNameTheFieldAndLine) {
   EXPECT_EQ(ErrorOf(head + kCam + "beacon_sigma_mm: .nan\n"), "rig.yaml:4: beacon_sigma_mm: value is not finite");
 }
 
+// The paper rig with a facing for each of its 10 beacons: odd normals, half-angles from the
+// smallest printable to exactly 180 deg.
+Rig PaperRigWithFacing() {
+  Rig r = PaperRig();
+  r.has_facing = true;
+  for (int i = 0; i < r.num_beacons; ++i) {
+    const auto m = static_cast<std::size_t>(i);
+    r.beacon_normal_w[m] = Eigen::Vector3d(std::sin(0.7 * i + 0.1), std::cos(1.3 * i), 0.3 - 0.1 * i).normalized();
+    r.beacon_half_angle[m] = DegToRad(5.0 + 17.5 * i);
+  }
+  r.beacon_normal_w[0] = Eigen::Vector3d(0, 0, -1);
+  r.beacon_half_angle[0] = kPi;     // 180 deg, the largest
+  r.beacon_half_angle[1] = 1e-9;    // tiny but positive
+  return r;
+}
+
+TEST(RigYaml, BeaconFacingRoundTrips) {
+  const Rig rig = PaperRigWithFacing();
+  ASSERT_EQ(ValidateRig(rig), RigStatus::kOk);
+  const std::string text = FormatRigYaml(rig);
+  EXPECT_NE(text.find("beacon_facing:"), std::string::npos);
+  EXPECT_NE(text.find("\n  - [0, 0, -1, 180]\n"), std::string::npos) << text;
+  const Rig back = ParseRigYaml(text, "mem");
+  ASSERT_TRUE(back.has_facing);
+  EXPECT_EQ(back.beacon_half_angle[0], kPi);  // 180 deg reads back as pi exactly
+  ExpectRigNear(rig, back, 1e-14);
+  EXPECT_EQ(ValidateRig(back), RigStatus::kOk);
+  // The facing lines are exact to the printed precision (euler_deg, derived from C_k_b, is not).
+  const std::string again = FormatRigYaml(back);
+  ASSERT_NE(again.find("beacon_facing:"), std::string::npos);
+  EXPECT_EQ(again.substr(again.find("beacon_facing:")), text.substr(text.find("beacon_facing:")));
+
+  // No beacons, with facing: an empty list, written and read back.
+  Rig none = PaperRig();
+  none.num_beacons = 0;
+  none.has_facing = true;
+  const std::string empty = FormatRigYaml(none);
+  EXPECT_NE(empty.find("beacon_facing: []"), std::string::npos) << empty;
+  const Rig none_back = ParseRigYaml(empty, "mem");
+  EXPECT_TRUE(none_back.has_facing);
+  EXPECT_EQ(none_back.num_beacons, 0);
+}
+
+TEST(RigYaml, AbsentBeaconFacingMeansNoFacing) {
+  const Rig rig = ParseRigYaml(std::string("rig_id: r\ncameras:\n") + kCam + "beacons_mm: [[1, 2, 3]]\n", "mem");
+  EXPECT_FALSE(rig.has_facing);
+  EXPECT_EQ(rig.num_beacons, 1);
+  EXPECT_EQ(FormatRigYaml(PaperRig()).find("beacon_facing"), std::string::npos);  // not written
+  EXPECT_FALSE(ParseRigYaml(FormatRigYaml(PaperRig()), "mem").has_facing);
+  EXPECT_FALSE(ParseRigYaml(std::string("rig_id: r\ncameras:\n") + kCam + "beacon_facing:\n", "mem").has_facing);
+}
+
+TEST(RigYaml, BeaconFacingNormalsWithin1e3AreNormalised) {
+  const Rig rig = ParseRigYaml(std::string("rig_id: r\ncameras:\n") + kCam +
+                                   "beacons_mm: [[0, 0, 0], [1, 0, 0], [2, 0, 0], [3, 0, 0]]\n"
+                                   "beacon_facing:\n"
+                                   "  - [0, 0, 1.0009, 90]\n"
+                                   "  - [0.6, 0.8, 0, 30]\n"
+                                   "  - [0, -0.9991, 0, 180]\n"
+                                   "  - [0.577, 0.577, 0.577, 0.001]\n",
+                               "mem");
+  ASSERT_TRUE(rig.has_facing);
+  EXPECT_EQ(rig.beacon_normal_w[0], Eigen::Vector3d(0, 0, 1));
+  EXPECT_NEAR((rig.beacon_normal_w[1] - Eigen::Vector3d(0.6, 0.8, 0)).norm(), 0.0, 1e-15);
+  EXPECT_EQ(rig.beacon_normal_w[2], Eigen::Vector3d(0, -1, 0));
+  EXPECT_NEAR(rig.beacon_normal_w[3].norm(), 1.0, 1e-15);
+  EXPECT_NEAR(rig.beacon_normal_w[3].x(), 1 / std::sqrt(3.0), 1e-15);
+  EXPECT_DOUBLE_EQ(rig.beacon_half_angle[0], kPi / 2);
+  EXPECT_DOUBLE_EQ(rig.beacon_half_angle[1], kPi / 6);
+  EXPECT_EQ(rig.beacon_half_angle[2], kPi);
+  EXPECT_DOUBLE_EQ(rig.beacon_half_angle[3], DegToRad(0.001));
+  EXPECT_EQ(ValidateRig(rig), RigStatus::kOk);
+}
+
+TEST(RigYaml, BeaconFacingErrorsNameTheFieldAndLine) {
+  const std::string head = std::string("rig_id: r\ncameras:\n") + kCam + "beacons_mm: [[0, 0, 0], [1, 0, 0]]\n";
+  auto facing = [&head](const std::string& entries) { return ErrorOf(head + "beacon_facing:\n" + entries); };
+  // Line 5 is "beacon_facing:", its entries start on line 6.
+  EXPECT_EQ(ErrorOf(head + "beacon_facing: inward\n"),
+            "rig.yaml:5: beacon_facing: expected a list of [nx, ny, nz, half_angle_deg]");
+  EXPECT_EQ(ErrorOf(head + "beacon_facing: {normal: [0, 0, 1]}\n"),
+            "rig.yaml:5: beacon_facing: expected a list of [nx, ny, nz, half_angle_deg]");
+  EXPECT_EQ(facing("  - [0, 0, 1, 60]\n"),
+            "rig.yaml:6: beacon_facing: expected 2 entries (one per beacons_mm entry), got 1");
+  EXPECT_EQ(facing("  - [0, 0, 1, 60]\n  - [0, 0, 1, 60]\n  - [0, 0, 1, 60]\n"),
+            "rig.yaml:6: beacon_facing: expected 2 entries (one per beacons_mm entry), got 3");
+  EXPECT_EQ(ErrorOf(std::string("rig_id: r\ncameras:\n") + kCam + "beacon_facing: [[0, 0, 1, 60]]\n"),
+            "rig.yaml:4: beacon_facing: expected 0 entries (one per beacons_mm entry), got 1");
+  EXPECT_EQ(facing("  - [0, 0, 1, 60]\n  - [0, 0, 1]\n"), "rig.yaml:7: beacon_facing[1]: expected 4 numbers, got 3");
+  EXPECT_EQ(facing("  - [0, 0, 1, 60]\n  - 60\n"), "rig.yaml:7: beacon_facing[1]: expected a list of 4 numbers");
+  EXPECT_EQ(facing("  - [0, 0, x, 60]\n  - [0, 0, 1, 60]\n"),
+            "rig.yaml:6: beacon_facing[0][2]: expected a number, got 'x'");
+  EXPECT_EQ(facing("  - [0, 0, 1, 60]\n  - [0, 0.5, 0, 60]\n"),
+            "rig.yaml:7: beacon_facing[1]: normal length 0.5, expected 1");
+  EXPECT_EQ(facing("  - [0, 0, 0, 60]\n  - [0, 0, 1, 60]\n"), "rig.yaml:6: beacon_facing[0]: normal length 0, expected 1");
+  EXPECT_EQ(facing("  - [0, 0, 1.0011, 60]\n  - [0, 0, 1, 60]\n"),
+            "rig.yaml:6: beacon_facing[0]: normal length 1.0011, expected 1");
+  EXPECT_EQ(facing("  - [3, 4, 0, 60]\n  - [0, 0, 1, 60]\n"), "rig.yaml:6: beacon_facing[0]: normal length 5, expected 1");
+  EXPECT_EQ(facing("  - [0, 0, 1, 60]\n  - [0, 0, 1, 0]\n"),
+            "rig.yaml:7: beacon_facing[1]: half-angle 0 deg, expected (0, 180]");
+  EXPECT_EQ(facing("  - [0, 0, 1, -10]\n  - [0, 0, 1, 60]\n"),
+            "rig.yaml:6: beacon_facing[0]: half-angle -10 deg, expected (0, 180]");
+  EXPECT_EQ(facing("  - [0, 0, 1, 180.5]\n  - [0, 0, 1, 60]\n"),
+            "rig.yaml:6: beacon_facing[0]: half-angle 180.5 deg, expected (0, 180]");
+  EXPECT_EQ(facing("  - [0, 0, 1, .nan]\n  - [0, 0, 1, 60]\n"), "rig.yaml:6: beacon_facing[0][3]: value is not finite");
+  EXPECT_EQ(facing("  - [.inf, 0, 1, 60]\n  - [0, 0, 1, 60]\n"), "rig.yaml:6: beacon_facing[0][0]: value is not finite");
+  EXPECT_EQ(facing("  - [0, 0, 1, 60]\n  - [0, 0, 1, 180]\n"), "(no error)");  // 180 deg is allowed
+}
+
 TEST(RigYaml, WriterRefusesInvalidRigAndKeepsTheOldFile) {
   std::string tmpl = (std::filesystem::temp_directory_path() / "mfns-rigyaml-XXXXXX").string();
   ASSERT_NE(::mkdtemp(tmpl.data()), nullptr);
@@ -115,6 +231,11 @@ TEST(RigYaml, WriterRefusesInvalidRigAndKeepsTheOldFile) {
   bad.cameras[1].C_k_b(0, 0) = 3.0;
   EXPECT_THROW(WriteRigYaml(file, bad), UserError);
   ExpectRigNear(PaperRig(), ReadRigYaml(file), 1e-14);
+  Rig bad_facing = PaperRigWithFacing();
+  bad_facing.beacon_normal_w[2] *= 2.0;
+  EXPECT_THROW(WriteRigYaml(file, bad_facing), UserError);
+  WriteRigYaml(file, PaperRigWithFacing());
+  ExpectRigNear(PaperRigWithFacing(), ReadRigYaml(file), 1e-14);
   std::filesystem::remove_all(tmpl);
 }
 
