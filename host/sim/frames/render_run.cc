@@ -210,10 +210,9 @@ RenderSummary RenderScenario(const Scenario& s, const std::string& scenario_text
   WriteFileAtomic(dir / "truth.csv", TruthCsv(frames));
   if (s.trajectory.kind == TrajectoryKind::kTurntable) WriteFileAtomic(dir / "turntable.csv", TurntableCsv(frames));
   // rig.yaml is the truth: its beacon map is exact (beacon_sigma 0, whatever survey accuracy the
-  // scenario's rig quotes); believed-rig.yaml carries the surveyed map and its sigma.
-  Rig truth = s.rig;
-  truth.beacon_sigma = 0.0;
-  WriteRigYaml(dir / "rig.yaml", truth);
+  // scenario's rig quotes); believed-rig.yaml carries the surveyed map and its sigma. Both carry
+  // the beacons' facing only when the scenario's map does (map_facing).
+  WriteRigYaml(dir / "rig.yaml", TruthMapRig(s));
   WriteRigYaml(dir / "believed-rig.yaml", BelievedRig(s));
   WriteFileAtomic(dir / "scenario.yaml", scenario_text);
   return WriteBoundCsv(s, dir / "crb.csv");

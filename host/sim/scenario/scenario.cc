@@ -28,6 +28,67 @@ Rig ReadRigField(const YAML::Node& root, const YamlCtx& ctx, const std::filesyst
   return ReadRigYaml(path);
 }
 
+void ReadModule(const YAML::Node& n, const YamlCtx& ctx, StationModule* m) {
+  const std::string shape = String(Require(n, "shape", ctx), ctx.Sub("shape"));
+  if (shape == "cylinder") {
+    RejectUnknownKeys(n, {"shape", "diameter_mm", "length_mm"}, ctx);
+    m->shape = ModuleShape::kCylinder;
+    m->diameter = Number(Require(n, "diameter_mm", ctx), ctx.Sub("diameter_mm")) * kMm;
+    m->length = Number(Require(n, "length_mm", ctx), ctx.Sub("length_mm")) * kMm;
+    if (!(m->diameter >= 0.5 && m->diameter <= 50.0)) ctx.Sub("diameter_mm").Fail(n["diameter_mm"], "must be 500..50000");
+    if (!(m->length >= 0.5 && m->length <= 200.0)) ctx.Sub("length_mm").Fail(n["length_mm"], "must be 500..200000");
+  } else if (shape == "box") {
+    RejectUnknownKeys(n, {"shape", "size_mm"}, ctx);
+    m->shape = ModuleShape::kBox;
+    m->size = Vec3(Numbers<3>(Require(n, "size_mm", ctx), ctx.Sub("size_mm"))) * kMm;
+    if (!(m->size.minCoeff() >= 0.5 && m->size.maxCoeff() <= 200.0))
+      ctx.Sub("size_mm").Fail(n["size_mm"], "every side must be 500..200000");
+  } else {
+    ctx.Sub("shape").Fail(n["shape"], "expected cylinder or box, got '" + shape + "'");
+  }
+}
+
+void ReadBeaconLayout(const YAML::Node& n, const YamlCtx& ctx, BeaconLayout* b) {
+  RejectUnknownKeys(n, {"layout", "count", "seed", "jitter", "end_caps", "half_angle_deg", "facing"}, ctx);
+  b->present = true;
+  const std::string layout = Has(n, "layout") ? String(n["layout"], ctx.Sub("layout")) : "jittered-grid";
+  if (layout == "jittered-grid") {
+    b->layout = BeaconLayoutKind::kJitteredGrid;
+  } else if (layout == "random") {
+    b->layout = BeaconLayoutKind::kRandom;
+  } else {
+    ctx.Sub("layout").Fail(n["layout"], "expected jittered-grid or random, got '" + layout + "'");
+  }
+  b->count = Integer(Require(n, "count", ctx), ctx.Sub("count"));
+  if (b->count < 10 || b->count > limits::kMaxBeacons)
+    ctx.Sub("count").Fail(n["count"], "must be 10.." + std::to_string(limits::kMaxBeacons));
+  if (Has(n, "seed")) {
+    const long long seed = n["seed"].as<long long>(-1);
+    if (seed < 0) ctx.Sub("seed").Fail(n["seed"], "expected a non-negative integer");
+    b->seed_given = true;
+    b->seed = static_cast<std::uint64_t>(seed);
+  }
+  b->jitter = NumberOr(n, "jitter", b->jitter, ctx);
+  if (!(b->jitter >= 0.0 && b->jitter <= 0.5)) ctx.Sub("jitter").Fail(n["jitter"], "must be 0..0.5 (a fraction of the cell)");
+  b->end_caps = BooleanOr(n, "end_caps", b->end_caps, ctx);
+  const double half_deg = NumberOr(n, "half_angle_deg", RadToDeg(b->half_angle), ctx);
+  if (!(half_deg > 0.0 && half_deg <= 180.0)) ctx.Sub("half_angle_deg").Fail(n["half_angle_deg"], "must be in (0, 180]");
+  b->half_angle = DegToRad(half_deg);
+  b->facing = BooleanOr(n, "facing", b->facing, ctx);
+}
+
+// Beacons generated on the module's walls, each facing inward with the layout's beam.
+void GenerateBeacons(const Scenario& s, Rig* rig) {
+  const std::vector<WallBeacon> walls = GenerateWallBeacons(s.module, s.beacon_layout, s.map_seed);
+  rig->num_beacons = static_cast<int>(walls.size());
+  rig->has_facing = true;
+  for (std::size_t i = 0; i < walls.size(); ++i) {
+    rig->beacons_w[i] = walls[i].p_w;
+    rig->beacon_normal_w[i] = walls[i].normal_w;
+    rig->beacon_half_angle[i] = s.beacon_layout.half_angle;
+  }
+}
+
 void ReadBeacons(const YAML::Node& root, const YamlCtx& ctx, Rig* rig) {
   if (Has(root, "beacons_mm")) {
     const YAML::Node b = root["beacons_mm"];
@@ -48,6 +109,39 @@ void ReadTurntable(const YAML::Node& n, const YamlCtx& ctx, Turntable* tt) {
   if (Has(n, "r_w_wt_mm")) tt->r_w_wt = Vec3(Numbers<3>(n["r_w_wt_mm"], ctx.Sub("r_w_wt_mm"))) * kMm;
   if (Has(n, "mount_euler_deg")) tt->C_p_b = EulerDeg(Numbers<3>(n["mount_euler_deg"], ctx.Sub("mount_euler_deg")));
   if (Has(n, "mount_r_p_pb_mm")) tt->r_p_pb = Vec3(Numbers<3>(n["mount_r_p_pb_mm"], ctx.Sub("mount_r_p_pb_mm"))) * kMm;
+}
+
+// A positive number in the given unit.
+double Positive(const YAML::Node& n, const char* key, double fallback_si, double unit, const YamlCtx& ctx) {
+  const double v = NumberOr(n, key, fallback_si / unit, ctx) * unit;
+  if (!(v > 0.0)) ctx.Sub(key).Fail(n[key], "must be positive");
+  return v;
+}
+
+void ReadWander(const YAML::Node& n, const YamlCtx& ctx, Trajectory* tr) {
+  RejectUnknownKeys(n, {"kind", "margin_mm", "max_speed_mm_s", "max_accel_mm_s2", "max_rate_deg_s",
+                        "max_angular_accel_deg_s2", "correlation_s"}, ctx);
+  tr->kind = TrajectoryKind::kWander;
+  WanderLimits& w = tr->wander;
+  w.margin = NumberOr(n, "margin_mm", w.margin / kMm, ctx) * kMm;
+  if (w.margin < 0.0) ctx.Sub("margin_mm").Fail(n["margin_mm"], "must not be negative");
+  w.max_speed = Positive(n, "max_speed_mm_s", w.max_speed, kMm, ctx);
+  w.max_accel = Positive(n, "max_accel_mm_s2", w.max_accel, kMm, ctx);
+  w.max_rate = Positive(n, "max_rate_deg_s", w.max_rate, DegToRad(1.0), ctx);
+  w.max_angular_accel = Positive(n, "max_angular_accel_deg_s2", w.max_angular_accel, DegToRad(1.0), ctx);
+  w.correlation_s = Positive(n, "correlation_s", w.correlation_s, 1.0, ctx);
+}
+
+// The wander trajectory needs a module with room for its margin and steering band.
+void CheckWanderRoom(const Scenario& s, const YAML::Node& n, const YamlCtx& ctx) {
+  if (s.trajectory.kind != TrajectoryKind::kWander) return;
+  if (s.module.shape == ModuleShape::kNone) ctx.Sub("kind").Fail(n["kind"], "wander needs a module (module: {shape: ...})");
+  const double keep_out = s.trajectory.wander.margin + WanderBuffer(s.trajectory.wander, 1.0 / s.frame_rate_hz);
+  const double room = s.module.shape == ModuleShape::kBox ? s.module.size.minCoeff()
+                                                          : std::min(s.module.diameter, s.module.length);
+  if (room <= 2.0 * keep_out + 0.05)
+    ctx.Fail(n, "the module (" + std::to_string(std::lround(room / kMm)) + " mm at its narrowest) has no room for " +
+                    std::to_string(std::lround(keep_out / kMm)) + " mm (margin and steering band) on both sides");
 }
 
 void ReadTrajectory(const YAML::Node& n, const YamlCtx& ctx, Trajectory* tr) {
@@ -80,8 +174,10 @@ void ReadTrajectory(const YAML::Node& n, const YamlCtx& ctx, Trajectory* tr) {
     if (!(tr->period_s > 0)) ctx.Sub("period_s").Fail(n["period_s"], "must be positive");
     tr->tilt = DegToRad(NumberOr(n, "tilt_deg", 0, ctx));
     tr->yaw_rate = DegToRad(NumberOr(n, "yaw_rate_deg_s", 0, ctx));
+  } else if (kind == "wander") {
+    ReadWander(n, ctx, tr);
   } else {
-    ctx.Sub("kind").Fail(n["kind"], "expected static, turntable or free-flight, got '" + kind + "'");
+    ctx.Sub("kind").Fail(n["kind"], "expected static, turntable, free-flight or wander, got '" + kind + "'");
   }
 }
 
@@ -232,7 +328,8 @@ Scenario ParseScenarioYaml(const std::string& text, const std::string& source, c
   const YAML::Node root = LoadYaml(text, source);
   const YamlCtx ctx{source, ""};
   RejectUnknownKeys(root, {"name", "seed", "rig", "beacons_mm", "beacon_sigma_mm", "frame_rate_hz", "frames", "t0_ns",
-                           "turntable", "trajectory", "errors", "sensor", "clutter", "target", "calibration"}, ctx);
+                           "turntable", "trajectory", "errors", "sensor", "clutter", "target", "calibration", "module",
+                           "beacons"}, ctx);
   Scenario s;
   s.name = Has(root, "name") ? String(root["name"], ctx.Sub("name")) : std::filesystem::path(source).stem().string();
   if (Has(root, "seed")) {
@@ -241,6 +338,16 @@ Scenario ParseScenarioYaml(const std::string& text, const std::string& source, c
     s.seed = static_cast<std::uint64_t>(seed);
   }
   s.rig = ReadRigField(root, ctx, base_dir);
+  if (Has(root, "module")) ReadModule(root["module"], ctx.Sub("module"), &s.module);
+  if (Has(root, "beacons")) {
+    const YamlCtx bctx = ctx.Sub("beacons");
+    if (s.module.shape == ModuleShape::kNone) bctx.Fail(root["beacons"], "generated beacons need a module");
+    if (Has(root, "beacons_mm")) bctx.Fail(root["beacons"], "give beacons (generated) or beacons_mm, not both");
+    ReadBeaconLayout(root["beacons"], bctx, &s.beacon_layout);
+    s.map_seed = s.beacon_layout.seed_given ? s.beacon_layout.seed : s.seed;
+    s.map_facing = s.beacon_layout.facing;
+    GenerateBeacons(s, &s.rig);
+  }
   ReadBeacons(root, ctx, &s.rig);
   s.frame_rate_hz = NumberOr(root, "frame_rate_hz", s.frame_rate_hz, ctx);
   if (!(s.frame_rate_hz > 0 && s.frame_rate_hz <= 1000))
@@ -249,7 +356,10 @@ Scenario ParseScenarioYaml(const std::string& text, const std::string& source, c
   if (s.frames < 1 || s.frames > 1'000'000) ctx.Sub("frames").Fail(root["frames"], "must be 1..1000000");
   if (Has(root, "t0_ns")) s.t0_ns = root["t0_ns"].as<long long>(s.t0_ns);
   if (Has(root, "turntable")) ReadTurntable(root["turntable"], ctx.Sub("turntable"), &s.turntable);
-  if (Has(root, "trajectory")) ReadTrajectory(root["trajectory"], ctx.Sub("trajectory"), &s.trajectory);
+  if (Has(root, "trajectory")) {
+    ReadTrajectory(root["trajectory"], ctx.Sub("trajectory"), &s.trajectory);
+    CheckWanderRoom(s, root["trajectory"], ctx.Sub("trajectory"));
+  }
   if (Has(root, "errors")) ReadErrors(root["errors"], ctx.Sub("errors"), &s.errors);
   if (Has(root, "sensor")) ReadSensor(root["sensor"], ctx.Sub("sensor"), &s.sensor);
   if (Has(root, "clutter")) ReadClutter(root["clutter"], ctx.Sub("clutter"), s.rig, &s.clutter);
@@ -272,6 +382,10 @@ std::vector<FrameTruth> SimulateTrajectory(const Scenario& s) {
   std::array<double, 6> ph{};
   for (double& p : ph) p = phase(rng);
   std::vector<FrameTruth> out(static_cast<std::size_t>(s.frames));
+  // Wander: its own stream of the scenario seed (the other kinds' draws stay as they were).
+  const std::vector<BodyPose> wander = tr.kind == TrajectoryKind::kWander
+                                           ? WanderPoses(s.module, tr.wander, s.frames, 1.0 / s.frame_rate_hz, s.seed)
+                                           : std::vector<BodyPose>{};
   for (int i = 0; i < s.frames; ++i) {
     FrameTruth& f = out[static_cast<std::size_t>(i)];
     f.frame = i;
@@ -302,6 +416,9 @@ std::vector<FrameTruth> SimulateTrajectory(const Scenario& s) {
         f.pose.C_w_b = EulerToMatrix({roll, pitch, yaw}).transpose();
         break;
       }
+      case TrajectoryKind::kWander:
+        f.pose = wander[static_cast<std::size_t>(i)];
+        break;
     }
   }
   return out;
@@ -338,6 +455,14 @@ Rig BelievedRig(const Scenario& s) {
   } else {
     rig.beacon_sigma = 0.0;  // the believed map is the true one
   }
+  rig.has_facing = rig.has_facing && s.map_facing;
+  return rig;
+}
+
+Rig TruthMapRig(const Scenario& s) {
+  Rig rig = s.rig;
+  rig.beacon_sigma = 0.0;
+  rig.has_facing = rig.has_facing && s.map_facing;
   return rig;
 }
 

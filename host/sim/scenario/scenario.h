@@ -16,11 +16,13 @@
 #include <vector>
 
 #include "common/rig/rig.h"
+#include "host/sim/scenario/module.h"
+#include "host/sim/scenario/wander.h"
 #include "host/util/atomic_file.h"
 
 namespace mfns::host {
 
-enum class TrajectoryKind { kStatic, kTurntable, kFreeFlight };
+enum class TrajectoryKind { kStatic, kTurntable, kFreeFlight, kWander };
 
 // Two-axis turntable (paper Section 4, Appendix A): the inner main axis Zt carries the
 // platform; the outer auxiliary axis Xt tilts the whole inner assembly (as on inertial test
@@ -54,6 +56,11 @@ struct Trajectory {
   double period_s = 20.0;
   double tilt = 0.0;       // rad
   double yaw_rate = 0.0;   // rad/s
+  // kWander (needs a module): a free-flyer's smooth random motion (wander.h). Start position
+  // uniform in the module shrunk by `margin`, attitude uniform on SO(3); velocity and body
+  // rate follow seeded random commands (correlation time `correlation_s`) with bounded
+  // accelerations, and the flyer keeps `margin` from every wall.
+  WanderLimits wander;
 };
 
 // Error sources, each switchable with its magnitude (paper Section 3).
@@ -122,8 +129,14 @@ struct CalibrationSetup {
 
 struct Scenario {
   std::string name;
-  std::uint64_t seed = 1;
-  Rig rig;                       // truth: rig and beacons
+  std::uint64_t seed = 1;        // trajectory, believed rig, noise and clutter draws
+  Rig rig;                       // truth: rig and beacons (with their facing, when known)
+  StationModule module;          // ModuleShape::kNone: no module
+  BeaconLayout beacon_layout;    // present: rig.beacons_w were generated on the module's walls
+  std::uint64_t map_seed = 1;    // the generated map's: beacons.seed, else `seed`
+  // The navigator's maps (rig.yaml, believed-rig.yaml) carry the beacons' facing. false: the
+  // LEDs still have their beams (the truth renders with them), the maps do not say so.
+  bool map_facing = true;
   double frame_rate_hz = 18.6;
   int frames = 1;
   std::int64_t t0_ns = 1'000'000'000;
@@ -159,7 +172,11 @@ std::vector<FrameTruth> SimulateTrajectory(const Scenario& s);
 
 // The believed rig: truth perturbed by the enabled error sources (seeded, independent of the
 // trajectory's draws). Its beacon_sigma is the survey error's when beacon_map is enabled, else
-// 0 (the believed map is the true one).
+// 0 (the believed map is the true one). Facing data only when map_facing.
 Rig BelievedRig(const Scenario& s);
+
+// The true rig as a navigator would load it (rig.yaml): exact map (beacon_sigma 0), facing
+// data only when map_facing.
+Rig TruthMapRig(const Scenario& s);
 
 }  // namespace mfns::host

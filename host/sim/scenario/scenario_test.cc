@@ -105,7 +105,7 @@ std::string ErrorOf(const std::string& yaml) {
 TEST(Scenario, ErrorsNameTheField) {
   EXPECT_EQ(ErrorOf("frame_rate: 10\n"), "s.yaml:1: unknown field 'frame_rate'");
   EXPECT_EQ(ErrorOf("frames: 0\n"), "s.yaml:1: frames: must be 1..1000000");
-  EXPECT_EQ(ErrorOf("trajectory: {kind: spin}\n"), "s.yaml:1: trajectory.kind: expected static, turntable or free-flight, got 'spin'");
+  EXPECT_EQ(ErrorOf("trajectory: {kind: spin}\n"), "s.yaml:1: trajectory.kind: expected static, turntable, free-flight or wander, got 'spin'");
   EXPECT_EQ(ErrorOf("errors:\n  beacon_map: {sigma_mm: -1}\n"), "s.yaml:2: errors.beacon_map.sigma_mm: must not be negative");
   EXPECT_EQ(ErrorOf("clutter: {stop_camera: w}\n"), "s.yaml:1: clutter.stop_camera: no camera named 'w' in the rig");
   EXPECT_EQ(ErrorOf("rig: missing.yaml\n"), "./missing.yaml: no such file");

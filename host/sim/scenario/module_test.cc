@@ -1,0 +1,233 @@
+#include "host/sim/scenario/module.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "common/rotation/rotation.h"
+#include "host/sim/scenario/scenario.h"
+
+namespace mfns::host {
+namespace {
+
+StationModule Cylinder() {
+  StationModule m;
+  m.shape = ModuleShape::kCylinder;
+  m.diameter = 4.2;
+  m.length = 6.0;
+  return m;
+}
+
+StationModule Box() {
+  StationModule m;
+  m.shape = ModuleShape::kBox;
+  m.size = Eigen::Vector3d(5.0, 2.2, 2.2);
+  return m;
+}
+
+BeaconLayout Layout(BeaconLayoutKind kind, int count, double jitter, bool end_caps) {
+  BeaconLayout b;
+  b.present = true;
+  b.layout = kind;
+  b.count = count;
+  b.jitter = jitter;
+  b.end_caps = end_caps;
+  return b;
+}
+
+// The wall a point lies on, worked out from the shape alone (not from WallConstraints), with
+// its distance to that wall and the wall's inward normal. on_end: an x = +-end wall.
+struct OnWall {
+  double distance = 1e9;
+  Eigen::Vector3d inward = Eigen::Vector3d::Zero();
+  bool on_end = false;
+};
+
+OnWall NearestWall(const StationModule& m, const Eigen::Vector3d& p) {
+  OnWall best;
+  const auto consider = [&](double distance, const Eigen::Vector3d& inward, bool inside, bool on_end) {
+    if (inside && distance < best.distance) best = {distance, inward, on_end};
+  };
+  if (m.shape == ModuleShape::kCylinder) {
+    const double rho = std::hypot(p.y(), p.z()), R = 0.5 * m.diameter, h = 0.5 * m.length;
+    consider(std::abs(rho - R), -Eigen::Vector3d(0, p.y(), p.z()) / rho, std::abs(p.x()) <= h + 1e-12, false);
+    for (const double s : {1.0, -1.0})
+      consider(std::abs(p.x() - s * h), Eigen::Vector3d(-s, 0, 0), rho <= R + 1e-12, true);
+  } else {
+    const Eigen::Vector3d h = 0.5 * m.size;
+    const bool inside = (p.cwiseAbs() - h).maxCoeff() <= 1e-12;
+    for (int i = 0; i < 3; ++i)
+      for (const double s : {1.0, -1.0}) consider(std::abs(p[i] - s * h[i]), -s * Eigen::Vector3d::Unit(i), inside, i == 0);
+  }
+  return best;
+}
+
+TEST(ModuleBeacons, LieOnTheWallsFacingInwardWithTheExactCount) {
+  for (const StationModule& m : {Cylinder(), Box()})
+    for (const BeaconLayoutKind kind : {BeaconLayoutKind::kJitteredGrid, BeaconLayoutKind::kRandom})
+      for (const bool end_caps : {true, false})
+        for (const int count : {10, 37, 128, 256}) {
+          const auto beacons = GenerateWallBeacons(m, Layout(kind, count, 0.3, end_caps), 7);
+          ASSERT_EQ(static_cast<int>(beacons.size()), count);
+          int on_ends = 0;
+          for (const WallBeacon& b : beacons) {
+            const OnWall w = NearestWall(m, b.p_w);
+            EXPECT_LT(w.distance, 1e-9) << b.p_w.transpose();
+            EXPECT_NEAR(b.normal_w.norm(), 1.0, 1e-12);
+            EXPECT_LT((b.normal_w - w.inward).norm(), 1e-9) << b.p_w.transpose();
+            EXPECT_NEAR(WallClearance(m, b.p_w), 0.0, 1e-9);
+            on_ends += w.on_end;
+          }
+          if (end_caps) {
+            EXPECT_GT(on_ends, 0);
+          } else {
+            EXPECT_EQ(on_ends, 0);
+          }
+        }
+}
+
+double NearestNeighbour(const std::vector<WallBeacon>& b, std::size_t i) {
+  double d = 1e9;
+  for (std::size_t j = 0; j < b.size(); ++j)
+    if (j != i) d = std::min(d, (b[i].p_w - b[j].p_w).norm());
+  return d;
+}
+
+TEST(ModuleBeacons, JitterIsBoundedAndTheGridSpread) {
+  for (const StationModule& m : {Cylinder(), Box()}) {
+    const int n = 128;
+    const auto grid = GenerateWallBeacons(m, Layout(BeaconLayoutKind::kJitteredGrid, n, 0.0, true), 3);
+    const auto jittered = GenerateWallBeacons(m, Layout(BeaconLayoutKind::kJitteredGrid, n, 0.3, true), 3);
+    ASSERT_EQ(grid.size(), jittered.size());
+    double area = 0.0;
+    if (m.shape == ModuleShape::kCylinder) {
+      area = kPi * m.diameter * m.length + 2.0 * kPi * 0.25 * m.diameter * m.diameter;
+    } else {
+      area = 2.0 * (m.size.x() * m.size.y() + m.size.y() * m.size.z() + m.size.z() * m.size.x());
+    }
+    const double spacing = std::sqrt(area / n);
+    double moved = 0.0;
+    for (std::size_t i = 0; i < grid.size(); ++i) {
+      const double offset = (jittered[i].p_w - grid[i].p_w).norm();
+      EXPECT_LE(offset, 0.3 * jittered[i].cell_m.norm() + 1e-12) << i;
+      EXPECT_LT(jittered[i].cell_m.maxCoeff(), 2.5 * spacing);  // cells about square, about the spacing
+      moved = std::max(moved, offset);
+      // A regular grid: no two beacons closer than 40% of the mean spacing.
+      EXPECT_GT(NearestNeighbour(grid, i), 0.4 * spacing) << i;
+    }
+    EXPECT_GT(moved, 0.05 * spacing);  // the jitter does move them
+  }
+}
+
+TEST(ModuleBeacons, DeterministicPerSeedAndDifferentAcrossSeeds) {
+  for (const BeaconLayoutKind kind : {BeaconLayoutKind::kJitteredGrid, BeaconLayoutKind::kRandom}) {
+    const BeaconLayout layout = Layout(kind, 64, 0.25, true);
+    const auto a = GenerateWallBeacons(Cylinder(), layout, 11), b = GenerateWallBeacons(Cylinder(), layout, 11);
+    const auto c = GenerateWallBeacons(Cylinder(), layout, 12);
+    int differ = 0;
+    for (std::size_t i = 0; i < a.size(); ++i) {
+      EXPECT_EQ(a[i].p_w, b[i].p_w);
+      differ += (a[i].p_w - c[i].p_w).norm() > 1e-3;
+    }
+    EXPECT_GT(differ, 60);
+  }
+}
+
+TEST(ModuleBeacons, UniformInsideKeepsTheMargin) {
+  std::mt19937_64 rng(5);
+  for (const StationModule& m : {Cylinder(), Box()}) {
+    Eigen::Vector3d lo = Eigen::Vector3d::Constant(1e9), hi = -lo;
+    for (int i = 0; i < 4000; ++i) {
+      const Eigen::Vector3d p = UniformInside(m, 0.3, &rng);
+      EXPECT_GE(WallClearance(m, p), 0.3 - 1e-12);
+      lo = lo.cwiseMin(p);
+      hi = hi.cwiseMax(p);
+    }
+    // ...and reaches it: the drawn extent covers at least 95% of the allowed one on each axis.
+    const Eigen::Vector3d allowed =
+        m.shape == ModuleShape::kBox ? Eigen::Vector3d(m.size.array() - 0.6)
+                                     : Eigen::Vector3d(m.length - 0.6, m.diameter - 0.6, m.diameter - 0.6);
+    for (int a = 0; a < 3; ++a) EXPECT_GT(hi[a] - lo[a], 0.95 * allowed[a]) << a;
+  }
+}
+
+// Scenario YAML: the generated map, its seed and its facing data.
+constexpr char kStation[] = R"(name: s
+seed: 4
+module: {shape: cylinder, diameter_mm: 4200, length_mm: 6000}
+beacons: {layout: jittered-grid, count: 40, jitter: 0.2, half_angle_deg: 60}
+)";
+
+TEST(ModuleScenario, GeneratedMapFacesInwardAndFollowsItsSeed) {
+  const Scenario s = ParseScenarioYaml(kStation, "s.yaml", ".");
+  EXPECT_EQ(ValidateRig(s.rig), RigStatus::kOk);
+  ASSERT_EQ(s.rig.num_beacons, 40);
+  ASSERT_TRUE(s.rig.has_facing);
+  EXPECT_EQ(s.map_seed, 4u);  // no beacons.seed: the scenario's
+  for (int i = 0; i < 40; ++i) {
+    EXPECT_NEAR(s.rig.beacon_half_angle[static_cast<std::size_t>(i)], DegToRad(60.0), 1e-15);
+    // Inward: the module's centre is in front of every beacon.
+    EXPECT_GT(s.rig.beacon_normal_w[static_cast<std::size_t>(i)].dot(-s.rig.beacons_w[static_cast<std::size_t>(i)]), 0.0);
+  }
+  EXPECT_TRUE(BelievedRig(s).has_facing);
+  EXPECT_TRUE(TruthMapRig(s).has_facing);
+
+  std::string yaml = kStation;
+  const Scenario other_seed = ParseScenarioYaml(yaml.replace(yaml.find("seed: 4"), 7, "seed: 5"), "s.yaml", ".");
+  EXPECT_NE(other_seed.rig.beacons_w[3], s.rig.beacons_w[3]);
+  const std::string pinned = std::string(kStation).replace(std::string(kStation).find("jitter:"), 0, "seed: 4, ");
+  const Scenario a = ParseScenarioYaml(pinned, "s.yaml", ".");
+  std::string pinned5 = pinned;
+  const Scenario b = ParseScenarioYaml(pinned5.replace(pinned5.find("seed: 4\n"), 7, "seed: 5"), "s.yaml", ".");
+  EXPECT_EQ(b.map_seed, 4u);  // beacons.seed wins over the scenario's
+  EXPECT_EQ(a.rig.beacons_w[3], b.rig.beacons_w[3]);
+  EXPECT_EQ(a.rig.beacons_w[3], s.rig.beacons_w[3]);
+}
+
+TEST(ModuleScenario, FacingFalseKeepsTheBeamsOutOfTheMapsOnly) {
+  std::string yaml = kStation;
+  yaml.replace(yaml.find("half_angle_deg"), 0, "facing: false, ");
+  const Scenario s = ParseScenarioYaml(yaml, "s.yaml", ".");
+  EXPECT_TRUE(s.rig.has_facing);  // the LEDs still have beams: the truth renders with them
+  EXPECT_FALSE(s.map_facing);
+  EXPECT_FALSE(BelievedRig(s).has_facing);
+  EXPECT_FALSE(TruthMapRig(s).has_facing);
+  EXPECT_EQ(TruthMapRig(s).beacons_w[7], s.rig.beacons_w[7]);
+}
+
+std::string ErrorOf(const std::string& yaml) {
+  try {
+    ParseScenarioYaml(yaml, "s.yaml", ".");
+  } catch (const UserError& e) {
+    return e.what();
+  }
+  return "(no error)";
+}
+
+TEST(ModuleScenario, ErrorsNameFileLineAndField) {
+  const std::string cyl = "module: {shape: cylinder, diameter_mm: 4200, length_mm: 6000}\n";
+  EXPECT_EQ(ErrorOf("module: {shape: sphere}\n"), "s.yaml:1: module.shape: expected cylinder or box, got 'sphere'");
+  EXPECT_EQ(ErrorOf("module: {shape: box}\n"), "s.yaml:1: module: missing field 'size_mm'");
+  EXPECT_EQ(ErrorOf("module: {shape: box, size_mm: [1, 2]}\n"), "s.yaml:1: module.size_mm: expected 3 numbers, got 2");
+  EXPECT_EQ(ErrorOf("module: {shape: box, size_mm: [100, 2000, 2000]}\n"),
+            "s.yaml:1: module.size_mm: every side must be 500..200000");
+  EXPECT_EQ(ErrorOf("module: {shape: cylinder, diameter_mm: -1, length_mm: 6000}\n"),
+            "s.yaml:1: module.diameter_mm: must be 500..50000");
+  EXPECT_EQ(ErrorOf("module: {shape: cylinder, diameter: 4200}\n"), "s.yaml:1: module: unknown field 'diameter'");
+  EXPECT_EQ(ErrorOf(cyl + "beacons: {count: 9}\n"),
+            "s.yaml:2: beacons.count: must be 10.." + std::to_string(limits::kMaxBeacons));
+  EXPECT_EQ(ErrorOf(cyl + "beacons:\n  count: " + std::to_string(limits::kMaxBeacons + 1) + "\n"),
+            "s.yaml:3: beacons.count: must be 10.." + std::to_string(limits::kMaxBeacons));
+  EXPECT_EQ(ErrorOf(cyl + "beacons: {layout: spiral, count: 20}\n"),
+            "s.yaml:2: beacons.layout: expected jittered-grid or random, got 'spiral'");
+  EXPECT_EQ(ErrorOf(cyl + "beacons: {count: 20, jitter: 0.7}\n"), "s.yaml:2: beacons.jitter: must be 0..0.5 (a fraction of the cell)");
+  EXPECT_EQ(ErrorOf(cyl + "beacons: {count: 20, half_angle_deg: 0}\n"), "s.yaml:2: beacons.half_angle_deg: must be in (0, 180]");
+  EXPECT_EQ(ErrorOf(cyl + "beacons: {count: 20, seed: -3}\n"), "s.yaml:2: beacons.seed: expected a non-negative integer");
+  EXPECT_EQ(ErrorOf(cyl + "beacons: {count: 20, facing: maybe}\n"), "s.yaml:2: beacons.facing: expected true or false");
+  EXPECT_EQ(ErrorOf(cyl + "beacons: {count: 20}\nbeacons_mm: [[0, 0, 0]]\n"),
+            "s.yaml:2: beacons: give beacons (generated) or beacons_mm, not both");
+  EXPECT_EQ(ErrorOf("beacons: {count: 20}\n"), "s.yaml:1: beacons: generated beacons need a module");
+}
+
+}  // namespace
+}  // namespace mfns::host
