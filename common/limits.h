@@ -12,7 +12,7 @@ namespace mfns::limits {
 
 // Rig and world.
 inline constexpr int kMaxCameras = 4;
-inline constexpr int kMaxBeacons = 64;
+inline constexpr int kMaxBeacons = 256;
 inline constexpr int kMaxCameraNameChars = 7;   // "x", "y", "z", ... plus NUL in 8 bytes
 inline constexpr int kMaxRigIdChars = 31;       // plus NUL in 32 bytes
 

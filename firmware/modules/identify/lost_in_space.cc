@@ -184,14 +184,14 @@ void LostInSpace::SelectBlobs(const LisOptions& o) {
 // With a prior, blob i can only be a beacon that some prior pose sees near blob i's ray: the
 // angle between the ray and the beacon's direction is within the prior's attitude bound, plus
 // what its position bound (and the raw slack) subtends at the beacon's distance.
-std::uint64_t LostInSpace::PriorBeacons(int i) const {
+BeaconSet LostInSpace::PriorBeacons(int i) const {
   const int nb = rig_->num_beacons;
-  const std::uint64_t all = nb >= 64 ? ~std::uint64_t{0} : (std::uint64_t{1} << nb) - 1;
+  const BeaconSet all = BeaconSet::FirstN(nb);
   if (prior_ == nullptr || prior_->num_poses <= 0) return all;
   const BodyRay& ray = rays_[static_cast<std::size_t>(i)];
   const double max_rad = prior_->max_rad + prior_->raw_slack_rad;
   const double max_m = prior_->max_m + prior_->raw_slack_m + ray.o_b.norm() * max_rad;  // lever arm too
-  std::uint64_t set = 0;
+  BeaconSet set;
   for (int p = 0; p < prior_->num_poses && set != all; ++p) {
     const BodyPose& q = prior_->poses[p];
     const Eigen::Vector3d o_w = q.C_w_b * ray.o_b + q.r_w_wb;
@@ -200,11 +200,11 @@ std::uint64_t LostInSpace::PriorBeacons(int i) const {
       const Eigen::Vector3d u = rig_->beacons_w[static_cast<std::size_t>(a)] - o_w;
       const double dist = u.norm();
       if (dist <= max_m) {
-        set |= std::uint64_t{1} << a;
+        set.Set(a);
         continue;
       }
       const double angle = std::atan2(u.cross(d_w).norm(), u.dot(d_w));
-      if (angle <= max_rad + std::asin(max_m / dist)) set |= std::uint64_t{1} << a;
+      if (angle <= max_rad + std::asin(max_m / dist)) set.Set(a);
     }
   }
   return set;
@@ -214,7 +214,7 @@ void LostInSpace::PairFeasibility(const P3pOptions& p3p, const LisOptions& o) {
   // The beacons' distance within the rays' segment distance range; with a prior, only the
   // beacons it allows for each blob.
   const int nb = rig_->num_beacons;
-  std::array<std::uint64_t, limits::kMaxLisBlobs> allowed{};
+  std::array<BeaconSet, limits::kMaxLisBlobs> allowed{};
   for (int i = 0; i < num_sel_; ++i) allowed[static_cast<std::size_t>(i)] = PriorBeacons(i);
   for (int j = 1; j < num_sel_; ++j) {
     for (int i = 0; i < j; ++i) {
@@ -225,12 +225,12 @@ void LostInSpace::PairFeasibility(const P3pOptions& p3p, const LisOptions& o) {
       hi += o.pair_tolerance_m;
       auto& f = feasible_[static_cast<std::size_t>(PairIndex(i, j))];
       for (int a = 0; a < nb; ++a) {
-        std::uint64_t bits = 0;
-        if ((allowed[static_cast<std::size_t>(i)] >> a & 1U) != 0) {
+        BeaconSet bits;
+        if (allowed[static_cast<std::size_t>(i)].Has(a)) {
           const auto& da = dist_[static_cast<std::size_t>(a)];
           for (int b = 0; b < nb; ++b)
             if (b != a && da[static_cast<std::size_t>(b)] >= lo && da[static_cast<std::size_t>(b)] <= hi)
-              bits |= std::uint64_t{1} << b;
+              bits.Set(b);
           bits &= allowed[static_cast<std::size_t>(j)];
         }
         f[static_cast<std::size_t>(a)] = bits;
@@ -253,14 +253,14 @@ bool LostInSpace::Search(const P3pOptions& p3p, const LisOptions& o, LisResult* 
         const auto& fik = feasible_[static_cast<std::size_t>(PairIndex(i, k))];
         const auto& fjk = feasible_[static_cast<std::size_t>(PairIndex(j, k))];
         for (int a = 0; a < nb; ++a) {
-          for (std::uint64_t bs = fij[static_cast<std::size_t>(a)]; bs != 0; bs &= bs - 1) {
-            const int b = std::countr_zero(bs);
-            std::uint64_t cs = fik[static_cast<std::size_t>(a)] & fjk[static_cast<std::size_t>(b)] &
-                               ~((std::uint64_t{1} << a) | (std::uint64_t{1} << b));
-            for (; cs != 0; cs &= cs - 1) {
+          const BeaconSet& bs = fij[static_cast<std::size_t>(a)];
+          for (int b = bs.First(); b >= 0; b = bs.Next(b + 1)) {
+            BeaconSet cs = fik[static_cast<std::size_t>(a)] & fjk[static_cast<std::size_t>(b)];
+            cs.Clear(a);
+            cs.Clear(b);
+            for (int c = cs.First(); c >= 0; c = cs.Next(c + 1)) {
               if (res->hypotheses >= o.max_hypotheses) return false;
               ++res->hypotheses;
-              const int c = std::countr_zero(cs);
               const int n = triple_.Solve({rig_->beacons_w[static_cast<std::size_t>(a)],
                                            rig_->beacons_w[static_cast<std::size_t>(b)],
                                            rig_->beacons_w[static_cast<std::size_t>(c)]},
@@ -381,9 +381,9 @@ LisStatus LostInSpace::Decide(bool budget_out, const LisOptions& o, LisResult* r
     if (res.solve.inlier[static_cast<std::size_t>(i)])
       res.matches.matches[static_cast<std::size_t>(n++)] = res.matches.matches[static_cast<std::size_t>(i)];
   res.matches.num_matches = n;
-  res.matches.beacons = 0;
-  for (int i = 0; i < n; ++i) res.matches.beacons |= std::uint64_t{1} << res.matches.matches[static_cast<std::size_t>(i)].beacon;
-  res.matches.num_beacons = std::popcount(res.matches.beacons);
+  res.matches.beacons.Reset();
+  for (int i = 0; i < n; ++i) res.matches.beacons.Set(res.matches.matches[static_cast<std::size_t>(i)].beacon);
+  res.matches.num_beacons = res.matches.beacons.Count();
   if (res.matches.num_beacons < o.min_beacons) return res.status = LisStatus::kNoHypothesis;
   return res.status = LisStatus::kFix;
 }

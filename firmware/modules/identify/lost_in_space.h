@@ -141,7 +141,7 @@ class LostInSpace {
     bool refined = false;
   };
   void SelectBlobs(const LisOptions& o);
-  std::uint64_t PriorBeacons(int i) const;
+  BeaconSet PriorBeacons(int i) const;
   void PairFeasibility(const P3pOptions& p3p, const LisOptions& o);
   bool Search(const P3pOptions& p3p, const LisOptions& o, LisResult* result);  // false: budget out
   void Score(const BodyPose& pose, const LisOptions& o, LisResult* result);
@@ -165,7 +165,7 @@ class LostInSpace {
   std::array<BodyRay, limits::kMaxLisBlobs> rays_{};
   // feasible_[pair(i, j)][a]: bit b set when beacons (a, b) may be seen along rays (i, j).
   static constexpr int kMaxPairs = limits::kMaxLisBlobs * (limits::kMaxLisBlobs - 1) / 2;
-  std::array<std::array<std::uint64_t, limits::kMaxBeacons>, kMaxPairs> feasible_{};
+  std::array<std::array<BeaconSet, limits::kMaxBeacons>, kMaxPairs> feasible_{};
   P3pRayTriple triple_;
   std::array<BodyPose, limits::kMaxP3pSolutions> solutions_{};
   int num_cand_ = 0;

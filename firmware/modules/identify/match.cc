@@ -66,7 +66,7 @@ bool BeaconMatcher::Predict(int k, const BodyPose& pose, const Eigen::Vector3d& 
 
 void BeaconMatcher::MatchPose(const BodyPose& pose, const MatchOptions& o, MatchSet* out) const {
   out->num_matches = 0;
-  out->beacons = 0;
+  out->beacons.Reset();
   out->num_beacons = 0;
   out->num_predicted = 0;
   out->num_missing = 0;
@@ -83,14 +83,14 @@ void BeaconMatcher::MatchPose(const BodyPose& pose, const MatchOptions& o, Match
     const auto sk = static_cast<std::size_t>(k);
     std::array<Candidate, 2 * limits::kMaxBeacons> cand;
     int n_cand = 0;
-    std::uint64_t inner_set = 0;
+    BeaconSet inner_set;
     for (int m = 0; m < rig_->num_beacons; ++m) {
       Eigen::Vector2d uv;
       bool inner = false;
       if (!Predict(k, pose, rig_->beacons_w[static_cast<std::size_t>(m)], o.gate_px, o.miss_margin_px, &uv, &inner))
         continue;
       if (InImage(rig_->cameras[sk].intrinsics, uv)) ++out->num_predicted;
-      if (inner) inner_set |= std::uint64_t{1} << m;
+      if (inner) inner_set.Set(m);
       // Nearest and second-nearest blob of this camera.
       double d1 = gate_sq * 4.0 + 1.0, d2 = d1;
       int j1 = -1, j2 = -1;
@@ -115,22 +115,21 @@ void BeaconMatcher::MatchPose(const BodyPose& pose, const MatchOptions& o, Match
       return a.d < b.d || (a.d == b.d && (a.beacon < b.beacon || (a.beacon == b.beacon && a.slot < b.slot)));
     });
     std::array<bool, limits::kMaxBlobsPerFrame> used{};
-    std::uint64_t matched = 0;
+    BeaconSet matched;
     for (int c = 0; c < n_cand; ++c) {
       const Candidate& cd = cand[static_cast<std::size_t>(c)];
-      const std::uint64_t bit = std::uint64_t{1} << cd.beacon;
-      if ((matched & bit) != 0 || used[static_cast<std::size_t>(cd.slot)] || out->num_matches >= limits::kMaxMatches)
+      if (matched.Has(cd.beacon) || used[static_cast<std::size_t>(cd.slot)] || out->num_matches >= limits::kMaxMatches)
         continue;
-      matched |= bit;
+      matched.Set(cd.beacon);
       used[static_cast<std::size_t>(cd.slot)] = true;
       out->matches[static_cast<std::size_t>(out->num_matches++)] =
           Match{index_[sk][static_cast<std::size_t>(cd.slot)], cd.beacon, k};
       out->sum_sq_px += cd.d;
     }
     out->beacons |= matched;
-    for (std::uint64_t miss = inner_set & ~matched; miss != 0; miss &= miss - 1) ++out->num_missing;
+    out->num_missing += inner_set.Minus(matched).Count();
   }
-  for (std::uint64_t b = out->beacons; b != 0; b &= b - 1) ++out->num_beacons;
+  out->num_beacons = out->beacons.Count();
 }
 
 }  // namespace mfns::fw

@@ -42,7 +42,7 @@ template <int kCapacity>
 struct MatchList {
   int num_matches = 0;
   std::array<Match, kCapacity> matches{};
-  std::uint64_t beacons = 0;  // bit m: beacon m matched in some camera
+  BeaconSet beacons;          // beacons matched in some camera
   int num_beacons = 0;        // distinct matched beacons
   int num_predicted = 0;      // (camera, beacon) pairs predicted inside the image
   int num_missing = 0;        // predicted well inside with no blob matched

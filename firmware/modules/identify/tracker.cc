@@ -195,15 +195,15 @@ bool Tracker::SolveAt(const BodyPose& start, const TwinRegion& twin, const Track
   }
   // The identities the last solve used, inliers only.
   int n = 0;
-  r->matches.beacons = 0;
+  r->matches.beacons.Reset();
   for (int i = 0; i < r->matches.num_matches; ++i) {
     if (!r->solve.inlier[static_cast<std::size_t>(i)]) continue;
     r->matches.matches[static_cast<std::size_t>(n)] = r->matches.matches[static_cast<std::size_t>(i)];
-    r->matches.beacons |= std::uint64_t{1} << r->matches.matches[static_cast<std::size_t>(n)].beacon;
+    r->matches.beacons.Set(r->matches.matches[static_cast<std::size_t>(n)].beacon);
     ++n;
   }
   r->matches.num_matches = n;
-  r->matches.num_beacons = std::popcount(r->matches.beacons);
+  r->matches.num_beacons = r->matches.beacons.Count();
   r->pose = r->solve.pose;
   return r->matches.num_beacons >= 3 && r->matches.num_missing <= o.max_missing && r->solve.rms_px <= o.max_rms_px &&
          !NearbyTwin(twin, o, r);

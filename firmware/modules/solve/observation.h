@@ -8,6 +8,7 @@
 #include <Eigen/Core>
 
 #include "common/limits.h"
+#include "common/rig/beacon_set.h"
 
 namespace mfns::fw {
 

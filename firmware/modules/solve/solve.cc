@@ -11,7 +11,6 @@ namespace {
 using Mat6 = Eigen::Matrix<double, 6, 6>;
 using Vec6 = Eigen::Matrix<double, 6, 1>;
 
-static_assert(limits::kMaxBeacons <= 64, "beacon sets are 64-bit masks");
 
 constexpr double kMaxLambda = 1e16;   // beyond this no step can lower the cost
 constexpr double kGnRestartLambda = 1e-6;
@@ -138,17 +137,11 @@ RunOutcome RunLm(const Problem& p, RobustLoss loss, const SolveOptions& o, const
   return RunOutcome::kIterationBound;
 }
 
-std::uint64_t ActiveBeacons(const Problem& p) {
-  std::uint64_t set = 0;
+BeaconSet ActiveBeacons(const Problem& p) {
+  BeaconSet set;
   for (int i = 0; i < p.n; ++i)
-    if ((*p.active)[static_cast<std::size_t>(i)]) set |= std::uint64_t{1} << p.matches[i].beacon;
+    if ((*p.active)[static_cast<std::size_t>(i)]) set.Set(p.matches[i].beacon);
   return set;
-}
-
-int PopCount(std::uint64_t x) {
-  int n = 0;
-  for (int i = 0; i < 64 && x != 0; ++i, x &= x - 1) ++n;
-  return n;
 }
 
 // Residual norms of every match at `pose` (-1 when not projectable); returns the active one
@@ -179,17 +172,16 @@ SolveStatus CheckInputs(const Rig& rig, const BlobObs* blobs, int num_blobs, con
       rig.num_beacons > limits::kMaxBeacons)
     return SolveStatus::kBadInput;
   if (!initial.C_w_b.allFinite() || !initial.r_w_wb.allFinite()) return SolveStatus::kNonFinite;
-  std::array<std::uint64_t, limits::kMaxCameras> seen{};  // beacons per camera
+  std::array<BeaconSet, limits::kMaxCameras> seen{};  // beacons per camera
   std::array<bool, limits::kMaxObservations> used{};      // blobs
   for (int i = 0; i < num_matches; ++i) {
     const Match& m = matches[i];
     if (m.blob < 0 || m.blob >= num_blobs || m.beacon < 0 || m.beacon >= rig.num_beacons ||
         m.camera < 0 || m.camera >= rig.num_cameras || blobs[m.blob].camera != m.camera)
       return SolveStatus::kBadInput;
-    const std::uint64_t bit = std::uint64_t{1} << m.beacon;
     auto& cam_set = seen[static_cast<std::size_t>(m.camera)];
-    if ((cam_set & bit) != 0 || used[static_cast<std::size_t>(m.blob)]) return SolveStatus::kBadInput;
-    cam_set |= bit;
+    if (cam_set.Has(m.beacon) || used[static_cast<std::size_t>(m.blob)]) return SolveStatus::kBadInput;
+    cam_set.Set(m.beacon);
     used[static_cast<std::size_t>(m.blob)] = true;
     if (!blobs[m.blob].uv_px.allFinite() ||
         !rig.beacons_w[static_cast<std::size_t>(m.beacon)].allFinite())
@@ -220,7 +212,7 @@ SolveStatus Finish(const Problem& p, const SolveOptions& o, SolveResult* res) {
     ++res->num_inliers;
     ++res->inliers_per_camera[static_cast<std::size_t>(p.matches[i].camera)];
   }
-  res->num_beacons = PopCount(ActiveBeacons(p));
+  res->num_beacons = ActiveBeacons(p).Count();
   res->cost = 0.5 * sum2;
   res->rms_px = res->num_inliers > 0 ? std::sqrt(sum2 / res->num_inliers) : 0.0;
   if (!H.allFinite() || !res->pose.C_w_b.allFinite() || !res->pose.r_w_wb.allFinite())
@@ -258,7 +250,7 @@ SolveStatus FromRun(RunOutcome r) {
 
 SolveStatus Solve(const Problem& p, std::array<bool, limits::kMaxMatches>* active,
                   const BodyPose& initial, const SolveOptions& o, SolveResult* res) {
-  if (PopCount(ActiveBeacons(p)) < o.min_beacons) return SolveStatus::kTooFewObservations;
+  if (ActiveBeacons(p).Count() < o.min_beacons) return SolveStatus::kTooFewObservations;
   bool not_converged = false;
   RunOutcome run = RunLm(p, o.loss, o, initial, &res->pose, &res->iterations);
   if (run == RunOutcome::kNotProjectable) {
@@ -283,7 +275,7 @@ SolveStatus Solve(const Problem& p, std::array<bool, limits::kMaxMatches>* activ
       if (round >= o.max_outlier_rounds) return SolveStatus::kTooManyOutliers;
       (*active)[static_cast<std::size_t>(worst)] = false;
       ++res->outlier_rounds;
-      if (PopCount(ActiveBeacons(p)) < o.min_beacons) return SolveStatus::kTooFewObservations;
+      if (ActiveBeacons(p).Count() < o.min_beacons) return SolveStatus::kTooFewObservations;
       run = RunLm(p, o.loss, o, initial, &res->pose, &res->iterations);
       if (run != RunOutcome::kConverged && run != RunOutcome::kIterationBound) return FromRun(run);
       not_converged = run == RunOutcome::kIterationBound;

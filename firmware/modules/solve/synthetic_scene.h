@@ -40,12 +40,9 @@ struct Scene {
   std::array<int, limits::kMaxCameras> per_camera{};
 
   int NumVisibleBeacons() const {
-    std::uint64_t set = 0;
-    for (int i = 0; i < num_blobs; ++i)
-      if (truth_beacon[static_cast<std::size_t>(i)] >= 0) set |= std::uint64_t{1} << truth_beacon[static_cast<std::size_t>(i)];
-    int n = 0;
-    for (; set != 0; set &= set - 1) ++n;
-    return n;
+    BeaconSet set;
+    for (int i = 0; i < num_blobs; ++i) set.Set(truth_beacon[static_cast<std::size_t>(i)]);
+    return set.Count();
   }
 };
 
