@@ -1,6 +1,6 @@
 // mfns-sim: the simulator (DESIGN.md, "Simulator"; issue 3).
-//   mfns-sim render --preset NAME|--scenario FILE --out DIR [--frames N] [--seed S]
-//   mfns-sim crb    --preset NAME|--scenario FILE --out FILE.csv [--frames N] [--seed S]
+//   mfns-sim render --preset NAME|--scenario FILE --out DIR [--frames N] [--seed S] [--map-seed M]
+//   mfns-sim crb    --preset NAME|--scenario FILE --out FILE.csv [--frames N] [--seed S] [--map-seed M]
 //   mfns-sim calib-dataset --preset NAME|--scenario FILE --out DIR [--seed S]
 //   mfns-sim compare DIR POSES.csv  estimates against truth and the bound
 //   mfns-sim preset NAME            print a built-in scenario (to start a custom one)
@@ -27,14 +27,19 @@ namespace {
 struct ScenarioArgs {
   std::string preset, file;
   int frames = 0;
-  long long seed = -1;
+  long long seed = -1, map_seed = -1;
 
   void Add(CLI::App* cmd) {
     auto* p = cmd->add_option("--preset", preset, "Built-in scenario (see `mfns-sim preset --list`)");
     auto* f = cmd->add_option("--scenario", file, "Scenario YAML file");
     p->excludes(f);
     cmd->add_option("--frames", frames, "Number of frame sets (overrides the scenario)")->check(CLI::Range(1, 1000000));
-    cmd->add_option("--seed", seed, "Random seed (overrides the scenario)")->check(CLI::NonNegativeNumber);
+    cmd->add_option("--seed", seed,
+                    "Random seed (overrides the scenario's seed: trajectory, noise, clutter; and beacons.seed, "
+                    "the generated beacon map's)")
+        ->check(CLI::NonNegativeNumber);
+    cmd->add_option("--map-seed", map_seed, "Seed of the generated beacon map only (overrides beacons.seed)")
+        ->check(CLI::NonNegativeNumber);
   }
 
   // The effective scenario and its YAML text (with the overrides applied).
@@ -43,7 +48,7 @@ struct ScenarioArgs {
     const std::string source = preset.empty() ? file : "preset " + preset;
     std::string yaml = preset.empty() ? ReadFile(file, 1u << 20) : PresetYaml(preset);
     const std::filesystem::path base = preset.empty() ? std::filesystem::path(file).parent_path() : ".";
-    if (frames > 0 || seed >= 0) {
+    if (frames > 0 || seed >= 0 || map_seed >= 0) {
       YAML::Node root;
       try {
         root = YAML::Load(yaml);
@@ -52,6 +57,14 @@ struct ScenarioArgs {
       }
       if (frames > 0) root["frames"] = frames;
       if (seed >= 0) root["seed"] = seed;
+      // A generated map follows --seed too (a new seed, a new station), unless --map-seed pins it.
+      const YAML::Node& const_root = root;  // const lookups insert nothing
+      const bool generated = const_root["beacons"].IsDefined() && const_root["beacons"].IsMap();
+      if (generated && seed >= 0 && const_root["beacons"]["seed"].IsDefined()) root["beacons"]["seed"] = seed;
+      if (map_seed >= 0) {
+        if (!generated) throw UserError("--map-seed: the scenario has no generated beacons (beacons: {layout: ...})");
+        root["beacons"]["seed"] = map_seed;
+      }
       YAML::Emitter out;
       out << root;
       yaml = std::string("# ") + source + " with command-line overrides\n" + out.c_str() + "\n";

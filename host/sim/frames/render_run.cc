@@ -12,6 +12,7 @@
 #include "common/rotation/rotation.h"
 #include "host/rigio/rig_yaml.h"
 #include "host/sim/crb/pose_bound.h"
+#include "host/sim/observe/observe.h"
 #include "host/sim/render/image.h"
 #include "host/sim/render/spot.h"
 #include "host/util/atomic_file.h"
@@ -34,45 +35,29 @@ SensorModel MakeSensor(const Scenario& s) {
   return m;
 }
 
-bool Occluded(const Scenario& s, int beacon) {
-  return std::find(s.clutter.occluded_beacons.begin(), s.clutter.occluded_beacons.end(), beacon) !=
-         s.clutter.occluded_beacons.end();
-}
-
-// Everything one camera renders for one frame set; appends the truth of visible beacons.
-LedFrameSpec FrameSpec(const Scenario& s, const BodyPose& pose, int camera, int frame, std::mt19937_64* rng,
-                       std::vector<BlobRow>* blobs) {
-  const RigCamera& cam = s.rig.cameras[static_cast<std::size_t>(camera)];
+// Everything one camera renders for one frame set (ObserveCamera decides what is seen);
+// appends the truth of the listed beacons.
+LedFrameSpec FrameSpec(const Scenario& s, const CameraView& view, int camera, std::vector<BlobRow>* blobs) {
   LedFrameSpec spec;
   spec.background_e = s.sensor.background_e;
-  spec.blank = camera == s.clutter.stop_camera && frame >= s.clutter.stop_frame;
-  std::normal_distribution<double> jitter(0.0, s.errors.pixel_noise ? s.errors.centroid_sigma_px : 0.0);
-  for (int b = 0; b < s.rig.num_beacons; ++b) {
-    // Draw the jitter for every beacon, seen or not, so streams do not depend on visibility.
-    const Eigen::Vector2d offset(jitter(*rng), jitter(*rng));
-    if (Occluded(s, b)) continue;
-    const BeaconSight sight = SightBeacon(s.rig, pose, camera, b, 0.0);
-    if (!sight.Drawn()) continue;  // behind the camera or the camera outside its beam
-    const Eigen::Vector3d& p_k = sight.p_k;
-    const ProjectedPoint& geom = sight.projection;
-    // Move the spot by the centroid noise in the image: the same depth, a shifted ray.
-    Eigen::Vector2d x_n;
-    if (Unproject(cam.intrinsics, geom.uv_px + offset, &x_n) != UnprojectStatus::kOk) continue;
-    BeaconInView in_view;
-    in_view.id = b;
-    in_view.p_k = Eigen::Vector3d(x_n.x(), x_n.y(), 1.0) * p_k.z();
-    in_view.appearance.sigma_px = s.sensor.psf_sigma_px;
-    in_view.appearance.flux_e = s.sensor.flux_e_at_1m / p_k.squaredNorm();
-    spec.beacons.push_back(in_view);
-    if (sight.visible && !spec.blank) blobs->push_back({camera, b, geom.uv_px + offset, geom.uv_px});
-  }
-  std::uniform_real_distribution<double> u(0.0, cam.intrinsics.width - 1.0), v(0.0, cam.intrinsics.height - 1.0);
-  for (int i = 0; i < s.clutter.reflections_per_frame; ++i) {
-    GaussianSpot r;
-    r.uv_px = Eigen::Vector2d(u(*rng), v(*rng));
-    r.sigma_px = s.sensor.psf_sigma_px;
-    r.flux_e = s.clutter.reflection_flux_scale * s.sensor.flux_e_at_1m;
-    spec.reflections.push_back(r);
+  spec.blank = view.state != CameraState::kDelivered;
+  for (const Spot& spot : view.spots) {
+    if (spot.source == SpotSource::kBeacon || spot.source == SpotSource::kStaticReflection) {
+      // Drawn through the camera model at its (noisy) ray, so partly visible spots are drawn too.
+      BeaconInView in_view;
+      in_view.id = spot.id;
+      in_view.p_k = spot.p_k;
+      in_view.appearance.sigma_px = s.sensor.psf_sigma_px;
+      in_view.appearance.flux_e = spot.flux_e;
+      spec.beacons.push_back(in_view);
+      if (spot.source == SpotSource::kBeacon && spot.listed) blobs->push_back({camera, spot.id, spot.uv_px, spot.uv_geom_px});
+    } else {
+      GaussianSpot r;
+      r.uv_px = spot.uv_px;
+      r.sigma_px = s.sensor.psf_sigma_px;
+      r.flux_e = spot.flux_e;
+      spec.reflections.push_back(r);
+    }
   }
   for (const Clutter::Region& region : s.clutter.bright_regions) {
     if (region.camera != camera) continue;
@@ -85,6 +70,16 @@ LedFrameSpec FrameSpec(const Scenario& s, const BodyPose& pose, int camera, int 
     spec.rectangles.push_back(rect);
   }
   return spec;
+}
+
+// One camera's frame: the spec through the sensor, or the blinded camera's saturated frame.
+cv::Mat RenderCamera(const Scenario& s, const CameraView& view, const LedFrameSpec& spec, const SensorModel& sensor,
+                     int camera, std::mt19937_64* rng) {
+  const CameraIntrinsics& cam = s.rig.cameras[static_cast<std::size_t>(camera)].intrinsics;
+  if (view.state == CameraState::kBlindedSaturated)
+    return cv::Mat(cam.height, cam.width, sensor.bit_depth == 16 ? CV_16UC1 : CV_8UC1,
+                   cv::Scalar(sensor.bit_depth == 16 ? 65535 : 255));
+  return RenderLedFrame(cam, spec, sensor, rng).image;
 }
 
 // Fixed-point text of v with `digits` decimals ("nan" for NaN).
@@ -133,7 +128,12 @@ RenderSummary WriteBoundCsv(const Scenario& s, const std::filesystem::path& path
   RenderSummary sum;
   long total = 0;
   for (const FrameTruth& f : frames) {
-    const auto seen = VisibleBeacons(s.rig, f.pose, 0.0, s.clutter.occluded_beacons);
+    // The beacons the blob lists hold (SimulateBlobs: facing, occlusions, blinded and stopped
+    // cameras), so crb.csv counts what blobs.csv lists.
+    const BlobFrameSet blob_set = SimulateBlobs(s, f);
+    std::vector<VisibleBeacon> seen;
+    for (std::size_t j = 0; j < blob_set.blobs.size(); ++j)
+      if (blob_set.beacon[j] >= 0) seen.push_back({blob_set.blobs[j].camera, blob_set.beacon[j], blob_set.uv_geom_px[j]});
     const PoseBound b = PoseCramerRao(s.rig, f.pose, seen, s.errors.centroid_sigma_px);
     o << f.frame << ',' << f.t_ns << ',' << seen.size();
     for (int k = 0; k < s.rig.num_cameras; ++k) o << ',' << b.per_camera[static_cast<std::size_t>(k)];
@@ -168,17 +168,14 @@ RenderSummary RenderScenario(const Scenario& s, const std::string& scenario_text
     for (int i = next++; i < static_cast<int>(frames.size()); i = next++) {
       try {
         for (int k = 0; k < s.rig.num_cameras; ++k) {
-          std::seed_seq seq{static_cast<std::uint32_t>(s.seed), static_cast<std::uint32_t>(s.seed >> 32),
-                            static_cast<std::uint32_t>(i), static_cast<std::uint32_t>(k), 0x5eedu};
-          std::mt19937_64 rng(seq);
-          const LedFrameSpec spec = FrameSpec(s, frames[static_cast<std::size_t>(i)].pose, k, i, &rng,
-                                              &blobs[static_cast<std::size_t>(i)]);
+          std::mt19937_64 rng = ImageStream(s, i, k);
+          const CameraView view = ObserveCamera(s, frames[static_cast<std::size_t>(i)], k, &rng);
+          const LedFrameSpec spec = FrameSpec(s, view, k, &blobs[static_cast<std::size_t>(i)]);
           if (!options.write_images) continue;
-          const RigCamera& cam = s.rig.cameras[static_cast<std::size_t>(k)];
-          const LedFrame frame = RenderLedFrame(cam.intrinsics, spec, sensor, &rng);
+          const cv::Mat image = RenderCamera(s, view, spec, sensor, k, &rng);
           char name[32];
           std::snprintf(name, sizeof(name), "%06d.pgm", i);
-          WritePgm((dir / "frames" / cam.name.data() / name).string(), frame.image);
+          WritePgm((dir / "frames" / s.rig.cameras[static_cast<std::size_t>(k)].name.data() / name).string(), image);
         }
       } catch (const std::exception& e) {
         const std::lock_guard<std::mutex> lock(error_mutex);

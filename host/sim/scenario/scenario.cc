@@ -89,6 +89,29 @@ void GenerateBeacons(const Scenario& s, Rig* rig) {
   }
 }
 
+// Static reflections: random points on the module's walls from the map seed (their own
+// stream), with the generated beacons' beam (60 deg when the beacons are not generated).
+void GenerateReflectors(const YAML::Node& n, const YamlCtx& ctx, Scenario* s) {
+  Clutter& c = s->clutter;
+  c.reflectors = s->rig;
+  c.reflectors.num_beacons = 0;
+  c.reflectors.has_facing = true;
+  if (c.static_reflections == 0) return;
+  if (s->module.shape == ModuleShape::kNone)
+    ctx.Sub("spurious").Sub("static_reflections").Fail(n["spurious"]["static_reflections"], "needs a module (its walls reflect)");
+  BeaconLayout layout = s->beacon_layout;
+  layout.layout = BeaconLayoutKind::kRandom;
+  layout.count = c.static_reflections;
+  layout.end_caps = true;
+  const std::vector<WallBeacon> points = GenerateWallBeacons(s->module, layout, s->map_seed ^ 0x5ef1ec7u);
+  c.reflectors.num_beacons = static_cast<int>(points.size());
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    c.reflectors.beacons_w[i] = points[i].p_w;
+    c.reflectors.beacon_normal_w[i] = points[i].normal_w;
+    c.reflectors.beacon_half_angle[i] = layout.half_angle;
+  }
+}
+
 void ReadBeacons(const YAML::Node& root, const YamlCtx& ctx, Rig* rig) {
   if (Has(root, "beacons_mm")) {
     const YAML::Node b = root["beacons_mm"];
@@ -210,7 +233,10 @@ void ReadErrors(const YAML::Node& n, const YamlCtx& ctx, ErrorSources* e) {
 
 void ReadSensor(const YAML::Node& n, const YamlCtx& ctx, SensorSetup* s) {
   RejectUnknownKeys(n, {"mono16", "psf_sigma_px", "flux_e_at_1m", "background_e", "gain_e_per_dn", "read_noise_e",
-                        "full_well_e"}, ctx);
+                        "full_well_e", "edge_margin_px"}, ctx);
+  s->edge_margin_px = NumberOr(n, "edge_margin_px", s->edge_margin_px, ctx);
+  if (!(s->edge_margin_px >= 0.0 && s->edge_margin_px <= 100.0))
+    ctx.Sub("edge_margin_px").Fail(n["edge_margin_px"], "must be 0..100");
   s->mono16 = BooleanOr(n, "mono16", s->mono16, ctx);
   s->psf_sigma_px = NumberOr(n, "psf_sigma_px", s->psf_sigma_px, ctx);
   s->flux_e_at_1m = NumberOr(n, "flux_e_at_1m", s->flux_e_at_1m, ctx);
@@ -229,9 +255,89 @@ int CameraIndex(const Rig& rig, const std::string& name, const YAML::Node& n, co
   ctx.Fail(n, "no camera named '" + name + "' in the rig");
 }
 
+// `frames: [first, last]`, inclusive (a window past the run's end never applies: --frames may
+// shorten a run).
+void ReadWindow(const YAML::Node& n, const YamlCtx& ctx, int* first, int* last) {
+  const YAML::Node w = Require(n, "frames", ctx);
+  const YamlCtx wctx = ctx.Sub("frames");
+  if (!w.IsSequence() || w.size() != 2) wctx.Fail(w, "expected [first, last]");
+  *first = Integer(w[0], wctx.Index(0));
+  *last = Integer(w[1], wctx.Index(1));
+  if (*first < 0 || *last < *first) wctx.Fail(w, "expected 0 <= first <= last");
+}
+
+std::vector<int> BeaconList(const YAML::Node& list, const YamlCtx& ctx, int num_beacons) {
+  if (!list.IsSequence()) ctx.Fail(list, "expected a list of beacon indices");
+  std::vector<int> out;
+  for (std::size_t i = 0; i < list.size(); ++i) {
+    const int b = Integer(list[i], ctx.Index(i));
+    if (b < 0 || b >= num_beacons) ctx.Index(i).Fail(list[i], "no beacon " + std::to_string(b));
+    out.push_back(b);
+  }
+  return out;
+}
+
+void ReadSpurious(const YAML::Node& n, const YamlCtx& ctx, Clutter* c) {
+  RejectUnknownKeys(n, {"count", "near_fraction", "near_radius_px", "static_reflections"}, ctx);
+  c->spurious = IntegerOr(n, "count", 0, ctx);
+  if (c->spurious < 0 || c->spurious > 100) ctx.Sub("count").Fail(n["count"], "must be 0..100");
+  c->near_fraction = NumberOr(n, "near_fraction", c->near_fraction, ctx);
+  if (!(c->near_fraction >= 0.0 && c->near_fraction <= 1.0)) ctx.Sub("near_fraction").Fail(n["near_fraction"], "must be 0..1");
+  if (Has(n, "near_radius_px")) {
+    const auto r = Numbers<2>(n["near_radius_px"], ctx.Sub("near_radius_px"));
+    if (!(r[0] >= 0.0 && r[1] >= r[0] && r[1] <= 500.0))
+      ctx.Sub("near_radius_px").Fail(n["near_radius_px"], "expected 0 <= min <= max <= 500");
+    c->near_radius_min_px = r[0];
+    c->near_radius_max_px = r[1];
+  }
+  c->static_reflections = IntegerOr(n, "static_reflections", 0, ctx);
+  if (c->static_reflections < 0 || c->static_reflections > limits::kMaxBeacons)
+    ctx.Sub("static_reflections").Fail(n["static_reflections"], "must be 0.." + std::to_string(limits::kMaxBeacons));
+}
+
+void ReadOcclusions(const YAML::Node& list, const YamlCtx& lctx, const Rig& rig, Clutter* c) {
+  if (!list.IsSequence()) lctx.Fail(list, "expected a list");
+  for (std::size_t i = 0; i < list.size(); ++i) {
+    const YAML::Node n = list[i];
+    const YamlCtx ctx = lctx.Index(i);
+    RejectUnknownKeys(n, {"frames", "camera", "rect_px", "beacons"}, ctx);
+    Clutter::Occlusion o;
+    ReadWindow(n, ctx, &o.first_frame, &o.last_frame);
+    if (Has(n, "camera")) o.camera = CameraIndex(rig, String(n["camera"], ctx.Sub("camera")), n["camera"], ctx.Sub("camera"));
+    if (Has(n, "rect_px")) {
+      if (o.camera < 0) ctx.Sub("rect_px").Fail(n["rect_px"], "a region needs its camera (camera: NAME)");
+      const auto r = Numbers<4>(n["rect_px"], ctx.Sub("rect_px"));
+      if (!(r[2] > r[0] && r[3] > r[1])) ctx.Sub("rect_px").Fail(n["rect_px"], "expected [u0, v0, u1, v1] with u1 > u0, v1 > v0");
+      o.has_rect = true;
+      o.rect_px = Eigen::Vector4d(r[0], r[1], r[2], r[3]);
+    }
+    if (Has(n, "beacons")) o.beacons = BeaconList(n["beacons"], ctx.Sub("beacons"), rig.num_beacons);
+    c->occlusions.push_back(o);
+  }
+}
+
+void ReadBlinded(const YAML::Node& list, const YamlCtx& lctx, const Rig& rig, Clutter* c) {
+  if (!list.IsSequence()) lctx.Fail(list, "expected a list");
+  for (std::size_t i = 0; i < list.size(); ++i) {
+    const YAML::Node n = list[i];
+    const YamlCtx ctx = lctx.Index(i);
+    RejectUnknownKeys(n, {"camera", "frames", "mode"}, ctx);
+    Clutter::Blinding b;
+    b.camera = CameraIndex(rig, String(Require(n, "camera", ctx), ctx.Sub("camera")), n["camera"], ctx.Sub("camera"));
+    ReadWindow(n, ctx, &b.first_frame, &b.last_frame);
+    const std::string mode = Has(n, "mode") ? String(n["mode"], ctx.Sub("mode")) : "saturated";
+    if (mode != "saturated" && mode != "black") ctx.Sub("mode").Fail(n["mode"], "expected saturated or black, got '" + mode + "'");
+    b.saturated = mode == "saturated";
+    c->blinded.push_back(b);
+  }
+}
+
 void ReadClutter(const YAML::Node& n, const YamlCtx& ctx, const Rig& rig, Clutter* c) {
   RejectUnknownKeys(n, {"reflections_per_frame", "reflection_flux_scale", "bright_regions", "occluded_beacons",
-                        "stop_camera", "stop_frame"}, ctx);
+                        "stop_camera", "stop_frame", "spurious", "occlusions", "blinded"}, ctx);
+  if (Has(n, "spurious")) ReadSpurious(n["spurious"], ctx.Sub("spurious"), c);
+  if (Has(n, "occlusions")) ReadOcclusions(n["occlusions"], ctx.Sub("occlusions"), rig, c);
+  if (Has(n, "blinded")) ReadBlinded(n["blinded"], ctx.Sub("blinded"), rig, c);
   c->reflections_per_frame = IntegerOr(n, "reflections_per_frame", 0, ctx);
   c->reflection_flux_scale = NumberOr(n, "reflection_flux_scale", c->reflection_flux_scale, ctx);
   if (c->reflections_per_frame < 0 || c->reflections_per_frame > 50)
@@ -251,16 +357,7 @@ void ReadClutter(const YAML::Node& n, const YamlCtx& ctx, const Rig& rig, Clutte
       c->bright_regions.push_back(r);
     }
   }
-  if (Has(n, "occluded_beacons")) {
-    const YAML::Node list = n["occluded_beacons"];
-    const YamlCtx lctx = ctx.Sub("occluded_beacons");
-    if (!list.IsSequence()) lctx.Fail(list, "expected a list of beacon indices");
-    for (std::size_t i = 0; i < list.size(); ++i) {
-      const int b = Integer(list[i], lctx.Index(i));
-      if (b < 0 || b >= rig.num_beacons) lctx.Index(i).Fail(list[i], "no beacon " + std::to_string(b));
-      c->occluded_beacons.push_back(b);
-    }
-  }
+  if (Has(n, "occluded_beacons")) c->occluded_beacons = BeaconList(n["occluded_beacons"], ctx.Sub("occluded_beacons"), rig.num_beacons);
   if (Has(n, "stop_camera")) {
     c->stop_camera = CameraIndex(rig, String(n["stop_camera"], ctx.Sub("stop_camera")), n["stop_camera"], ctx.Sub("stop_camera"));
     c->stop_frame = IntegerOr(n, "stop_frame", 0, ctx);
@@ -337,6 +434,7 @@ Scenario ParseScenarioYaml(const std::string& text, const std::string& source, c
     if (seed < 0) ctx.Sub("seed").Fail(root["seed"], "expected a non-negative integer");
     s.seed = static_cast<std::uint64_t>(seed);
   }
+  s.map_seed = s.seed;
   s.rig = ReadRigField(root, ctx, base_dir);
   if (Has(root, "module")) ReadModule(root["module"], ctx.Sub("module"), &s.module);
   if (Has(root, "beacons")) {
@@ -362,7 +460,10 @@ Scenario ParseScenarioYaml(const std::string& text, const std::string& source, c
   }
   if (Has(root, "errors")) ReadErrors(root["errors"], ctx.Sub("errors"), &s.errors);
   if (Has(root, "sensor")) ReadSensor(root["sensor"], ctx.Sub("sensor"), &s.sensor);
-  if (Has(root, "clutter")) ReadClutter(root["clutter"], ctx.Sub("clutter"), s.rig, &s.clutter);
+  if (Has(root, "clutter")) {
+    ReadClutter(root["clutter"], ctx.Sub("clutter"), s.rig, &s.clutter);
+    GenerateReflectors(root["clutter"], ctx.Sub("clutter"), &s);
+  }
   ReadCalibration(root, ctx, &s.calibration);
   return s;
 }

@@ -92,11 +92,48 @@ struct SensorSetup {
   double gain_e_per_dn = 40;     // electrons per digital number
   double read_noise_e = 10;      // electrons rms
   double full_well_e = 10200;    // saturation (255 DN at the gain above)
+  // A spot whose centre is closer than this to the image border is drawn but is no blob (a
+  // detector loses truncated spots): blobs.csv, the blob-level simulation and the bound agree.
+  double edge_margin_px = 0.0;
 };
 
+// Clutter and the error sources of a station (scenario YAML `clutter:`, host/sim/scenario/
+// README.md). Frame windows are inclusive [first, last]. Everything here acts on the images and
+// the blob lists alike (host/sim/observe decides, the renderer draws what it decides).
 struct Clutter {
   int reflections_per_frame = 0;      // random extra spots per camera per frame
-  double reflection_flux_scale = 0.5; // relative to a beacon at 1 m
+  double reflection_flux_scale = 0.5; // relative to a beacon at 1 m (near reflections: to their beacon)
+  // Spurious blobs per camera per frame set, beside reflections_per_frame: round(near_fraction
+  // x spurious) of them reflections of a visible beacon, near_radius_px from its image (a camera
+  // seeing none gets random spots instead), the rest random spots anywhere in the image.
+  int spurious = 0;
+  double near_fraction = 0.5;
+  double near_radius_min_px = 5.0, near_radius_max_px = 40.0;
+  // Static reflections: unmapped points on the module's walls (drawn from the map seed), each
+  // with the beacons' beam, imaged like a beacon of reflection_flux_scale brightness: they move
+  // with the scene. `reflectors` holds them as a rig (the truth rig's cameras, the points as
+  // its beacons) so the one visibility decision (SightBeacon) applies.
+  int static_reflections = 0;
+  Rig reflectors;
+  // A crew member in the way: during the window, the beacons listed (all when none are) whose
+  // true image in `camera` (any camera when -1) falls in rect_px (anywhere when has_rect is
+  // false) are not seen: not drawn, no blob.
+  struct Occlusion {
+    int first_frame = 0, last_frame = 0;
+    int camera = -1;
+    bool has_rect = false;
+    Eigen::Vector4d rect_px = Eigen::Vector4d::Zero();  // u0, v0, u1, v1
+    std::vector<int> beacons;
+  };
+  std::vector<Occlusion> occlusions;
+  // A camera blinded (sun, lamp) during the window: it still delivers frames, with no blobs;
+  // the frame is saturated (every pixel at full scale) or black.
+  struct Blinding {
+    int camera = 0;
+    int first_frame = 0, last_frame = 0;
+    bool saturated = true;
+  };
+  std::vector<Blinding> blinded;
   struct Region {
     int camera = 0;
     Eigen::Vector4d rect_px = Eigen::Vector4d::Zero();  // x0, y0, x1, y1
