@@ -135,3 +135,39 @@ TEST(RenderRun, SameSeedSameBytesAnyThreadCount) {
 
 }  // namespace
 }  // namespace mfns::host
+
+namespace mfns::host {
+namespace {
+
+// The station presets render like the others; the maps written carry the beacons' facing only
+// when the scenario's map does (beacons.facing).
+TEST(RenderRun, StationPresetWritesItsMapsWithOrWithoutFacing) {
+  for (const bool facing : {true, false}) {
+    const auto dir = TempDir();
+    std::string yaml = PresetYaml("station-cylinder");
+    if (!facing) yaml.replace(yaml.find("facing: true"), 12, "facing: false");
+    Scenario s = ParseScenarioYaml(yaml, "station.yaml", ".");
+    s.frames = 2;
+    RenderOptions opt;
+    opt.out_dir = dir;
+    opt.progress = false;
+    const RenderSummary sum = RenderScenario(s, yaml, opt);
+    EXPECT_GT(sum.mean_visible, 0.0);
+    EXPECT_TRUE(std::filesystem::exists(dir / "frames" / "z" / "000001.pgm"));
+    const Rig truth = ReadRigYaml(dir / "rig.yaml"), believed = ReadRigYaml(dir / "believed-rig.yaml");
+    EXPECT_EQ(truth.num_beacons, 128);
+    EXPECT_EQ(truth.has_facing, facing);
+    EXPECT_EQ(believed.has_facing, facing);
+    if (facing) {
+      EXPECT_LT((truth.beacon_normal_w[5] - s.rig.beacon_normal_w[5]).norm(), 1e-9);
+    }
+    // blobs.csv: true beacons only, as many as crb.csv counts.
+    const auto blobs = ReadCsv(dir / "blobs.csv");
+    const auto crb = ReadCsv(dir / "crb.csv");
+    EXPECT_EQ(static_cast<int>(blobs.size()) - 1, std::stoi(crb[1][2]) + std::stoi(crb[2][2]));
+    std::filesystem::remove_all(dir);
+  }
+}
+
+}  // namespace
+}  // namespace mfns::host

@@ -398,3 +398,41 @@ TEST(BlobSim, ErrorSourceFieldsNameFileLineAndField) {
 
 }  // namespace
 }  // namespace mfns::host
+
+namespace mfns::host {
+namespace {
+
+// The station presets over their 600-frame wander runs (the preset's seed and four more: the
+// start, and so the view, changes much from seed to seed): beacons in view per frame set, all
+// cameras, printed for the docs.
+TEST(StationPresets, SeeSeveralBeaconsPerFrameSet) {
+  for (const char* name : {"station-cylinder", "station-box"}) {
+    Scenario s = LoadPreset(name);
+    ASSERT_EQ(s.frames, 600);
+    long total = 0;
+    int with_3 = 0, none = 0;
+    std::string per_seed;
+    for (std::uint64_t seed = 1; seed <= 5; ++seed) {
+      s.seed = seed;  // the trajectory's; the map stays the preset's (map_seed)
+      long run = 0;
+      for (const FrameTruth& f : SimulateTrajectory(s)) {
+        const int n = SimulateBlobs(s, f).NumVisible();
+        run += n;
+        with_3 += n >= 3;
+        none += n == 0;
+      }
+      char buf[32];
+      std::snprintf(buf, sizeof(buf), " %.1f", run / 600.0);
+      per_seed += buf;
+      total += run;
+    }
+    const double mean = total / 3000.0;
+    std::printf("%s: mean %.2f beacons in view per frame set (seeds 1-5:%s), >= 3 in %.1f%%, none in %.1f%%\n", name,
+                mean, per_seed.c_str(), 100.0 * with_3 / 3000, 100.0 * none / 3000);
+    EXPECT_GT(mean, 3.0) << name;
+    EXPECT_GT(with_3, 3000 / 2) << name;
+  }
+}
+
+}  // namespace
+}  // namespace mfns::host

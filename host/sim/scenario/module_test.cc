@@ -204,6 +204,22 @@ std::string ErrorOf(const std::string& yaml) {
   return "(no error)";
 }
 
+// Explicit maps keep working, and may carry facing as the rig file does.
+TEST(ModuleScenario, ExplicitBeaconsWithFacing) {
+  const std::string yaml =
+      "beacons_mm: [[1000, 0, 0], [0, 1000, 0], [0, 0, 1000]]\n"
+      "beacon_facing: [[-1, 0, 0, 60], [0, -1, 0, 90], [0, 0, -1.0005, 30]]\n";
+  const Scenario s = ParseScenarioYaml(yaml, "s.yaml", ".");
+  ASSERT_EQ(s.rig.num_beacons, 3);
+  ASSERT_TRUE(s.rig.has_facing);
+  EXPECT_EQ(ValidateRig(s.rig), RigStatus::kOk);
+  EXPECT_NEAR(s.rig.beacon_normal_w[2].norm(), 1.0, 1e-15);
+  EXPECT_NEAR(s.rig.beacon_half_angle[1], DegToRad(90.0), 1e-15);
+  EXPECT_TRUE(BeaconFaces(s.rig, 0, Eigen::Vector3d::Zero()));
+  EXPECT_FALSE(BeaconFaces(s.rig, 0, Eigen::Vector3d(2, 0, 0)));
+  EXPECT_FALSE(ParseScenarioYaml("beacons_mm: [[1000, 0, 0]]\n", "s.yaml", ".").rig.has_facing);
+}
+
 TEST(ModuleScenario, ErrorsNameFileLineAndField) {
   const std::string cyl = "module: {shape: cylinder, diameter_mm: 4200, length_mm: 6000}\n";
   EXPECT_EQ(ErrorOf("module: {shape: sphere}\n"), "s.yaml:1: module.shape: expected cylinder or box, got 'sphere'");
@@ -227,6 +243,12 @@ TEST(ModuleScenario, ErrorsNameFileLineAndField) {
   EXPECT_EQ(ErrorOf(cyl + "beacons: {count: 20}\nbeacons_mm: [[0, 0, 0]]\n"),
             "s.yaml:2: beacons: give beacons (generated) or beacons_mm, not both");
   EXPECT_EQ(ErrorOf("beacons: {count: 20}\n"), "s.yaml:1: beacons: generated beacons need a module");
+  EXPECT_EQ(ErrorOf(cyl + "beacons: {count: 20}\nbeacon_facing: []\n"),
+            "s.yaml:3: beacon_facing: generated beacons take their facing from beacons.half_angle_deg");
+  EXPECT_EQ(ErrorOf("beacons_mm: [[1000, 0, 0]]\nbeacon_facing: [[1, 0, 0, 60], [1, 0, 0, 60]]\n"),
+            "s.yaml:2: beacon_facing: expected 1 entries (one per beacon), got 2");
+  EXPECT_EQ(ErrorOf("beacons_mm: [[1000, 0, 0]]\nbeacon_facing: [[1, 0, 0, 200]]\n"),
+            "s.yaml:2: beacon_facing[0]: half-angle must be in (0, 180] deg");
 }
 
 }  // namespace

@@ -128,6 +128,76 @@ beacons_mm:
   - [151.9, 30.6, 1000.0]
 )";
 
+// Station modules (host/sim/scenario/README.md): the paper rig wandering from a random start
+// (uniform position 0.3 m from the walls, uniform attitude) through a module whose walls carry
+// LEDs facing inward with a 60 deg beam. Brighter LEDs than the lab's turntable (~50 DN peak at
+// 3 m). The error sources are here, switched off (count 0), to turn on.
+constexpr char kStationCylinder[] = R"(name: station-cylinder
+seed: 1
+rig: paper
+frame_rate_hz: 18.6
+frames: 600
+module: {shape: cylinder, diameter_mm: 4200, length_mm: 6000}   # axis along world x, centred at the origin
+beacons: {layout: jittered-grid, count: 128, jitter: 0.25, end_caps: true, half_angle_deg: 60, facing: true}
+beacon_sigma_mm: 0.4
+trajectory:
+  kind: wander
+  margin_mm: 300
+  max_speed_mm_s: 300
+  max_accel_mm_s2: 100
+  max_rate_deg_s: 28.6
+  max_angular_accel_deg_s2: 28.6
+  correlation_s: 5
+errors:
+  pixel_noise: {enabled: true, centroid_sigma_px: 0.1}
+  beacon_map: {enabled: false, sigma_mm: 0.4}
+sensor:
+  psf_sigma_px: 1.0
+  flux_e_at_1m: 120000
+  background_e: 400
+  gain_e_per_dn: 40
+  read_noise_e: 10
+  full_well_e: 10200
+  edge_margin_px: 2
+clutter:
+  reflection_flux_scale: 0.3
+  spurious: {count: 0, near_fraction: 0.5, near_radius_px: [5, 40], static_reflections: 0}
+  # occlusions: [{frames: [100, 199], camera: x, rect_px: [0, 0, 640, 1024]}]
+  # blinded: [{camera: y, frames: [300, 340], mode: saturated}]
+)";
+
+constexpr char kStationBox[] = R"(name: station-box
+seed: 1
+rig: paper
+frame_rate_hz: 18.6
+frames: 600
+module: {shape: box, size_mm: [5000, 2200, 2200]}   # long axis along world x, centred at the origin
+beacons: {layout: jittered-grid, count: 96, jitter: 0.25, end_caps: true, half_angle_deg: 60, facing: true}
+beacon_sigma_mm: 0.4
+trajectory:
+  kind: wander
+  margin_mm: 300
+  max_speed_mm_s: 300
+  max_accel_mm_s2: 100
+  max_rate_deg_s: 28.6
+  max_angular_accel_deg_s2: 28.6
+  correlation_s: 5
+errors:
+  pixel_noise: {enabled: true, centroid_sigma_px: 0.1}
+  beacon_map: {enabled: false, sigma_mm: 0.4}
+sensor:
+  psf_sigma_px: 1.0
+  flux_e_at_1m: 120000
+  background_e: 400
+  gain_e_per_dn: 40
+  read_noise_e: 10
+  full_well_e: 10200
+  edge_margin_px: 2
+clutter:
+  reflection_flux_scale: 0.3
+  spurious: {count: 0, near_fraction: 0.5, near_radius_px: [5, 40], static_reflections: 0}
+)";
+
 // Section 4.2 of the paper: the target fixed overhead (printed face down, towards the rig, so
 // z_w points down and C_w_t = R1(180 deg) times Table 3's small alignment residual), the flyer
 // on the turntable 577 mm below it (Table 3's measured height), 11 turntable images per camera
@@ -164,6 +234,8 @@ const std::map<std::string, std::string>& Presets() {
       {"paper-turntable", kPaperTurntable},
       {"free-flight", kFreeFlight},
       {"paper-calibration", kPaperCalibration},
+      {"station-cylinder", kStationCylinder},
+      {"station-box", kStationBox},
   };
   return presets;
 }

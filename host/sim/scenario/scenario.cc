@@ -112,6 +112,23 @@ void GenerateReflectors(const YAML::Node& n, const YamlCtx& ctx, Scenario* s) {
   }
 }
 
+// beacon_facing: [[nx, ny, nz, half_angle_deg], ...], one per beacon (beacons_mm or the rig's),
+// as in the rig file: a normal within 1e-3 of unit length is normalised.
+void ReadBeaconFacing(const YAML::Node& f, const YamlCtx& ctx, Rig* rig) {
+  if (!f.IsSequence()) ctx.Fail(f, "expected a list of [nx, ny, nz, half_angle_deg]");
+  if (f.size() != static_cast<std::size_t>(rig->num_beacons))
+    ctx.Fail(f, "expected " + std::to_string(rig->num_beacons) + " entries (one per beacon), got " + std::to_string(f.size()));
+  for (std::size_t i = 0; i < f.size(); ++i) {
+    const auto v = Numbers<4>(f[i], ctx.Index(i));
+    const Eigen::Vector3d n(v[0], v[1], v[2]);
+    if (!(std::abs(n.norm() - 1.0) <= 1e-3)) ctx.Index(i).Fail(f[i], "normal length " + std::to_string(n.norm()) + ", expected 1");
+    if (!(v[3] > 0.0 && v[3] <= 180.0)) ctx.Index(i).Fail(f[i], "half-angle must be in (0, 180] deg");
+    rig->beacon_normal_w[i] = n.normalized();
+    rig->beacon_half_angle[i] = DegToRad(v[3]);
+  }
+  rig->has_facing = true;
+}
+
 void ReadBeacons(const YAML::Node& root, const YamlCtx& ctx, Rig* rig) {
   if (Has(root, "beacons_mm")) {
     const YAML::Node b = root["beacons_mm"];
@@ -121,7 +138,9 @@ void ReadBeacons(const YAML::Node& root, const YamlCtx& ctx, Rig* rig) {
       bctx.Fail(b, std::to_string(b.size()) + " beacons, limit " + std::to_string(limits::kMaxBeacons));
     rig->num_beacons = static_cast<int>(b.size());
     for (std::size_t i = 0; i < b.size(); ++i) rig->beacons_w[i] = Vec3(Numbers<3>(b[i], bctx.Index(i))) * kMm;
+    rig->has_facing = false;  // a rig file's facing was for its own beacons
   }
+  if (Has(root, "beacon_facing")) ReadBeaconFacing(root["beacon_facing"], ctx.Sub("beacon_facing"), rig);
   if (Has(root, "beacon_sigma_mm")) rig->beacon_sigma = Number(root["beacon_sigma_mm"], ctx.Sub("beacon_sigma_mm")) * kMm;
   if (rig->num_beacons == 0) ctx.Fail(root, "the scenario has no beacons (give beacons_mm or a rig with beacons)");
 }
@@ -426,7 +445,7 @@ Scenario ParseScenarioYaml(const std::string& text, const std::string& source, c
   const YamlCtx ctx{source, ""};
   RejectUnknownKeys(root, {"name", "seed", "rig", "beacons_mm", "beacon_sigma_mm", "frame_rate_hz", "frames", "t0_ns",
                            "turntable", "trajectory", "errors", "sensor", "clutter", "target", "calibration", "module",
-                           "beacons"}, ctx);
+                           "beacons", "beacon_facing"}, ctx);
   Scenario s;
   s.name = Has(root, "name") ? String(root["name"], ctx.Sub("name")) : std::filesystem::path(source).stem().string();
   if (Has(root, "seed")) {
@@ -441,12 +460,14 @@ Scenario ParseScenarioYaml(const std::string& text, const std::string& source, c
     const YamlCtx bctx = ctx.Sub("beacons");
     if (s.module.shape == ModuleShape::kNone) bctx.Fail(root["beacons"], "generated beacons need a module");
     if (Has(root, "beacons_mm")) bctx.Fail(root["beacons"], "give beacons (generated) or beacons_mm, not both");
+    if (Has(root, "beacon_facing"))
+      ctx.Sub("beacon_facing").Fail(root["beacon_facing"], "generated beacons take their facing from beacons.half_angle_deg");
     ReadBeaconLayout(root["beacons"], bctx, &s.beacon_layout);
     s.map_seed = s.beacon_layout.seed_given ? s.beacon_layout.seed : s.seed;
     s.map_facing = s.beacon_layout.facing;
     GenerateBeacons(s, &s.rig);
   }
-  ReadBeacons(root, ctx, &s.rig);
+  ReadBeacons(root, ctx, &s.rig);  // beacons_mm, beacon_facing (both refused above with generated ones), beacon_sigma_mm
   s.frame_rate_hz = NumberOr(root, "frame_rate_hz", s.frame_rate_hz, ctx);
   if (!(s.frame_rate_hz > 0 && s.frame_rate_hz <= 1000))
     ctx.Sub("frame_rate_hz").Fail(root["frame_rate_hz"], "must be in (0, 1000]");
