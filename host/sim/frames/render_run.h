@@ -1,15 +1,21 @@
 // `mfns-sim render`: a scenario rendered to the frames directory of DESIGN.md with its truth.
 //
-// DIR/frames/<camera>/<frame:06d>.pgm   mono8 (or mono16) frames, 1 per camera per frame set
+// DIR/frames/<camera>/<frame:06d>.pgm   mono8 (or mono16) frames, 1 per camera per frame set;
+//                     what each camera sees is host/sim/observe's ObserveCamera (beam facing,
+//                     occlusions, spurious spots); a blinded camera's frame is saturated (every
+//                     pixel at full scale) or black per its mode, a stopped camera's black
 // DIR/truth.csv       frame,t_ns,x_mm,y_mm,z_mm,roll_deg,pitch_deg,yaw_deg (true pose)
 // DIR/blobs.csv       frame,camera,beacon,u_px,v_px,u_geom_px,v_geom_px: true blob centres of
-//                     the visible beacons (u_px: the rendered spot's centre, what a perfect
-//                     detector finds; u_geom_px: the beacon's projection without centroid noise)
-// DIR/crb.csv         per frame set: beacons seen per camera and the Cramér-Rao bound of the
-//                     pose (1-sigma per axis) for centroid noise sigma_px
+//                     the visible beacons only, no spurious spots (u_px: the rendered spot's
+//                     centre, what a perfect detector finds, = SimulateBlobs' uv_px; u_geom_px:
+//                     the beacon's projection without centroid noise)
+// DIR/crb.csv         per frame set: beacons seen per camera (those blobs.csv lists) and the
+//                     Cramér-Rao bound of the pose (1-sigma per axis) for centroid noise sigma_px
 // DIR/turntable.csv   frame,main_cmd_deg,aux_cmd_deg,main_true_deg,aux_true_deg (turntable runs)
 // DIR/rig.yaml        the true rig and beacons;  DIR/believed-rig.yaml  the rig with the
-//                     scenario's calibration and survey errors (what a navigator would load)
+//                     scenario's calibration and survey errors (what a navigator would load);
+//                     both with the beacons' facing unless the scenario's map has none
+//                     (beacons.facing: false)
 // DIR/scenario.yaml   the scenario text that made it
 // Every (frame, camera) image draws from its own random stream seeded by (seed, frame,
 // camera), so output bytes do not depend on the number of threads.
