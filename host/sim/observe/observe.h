@@ -87,7 +87,7 @@ struct BlobFrameSet {
   // a stopped camera delivers nothing (false).
   std::array<std::vector<int>, limits::kMaxCameras> visible{};
   std::array<bool, limits::kMaxCameras> delivered{};
-  CameraState state[limits::kMaxCameras] = {};
+  std::array<CameraState, limits::kMaxCameras> state{};
   int NumVisible() const;  // beacons seen, counted once per camera
 };
 
