@@ -117,6 +117,7 @@ bool BeaconFaces(const Rig& rig, int m, const Eigen::Vector3d& p_w, double margi
   const auto idx = static_cast<std::size_t>(m);
   const double half = rig.beacon_half_angle[idx] + margin_rad;
   if (half >= kPi) return true;
+  if (half <= 0.0) return false;
   const Eigen::Vector3d u = p_w - rig.beacons_w[idx];
   const double len = u.norm();
   if (!(len > 0.0)) return true;

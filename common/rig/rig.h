@@ -47,7 +47,8 @@ struct Rig {
 };
 
 // Whether beacon m (0 <= m < rig.num_beacons) can be seen from p_w by its facing (always true
-// without facing data). margin_rad widens the beam (>= 0) for points known only roughly.
+// without facing data). margin_rad widens the beam (> 0, for points known only roughly) or
+// narrows it (< 0, where only a beacon well inside its beam is surely detected).
 bool BeaconFaces(const Rig& rig, int m, const Eigen::Vector3d& p_w, double margin_rad = 0.0);
 
 // Why a rig is not usable; kOk when it is.

@@ -21,6 +21,25 @@ bool SameSet(const MatchList<kA>& a, const MatchList<kB>& b) {
 
 }  // namespace
 
+double FalseAlarms(int matched, int predicted, double blobs_per_image, double gate_px, double image_area_px2,
+                   double tests) {
+  const int k = matched - 3, n = predicted - 3;
+  if (k <= 0) return tests;
+  if (n < k || !(image_area_px2 > 0.0)) return 0.0;  // cannot happen for a consistent set
+  const double p = std::min(1.0, blobs_per_image * kPi * gate_px * gate_px / image_area_px2);
+  if (p >= 1.0) return tests;
+  if (!(p > 0.0)) return 0.0;
+  // Binomial tail P(X >= k), X ~ Bin(n, p): the first term from logs, the rest by ratios.
+  double term = std::exp(std::lgamma(n + 1.0) - std::lgamma(k + 1.0) - std::lgamma(n - k + 1.0) + k * std::log(p) +
+                         (n - k) * std::log1p(-p));
+  double tail = 0.0;
+  for (int x = k; x <= n && x <= limits::kMaxMatches; ++x) {
+    tail += term;
+    term *= (n - x) / (x + 1.0) * p / (1.0 - p);
+  }
+  return tests * std::min(1.0, tail);
+}
+
 const char* ToString(LisStatus s) {
   switch (s) {
     case LisStatus::kFix: return "fix";
@@ -29,6 +48,8 @@ const char* ToString(LisStatus s) {
     case LisStatus::kBudgetExhausted: return "hypothesis budget exhausted before a confirmed pose";
     case LisStatus::kTooFewBlobs: return "fewer than 3 blobs";
     case LisStatus::kBadInput: return "bad options, rig or blobs";
+    case LisStatus::kSearching: return "searching: continues in the next call";
+    case LisStatus::kCount: break;
   }
   return "unknown lost-in-space status";
 }
@@ -50,6 +71,9 @@ bool LisOptions::IsValid(const char** why) const {
   else if (confirm_beacons != 0 && confirm_beacons < min_beacons + 1) bad = "confirm_beacons";
   else if (!(max_rms_px > 0.0)) bad = "max_rms_px";
   else if (!(pair_tolerance_m >= 0.0) || !std::isfinite(pair_tolerance_m)) bad = "pair_tolerance_m";
+  else if (!(pair_angle_tolerance_rad >= 0.0) || !std::isfinite(pair_angle_tolerance_rad)) bad = "pair_angle_tolerance_rad";
+  else if (!(max_false_alarms >= 0.0) || !std::isfinite(max_false_alarms)) bad = "max_false_alarms";
+  else if (!(fourth_blob_max_rad > 0.0) || !std::isfinite(fourth_blob_max_rad)) bad = "fourth_blob_max_rad";
   else if (!(workspace_margin_m >= 0.0) || !std::isfinite(workspace_margin_m)) bad = "workspace_margin_m";
   else if (!workspace_auto && !(workspace_min_w.array() <= workspace_max_w.array()).all()) bad = "workspace";
   else if (!(same_pose_m > 0.0) || !(same_pose_rad > 0.0)) bad = "same_pose";
@@ -71,11 +95,99 @@ bool LostInSpace::Reset(const Rig& rig) {
     map_max_w_ = map_max_w_.cwiseMax(Pa);
     for (int b = 0; b < rig.num_beacons; ++b) {
       const double d = (Pa - rig.beacons_w[static_cast<std::size_t>(b)]).norm();
-      dist_[static_cast<std::size_t>(a)][static_cast<std::size_t>(b)] = d;
+      dist_[static_cast<std::size_t>(a)][static_cast<std::size_t>(b)] = static_cast<float>(d);
       map_diameter_m_ = std::max(map_diameter_m_, d);
     }
   }
+  for (int a = 0; a < rig.num_beacons; ++a) {
+    const auto sa = static_cast<std::size_t>(a);
+    beacon_x_[sa] = static_cast<float>(rig.beacons_w[sa].x());
+    beacon_y_[sa] = static_cast<float>(rig.beacons_w[sa].y());
+    beacon_z_[sa] = static_cast<float>(rig.beacons_w[sa].z());
+  }
+  image_area_px2_ = 0.0;
+  for (int k = 0; k < rig.num_cameras; ++k) {
+    const CameraIntrinsics& in = rig.cameras[static_cast<std::size_t>(k)].intrinsics;
+    image_area_px2_ = std::max(image_area_px2_, static_cast<double>(in.width) * in.height);
+  }
+  CoVisibilityTable();
   return true;
+}
+
+// Samples camera centres over the workspace (the map's bounding box grown by the cameras'
+// lever arm; with facing data, only points in front of every beacon, the inside of a convex
+// module, unless that leaves too few) and records, per beacon pair, the extreme angles under
+// which both are seen (facing the point, at least kMinDepthM away). The true camera lies
+// between samples, so the ranges get pair_angle_tolerance_rad at use: the sampled minimum
+// sits where the angle changes slowly (the far end of the module), so a coarse grid loses
+// little (checked: no true pair lost over 60 random views of 64- and 256-beacon cylinders).
+void LostInSpace::CoVisibilityTable() {
+  constexpr int kMaxSamples = 2048;
+  constexpr double kMinDepthM = 0.2;
+  const Rig& rig = *rig_;
+  const int nb = rig.num_beacons;
+  for (int a = 0; a < nb; ++a) {
+    cos_min_angle_[static_cast<std::size_t>(a)].fill(2.0F);
+    cos_max_angle_[static_cast<std::size_t>(a)].fill(2.0F);
+  }
+  double lever = 0.0;
+  for (int k = 0; k < rig.num_cameras; ++k) lever = std::max(lever, rig.cameras[static_cast<std::size_t>(k)].r_b_bk.norm());
+  const Eigen::Vector3d lo = map_min_w_.array() - lever, hi = map_max_w_.array() + lever;
+  const Eigen::Vector3d size = (hi - lo).cwiseMax(1e-3);
+  const double step = std::cbrt(size.prod() / kMaxSamples);
+  std::array<int, 3> n{};
+  for (int d = 0; d < 3; ++d) n[static_cast<std::size_t>(d)] = std::max(1, static_cast<int>(size[d] / step));
+  const auto point = [&](int i) {
+    const int ix = i / (n[1] * n[2]), iy = i / n[2] % n[1], iz = i % n[2];
+    return Eigen::Vector3d(lo + Eigen::Vector3d((ix + 0.5) * size.x() / n[0], (iy + 0.5) * size.y() / n[1],
+                                                (iz + 0.5) * size.z() / n[2]));
+  };
+  const auto inside = [&](const Eigen::Vector3d& p) {
+    for (int m = 0; m < nb; ++m)
+      if (rig.beacon_normal_w[static_cast<std::size_t>(m)].dot(p - rig.beacons_w[static_cast<std::size_t>(m)]) <= 0.0)
+        return false;
+    return true;
+  };
+  const int total = n[0] * n[1] * n[2];
+  // With facing data, only points in front of every beacon (the inside of a convex module);
+  // a layout where that leaves under a tenth of the box is not convex: the whole box.
+  bool inside_only = rig.has_facing;
+  if (inside_only) {
+    int kept = 0;
+    for (int i = 0; i < total; ++i) kept += inside(point(i)) ? 1 : 0;
+    inside_only = kept * 10 >= total;
+  }
+  for (int i = 0; i < total; ++i) {
+    const Eigen::Vector3d p = point(i);
+    if (!inside_only || inside(p)) SampleCoVisibility(p, kMinDepthM);
+  }
+}
+
+void LostInSpace::SampleCoVisibility(const Eigen::Vector3d& p, double min_depth_m) {
+  const Rig& rig = *rig_;
+  const int nb = rig.num_beacons;
+  std::array<Eigen::Vector3f, limits::kMaxBeacons> dir;
+  std::array<short, limits::kMaxBeacons> seen;
+  int ns = 0;
+  for (int m = 0; m < nb; ++m) {
+    const Eigen::Vector3d u = rig.beacons_w[static_cast<std::size_t>(m)] - p;
+    const double len = u.norm();
+    if (!(len >= min_depth_m) || !BeaconFaces(rig, m, p)) continue;
+    dir[static_cast<std::size_t>(m)] = (u / len).cast<float>();
+    seen[static_cast<std::size_t>(ns++)] = static_cast<short>(m);
+  }
+  for (int x = 0; x < ns; ++x) {
+    const auto a = static_cast<std::size_t>(seen[static_cast<std::size_t>(x)]);
+    auto& cmin = cos_min_angle_[a];
+    auto& cmax = cos_max_angle_[a];
+    for (int y = x + 1; y < ns; ++y) {
+      const auto b = static_cast<std::size_t>(seen[static_cast<std::size_t>(y)]);
+      const float c = dir[a].dot(dir[b]);
+      // cos of the smallest angle: the largest cosine; of the largest angle: the smallest.
+      if (cmin[b] > 1.5F || c > cmin[b]) cmin[b] = c;
+      if (cmax[b] > 1.5F || c < cmax[b]) cmax[b] = c;
+    }
+  }
 }
 
 bool LostInSpace::InWorkspace(const Eigen::Vector3d& r, const LisOptions& o) const {
@@ -145,8 +257,36 @@ bool LostInSpace::Refine(Candidate* c, const LisOptions& o) {
   return c->set.num_beacons >= o.min_beacons && c->rms_px <= o.max_rms_px;
 }
 
+// Whether some selected blob other than the hypothesis' three (t_i, t_j, t_k) sees a beacon
+// within max_rad of its ray at `pose`: a cheap necessary condition for a fourth match.
+bool LostInSpace::ExplainsAFourth(const BodyPose& pose, int t_i, int t_j, int t_k, float cos_sq) const {
+  const int nb = rig_->num_beacons;
+  for (int s = 0; s < num_sel_; ++s) {
+    if (s == t_i || s == t_j || s == t_k) continue;
+    const BodyRay& ray = rays_[static_cast<std::size_t>(s)];
+    const Eigen::Vector3f o_w = (pose.C_w_b * ray.o_b + pose.r_w_wb).cast<float>();
+    const Eigen::Vector3f d_w = (pose.C_w_b * ray.d_b).cast<float>();
+    const float ox = o_w.x(), oy = o_w.y(), oz = o_w.z(), dx = d_w.x(), dy = d_w.y(), dz = d_w.z();
+    // Branch-free over the map so that the compiler can vectorise it: the hot loop of a search.
+    int hits = 0;
+    for (int m = 0; m < nb; ++m) {
+      const auto sm = static_cast<std::size_t>(m);
+      const float vx = beacon_x_[sm] - ox, vy = beacon_y_[sm] - oy, vz = beacon_z_[sm] - oz;
+      const float t = vx * dx + vy * dy + vz * dz;
+      hits += static_cast<int>((t > 0.0F) & (t * t >= cos_sq * (vx * vx + vy * vy + vz * vz)));
+    }
+    if (hits > 0) return true;
+  }
+  return false;
+}
+
 void LostInSpace::Score(const BodyPose& pose, const LisOptions& o, LisResult* result) {
   ++result->poses_scored;
+  // In a large map a three-beacon pose is never a fix and its exact twins are too many to
+  // follow: a pose that explains no fourth blob is not worth the full reprojection.
+  if (rig_->num_beacons >= o.fourth_blob_min_beacons &&
+      !ExplainsAFourth(pose, cur_i_, cur_j_, cur_k_, fourth_cos_sq_))
+    return;
   matcher_.MatchPose(pose, o.hypothesis_match, &match_scratch_);
   // Too few beacons, or refuted even allowing for the raw pose's error at the margins.
   if (match_scratch_.num_beacons < o.min_beacons || match_scratch_.num_missing > o.max_missing + 1) return;
@@ -156,9 +296,22 @@ void LostInSpace::Score(const BodyPose& pose, const LisOptions& o, LisResult* re
   scratch_.score = scratch_.set.Score(o.miss_weight);
   if (o.confirm_beacons > 0 && scratch_.set.num_beacons >= o.confirm_beacons && scratch_.set.num_missing == 0) {
     if (!Refine(&scratch_, o)) return;
-    if (scratch_.set.num_beacons >= o.confirm_beacons && scratch_.set.num_missing == 0) result->confirmed = true;
+    Confirm(&scratch_, o, result);
   }
   Insert(scratch_, o);
+}
+
+// A refined pose ends the search when chance would explain its matches in fewer than
+// max_false_alarms of the hypotheses tried so far.
+void LostInSpace::Confirm(Candidate* c, const LisOptions& o, LisResult* result) {
+  if (c->set.num_beacons < o.confirm_beacons || c->set.num_missing != 0) return;
+  int blobs_per_image = 0;
+  for (int k = 0; k < rig_->num_cameras; ++k) blobs_per_image = std::max(blobs_per_image, matcher_.BlobsInCamera(k));
+  const double fa = FalseAlarms(c->set.num_matches, c->set.num_predicted, blobs_per_image, o.refine_match.gate_px,
+                                image_area_px2_, std::max(1, result->poses_scored));
+  if (fa > o.max_false_alarms) return;
+  result->confirmed = true;
+  result->false_alarms = fa;
 }
 
 void LostInSpace::SelectBlobs(const LisOptions& o) {
@@ -210,75 +363,157 @@ BeaconSet LostInSpace::PriorBeacons(int i) const {
   return set;
 }
 
-void LostInSpace::PairFeasibility(const P3pOptions& p3p, const LisOptions& o) {
-  // The beacons' distance within the rays' segment distance range; with a prior, only the
-  // beacons it allows for each blob.
+// Feasibility bits of selected blobs (i, j), i < j: bit b of row a when beacons (a, b) may
+// be seen along rays (i, j): their distance within the rays' segment distance range and, for
+// rays of one camera, their angle within the co-visibility table's range; with a prior, only
+// the beacons it allows for each blob. Computed on first use in an Identify.
+const std::array<BeaconSet, limits::kMaxBeacons>& LostInSpace::Feasible(int i, int j) {
+  const auto pi = static_cast<std::size_t>(PairIndex(i, j));
+  auto& f = feasible_[pi];
+  if (feasible_done_[pi]) return f;
+  feasible_done_[pi] = true;
   const int nb = rig_->num_beacons;
-  std::array<BeaconSet, limits::kMaxLisBlobs> allowed{};
-  for (int i = 0; i < num_sel_; ++i) allowed[static_cast<std::size_t>(i)] = PriorBeacons(i);
-  for (int j = 1; j < num_sel_; ++j) {
-    for (int i = 0; i < j; ++i) {
-      double lo = 0.0, hi = 0.0;
-      SegmentDistanceRange(rays_[static_cast<std::size_t>(i)], rays_[static_cast<std::size_t>(j)], p3p.min_depth_m,
-                           p3p.max_depth_m, &lo, &hi);
-      lo -= o.pair_tolerance_m;
-      hi += o.pair_tolerance_m;
-      auto& f = feasible_[static_cast<std::size_t>(PairIndex(i, j))];
-      for (int a = 0; a < nb; ++a) {
-        BeaconSet bits;
-        if (allowed[static_cast<std::size_t>(i)].Has(a)) {
-          const auto& da = dist_[static_cast<std::size_t>(a)];
-          for (int b = 0; b < nb; ++b)
-            if (b != a && da[static_cast<std::size_t>(b)] >= lo && da[static_cast<std::size_t>(b)] <= hi)
-              bits.Set(b);
-          bits &= allowed[static_cast<std::size_t>(j)];
+  const BodyRay& ri = rays_[static_cast<std::size_t>(i)];
+  const BodyRay& rj = rays_[static_cast<std::size_t>(j)];
+  double lo = 0.0, hi = 0.0;
+  SegmentDistanceRange(ri, rj, p3p_min_m_, p3p_max_m_, &lo, &hi);
+  const auto flo = static_cast<float>(lo - pair_tol_m_), fhi = static_cast<float>(hi + pair_tol_m_);
+  const bool same_camera = blobs_[sel_[static_cast<std::size_t>(i)]].camera == blobs_[sel_[static_cast<std::size_t>(j)]].camera;
+  const double angle = std::acos(std::clamp(ri.d_b.dot(rj.d_b), -1.0, 1.0));
+  // The ray angle within [min - tol, max + tol]: cos(angle + tol) <= cos_min, cos(angle - tol) >= cos_max.
+  const auto c_lo = static_cast<float>(std::cos(std::min(kPi, angle + pair_tol_rad_)));
+  const auto c_hi = static_cast<float>(std::cos(std::max(0.0, angle - pair_tol_rad_)));
+  const BeaconSet& allowed_j = allowed_[static_cast<std::size_t>(j)];
+  for (int a = 0; a < nb; ++a) {
+    BeaconSet bits;
+    const auto sa = static_cast<std::size_t>(a);
+    if (allowed_[static_cast<std::size_t>(i)].Has(a)) {
+      const auto& da = dist_[sa];
+      for (int b = 0; b < nb; ++b) {
+        const auto sb = static_cast<std::size_t>(b);
+        if (b == a || da[sb] < flo || da[sb] > fhi) continue;
+        if (same_camera) {
+          const std::size_t x = std::min(sa, sb), y = std::max(sa, sb);
+          const float cmin = cos_min_angle_[x][y], cmax = cos_max_angle_[x][y];
+          if (cmin > 1.5F || c_lo > cmin || c_hi < cmax) continue;
         }
-        f[static_cast<std::size_t>(a)] = bits;
+        bits.Set(b);
       }
+      bits &= allowed_j;
     }
+    f[sa] = bits;
   }
+  return f;
 }
 
-bool LostInSpace::Search(const P3pOptions& p3p, const LisOptions& o, LisResult* res) {
-  // Triples, brightest first: (i, j, k) with k the faintest of the three.
-  const int nb = rig_->num_beacons;
-  for (int k = 2; k < num_sel_; ++k) {
-    for (int j = 1; j < k; ++j) {
+// Blob triples, most compact first: a same-camera triple by its largest ray angle (fewer beacon
+// pairs are seen under a small angle, so its candidate list is short), cross-camera triples
+// after them in the order of selection (brightest first).
+void LostInSpace::OrderTriples() {
+  num_triples_ = 0;
+  for (int k = 2; k < num_sel_; ++k)
+    for (int j = 1; j < k; ++j)
       for (int i = 0; i < j; ++i) {
-        ++res->blob_triples;
-        triple_.Set({rays_[static_cast<std::size_t>(i)], rays_[static_cast<std::size_t>(j)],
-                     rays_[static_cast<std::size_t>(k)]},
-                    p3p);
-        const auto& fij = feasible_[static_cast<std::size_t>(PairIndex(i, j))];
-        const auto& fik = feasible_[static_cast<std::size_t>(PairIndex(i, k))];
-        const auto& fjk = feasible_[static_cast<std::size_t>(PairIndex(j, k))];
-        for (int a = 0; a < nb; ++a) {
-          const BeaconSet& bs = fij[static_cast<std::size_t>(a)];
-          for (int b = bs.First(); b >= 0; b = bs.Next(b + 1)) {
-            BeaconSet cs = fik[static_cast<std::size_t>(a)] & fjk[static_cast<std::size_t>(b)];
-            cs.Clear(a);
-            cs.Clear(b);
-            for (int c = cs.First(); c >= 0; c = cs.Next(c + 1)) {
-              if (res->hypotheses >= o.max_hypotheses) return false;
-              ++res->hypotheses;
-              const int n = triple_.Solve({rig_->beacons_w[static_cast<std::size_t>(a)],
-                                           rig_->beacons_w[static_cast<std::size_t>(b)],
-                                           rig_->beacons_w[static_cast<std::size_t>(c)]},
-                                          &solutions_);
-              for (int s = 0; s < n; ++s) {
-                const BodyPose& pose = solutions_[static_cast<std::size_t>(s)];
-                if (InWorkspace(pose.r_w_wb, o) &&
-                    (prior_ == nullptr || NearPrior(pose, prior_->raw_slack_m, prior_->raw_slack_rad)))
-                  Score(pose, o, res);
-              }
-              if (res->confirmed) return true;
-            }
-          }
+        const int ci = blobs_[sel_[static_cast<std::size_t>(i)]].camera;
+        const bool same = ci == blobs_[sel_[static_cast<std::size_t>(j)]].camera &&
+                          ci == blobs_[sel_[static_cast<std::size_t>(k)]].camera;
+        const auto& d = [&](int x) { return rays_[static_cast<std::size_t>(x)].d_b; };
+        const double widest = std::max({std::acos(std::clamp(d(i).dot(d(j)), -1.0, 1.0)),
+                                        std::acos(std::clamp(d(i).dot(d(k)), -1.0, 1.0)),
+                                        std::acos(std::clamp(d(j).dot(d(k)), -1.0, 1.0))});
+        const float key = same ? static_cast<float>(widest) : static_cast<float>(10.0 + num_triples_);
+        triples_[static_cast<std::size_t>(num_triples_++)] =
+            Triple{static_cast<std::uint8_t>(i), static_cast<std::uint8_t>(j), static_cast<std::uint8_t>(k), key};
+      }
+  std::sort(triples_.begin(), triples_.begin() + num_triples_, [](const Triple& a, const Triple& b) {
+    return a.key < b.key || (a.key == b.key && (a.k < b.k || (a.k == b.k && (a.j < b.j || (a.j == b.j && a.i < b.i)))));
+  });
+}
+
+// Visits blob triples and their feasible beacon triples from the cursor on; at most `budget`
+// P3P solves in this call (and o.max_hypotheses in the whole search). The cursor names the
+// next hypothesis, so that a paused search resumes exactly where it stopped.
+LostInSpace::SearchEnd LostInSpace::Search(int budget, LisResult* res) {
+  int spent = 0;
+  for (; cur_.pass < num_passes_; ++cur_.pass, cur_.t = 0, cur_.a = 0, cur_.b = cur_.c = -1, cur_.ready = false) {
+    SetPass(cur_.pass);
+    // The near pass gets half of the search's hypotheses, the full range the rest.
+    const bool last = cur_.pass + 1 == num_passes_;
+    const int limit = last ? options_.max_hypotheses : options_.max_hypotheses / 2;
+    const SearchEnd end = SearchPass(budget, limit, &spent, res);
+    if (end == SearchEnd::kPaused || (end == SearchEnd::kDone && res->confirmed)) return end;
+    if (end == SearchEnd::kBudgetOut && last) return end;
+  }
+  return SearchEnd::kDone;
+}
+
+// The current pass from the cursor on, until `limit` hypotheses in all (kBudgetOut), `budget`
+// in this call (kPaused), a confirmed pose or the last triple (kDone).
+LostInSpace::SearchEnd LostInSpace::SearchPass(int budget, int limit, int* spent, LisResult* res) {
+  const int nb = rig_->num_beacons;
+  for (; cur_.t < num_triples_; ++cur_.t, cur_.a = 0, cur_.b = cur_.c = -1, cur_.ready = false) {
+    const Triple& tr = triples_[static_cast<std::size_t>(cur_.t)];
+    cur_i_ = tr.i;
+    cur_j_ = tr.j;
+    cur_k_ = tr.k;
+    if (!cur_.ready) {
+      ++res->blob_triples;
+      triple_.Set({rays_[tr.i], rays_[tr.j], rays_[tr.k]}, p3p_);
+      cur_.ready = true;
+    }
+    const auto& fij = Feasible(tr.i, tr.j);
+    const auto& fik = Feasible(tr.i, tr.k);
+    const auto& fjk = Feasible(tr.j, tr.k);
+    for (; cur_.a < nb; ++cur_.a, cur_.b = cur_.c = -1) {
+      const int a = cur_.a;
+      const BeaconSet& bs = fij[static_cast<std::size_t>(a)];
+      for (int b = cur_.b < 0 ? bs.First() : cur_.b; b >= 0; b = bs.Next(b + 1), cur_.c = -1) {
+        cur_.b = b;
+        BeaconSet cs = fik[static_cast<std::size_t>(a)] & fjk[static_cast<std::size_t>(b)];
+        cs.Clear(a);
+        cs.Clear(b);
+        for (int c = cur_.c < 0 ? cs.First() : cur_.c; c >= 0; c = cs.Next(c + 1)) {
+          cur_.c = c;
+          if (res->hypotheses >= limit) return SearchEnd::kBudgetOut;
+          if (*spent >= budget) return SearchEnd::kPaused;
+          ++*spent;
+          ++res->hypotheses;
+          TryTriple(a, b, c, res);
+          if (res->confirmed) return SearchEnd::kDone;
         }
       }
     }
   }
-  return true;
+  return SearchEnd::kDone;
+}
+
+// Pass 0 pairs beacons as if within near_depth_m of the cameras (when that is below the full
+// range): in a dense map many beacons are that near, and the short range prunes beacon pairs
+// by their distance; the last pass covers the full range. (The solver's scan keeps the full
+// range: a triple of near pairs may still have a beacon beyond it.) Changing the range
+// invalidates the pair bits.
+void LostInSpace::SetPass(int pass) {
+  const double max_m = pass + 1 < num_passes_ ? std::min(p3p_.max_depth_m, options_.near_depth_m) : p3p_.max_depth_m;
+  if (max_m == p3p_max_m_ && p3p_.min_depth_m == p3p_min_m_) return;
+  p3p_min_m_ = p3p_.min_depth_m;
+  p3p_max_m_ = max_m;
+  feasible_done_.fill(false);
+}
+
+// One hypothesis: the P3P poses of beacons (a, b, c) along the current rays, scored when they
+// lie in the workspace with the three beacons facing the body (0.15 rad for the lever arm).
+void LostInSpace::TryTriple(int a, int b, int c, LisResult* res) {
+  const LisOptions& o = options_;
+  const int n = triple_.Solve({rig_->beacons_w[static_cast<std::size_t>(a)], rig_->beacons_w[static_cast<std::size_t>(b)],
+                               rig_->beacons_w[static_cast<std::size_t>(c)]},
+                              &solutions_);
+  for (int s = 0; s < n; ++s) {
+    const BodyPose& pose = solutions_[static_cast<std::size_t>(s)];
+    if (InWorkspace(pose.r_w_wb, o) && BeaconFaces(*rig_, a, pose.r_w_wb, 0.15) &&
+        BeaconFaces(*rig_, b, pose.r_w_wb, 0.15) && BeaconFaces(*rig_, c, pose.r_w_wb, 0.15) &&
+        (prior_ == nullptr || NearPrior(pose, prior_->raw_slack_m, prior_->raw_slack_rad)))
+      Score(pose, o, res);
+  }
 }
 
 bool LostInSpace::NearPrior(const BodyPose& pose, double slack_m, double slack_rad) const {
@@ -294,6 +529,13 @@ bool LostInSpace::NearPrior(const BodyPose& pose, double slack_m, double slack_r
 
 LisStatus LostInSpace::Identify(const BlobObs* blobs, int num_blobs, const LisOptions& o, LisResult* result,
                                 const LisPrior* prior, std::uint32_t cameras) {
+  const LisStatus s = Begin(blobs, num_blobs, o, result, prior, cameras);
+  return s == LisStatus::kSearching ? Continue(o.max_hypotheses, result) : s;
+}
+
+LisStatus LostInSpace::Begin(const BlobObs* blobs, int num_blobs, const LisOptions& o, LisResult* result,
+                             const LisPrior* prior, std::uint32_t cameras) {
+  searching_ = false;
   prior_ = prior;
   LisResult& res = *result;
   res.status = LisStatus::kBadInput;
@@ -303,6 +545,7 @@ LisStatus LostInSpace::Identify(const BlobObs* blobs, int num_blobs, const LisOp
   res.best_score = 0.0;
   res.second_score = -std::numeric_limits<double>::infinity();
   res.hypotheses = res.poses_scored = res.blob_triples = 0;
+  res.false_alarms = 0.0;
   res.search_complete = res.confirmed = false;
   res.complete = false;
   res.num_consistent = 0;
@@ -316,16 +559,35 @@ LisStatus LostInSpace::Identify(const BlobObs* blobs, int num_blobs, const LisOp
         !blobs[i].uv_px.allFinite())
       return res.status;
   if (num_blobs < 3 || rig_->num_beacons < 3) return res.status = LisStatus::kTooFewBlobs;
-  blobs_ = blobs;
+  options_ = o;
+  p3p_ = o.p3p;
+  if (p3p_.max_depth_m <= 0.0) p3p_.max_depth_m = map_diameter_m_ + o.workspace_margin_m;
+  if (!p3p_.IsValid()) return res.status;
+  // The search may outlive the caller's list (Continue in later frame sets): a copy.
+  std::copy(blobs, blobs + num_blobs, own_blobs_.begin());
+  blobs_ = own_blobs_.data();
   num_blobs_ = num_blobs;
-  matcher_.SetBlobs(blobs, num_blobs, cameras);
+  matcher_.SetBlobs(blobs_, num_blobs, cameras);
   SelectBlobs(o);
-  P3pOptions p3p = o.p3p;
-  if (p3p.max_depth_m <= 0.0) p3p.max_depth_m = map_diameter_m_ + o.workspace_margin_m;
-  if (!p3p.IsValid()) return res.status;
-  PairFeasibility(p3p, o);
-  const bool budget_out = !Search(p3p, o, &res);
-  return Decide(budget_out, o, &res);
+  p3p_min_m_ = p3p_max_m_ = -1.0;  // SetPass sets them
+  num_passes_ = o.near_depth_m > 0.0 && o.near_depth_m < p3p_.max_depth_m && o.near_depth_m > p3p_.min_depth_m ? 2 : 1;
+  pair_tol_m_ = o.pair_tolerance_m;
+  pair_tol_rad_ = o.pair_angle_tolerance_rad;
+  fourth_cos_sq_ = static_cast<float>(std::cos(o.fourth_blob_max_rad) * std::cos(o.fourth_blob_max_rad));
+  for (int i = 0; i < num_sel_; ++i) allowed_[static_cast<std::size_t>(i)] = PriorBeacons(i);
+  feasible_done_.fill(false);
+  OrderTriples();
+  cur_ = Cursor{};
+  searching_ = true;
+  return res.status = LisStatus::kSearching;
+}
+
+LisStatus LostInSpace::Continue(int budget, LisResult* result) {
+  if (!searching_) return result->status;
+  const SearchEnd end = Search(std::max(1, budget), result);
+  if (end == SearchEnd::kPaused) return result->status = LisStatus::kSearching;
+  searching_ = false;
+  return Decide(end == SearchEnd::kBudgetOut, options_, result);
 }
 
 LisStatus LostInSpace::Decide(bool budget_out, const LisOptions& o, LisResult* result) {

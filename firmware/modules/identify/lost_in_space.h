@@ -5,10 +5,16 @@
 //    body frame.
 // 2. Every blob pair gets, per beacon pair, a feasibility bit: the beacons' distance must lie
 //    within the range of distances between the two rays' segments [min_depth, max_depth]
-//    (this prunes a same-camera pair by its ray angle and a cross-camera pair by the lever arm).
-// 3. Blob triples are visited brightest first; for each, every ordered beacon triple whose
-//    three pairs are feasible goes through the generalized three-point solver (p3p.h), at
-//    most max_hypotheses times per frame set.
+//    (this prunes a cross-camera pair by the lever arm). A same-camera pair's ray angle must
+//    also lie within the range of angles under which the two beacons are seen together from
+//    the workspace (facing them both, when the rig has facing data): Reset samples the
+//    workspace for it (the co-visibility table). With unknown depths the distance test alone
+//    prunes nothing for a same-camera pair; the table is what makes large maps searchable.
+//    The bits are computed for a blob pair when a triple first needs them.
+// 3. Blob triples are visited most compact first: same-camera triples by their largest ray
+//    angle (the smaller, the fewer beacon pairs are seen under it), then the others; for
+//    each, every ordered beacon triple whose three pairs are feasible goes through the
+//    generalized three-point solver (p3p.h), at most max_hypotheses times per frame set.
 // 4. Solution poses outside the workspace box are refused; the others are scored by
 //    reprojecting the whole beacon map with visibility (match.h): matched blobs minus
 //    miss_weight per beacon predicted well inside an image with no blob there. The best
@@ -20,7 +26,8 @@
 //    residual, and beats every other consistent pose by min_score_margin matches. The default
 //    margin, 2, keeps a wrong pose that happens to land one beacon on a spurious blob (likely
 //    among thousands of hypotheses) from beating a true pose; a tie is kAmbiguous, never a
-//    guess. A pose with confirm_beacons beacons and none missing ends the search early.
+//    guess. A refined pose with confirm_beacons beacons, none missing and an expected number of
+//    false alarms (FalseAlarms) below max_false_alarms ends the search early (confirmed).
 //
 // With three or four beacons in view and narrow fields of view, several poses usually explain
 // the blobs equally well (nothing else is in view to refute them): the result is then
@@ -54,8 +61,10 @@ enum class LisStatus : unsigned char {
   kBudgetExhausted,  // the hypothesis budget ran out before a confirmed pose was found
   kTooFewBlobs,      // fewer than 3 blobs
   kBadInput,         // invalid options, rig not set, blob camera out of range
+  kSearching,        // Begin/Continue: the search goes on in the next Continue
+  kCount,
 };
-inline constexpr int kNumLisStatus = 6;
+inline constexpr int kNumLisStatus = static_cast<int>(LisStatus::kCount);
 const char* ToString(LisStatus s);
 
 struct LisOptions {
@@ -69,8 +78,18 @@ struct LisOptions {
   double min_score_margin = 2.0;  // best - second-best consistent score needed for a fix
   int max_missing = 0;            // a refined pose with more missing beacons is refuted
   int min_beacons = 3;            // distinct beacons of a fix (>= 3)
-  int confirm_beacons = 6;        // a pose with this many beacons and none missing ends the
-                                  // search (0: always search the whole budget)
+  int confirm_beacons = 5;        // a pose with this many beacons, none missing and few
+                                  // expected false alarms ends the search (0: never)
+  double max_false_alarms = 1e-3;  // (see FalseAlarms)
+  double pair_angle_tolerance_rad = 0.01;  // slack of the co-visibility table's angle ranges
+  // Maps with at least this many beacons score a P3P pose only when some fourth selected blob
+  // sees a beacon within fourth_blob_max_rad of its ray (its list of three-beacon poses could
+  // never be complete, nor a three-beacon pose a fix).
+  int fourth_blob_min_beacons = 32;
+  // A first pass, with half of max_hypotheses, pairs beacons as if within this depth of the
+  // cameras (<= 0: no such pass; see SetPass).
+  double near_depth_m = 1.0;
+  double fourth_blob_max_rad = 0.015;
   double max_rms_px = 2.0;        // refined residual RMS of a consistent pose
   double pair_tolerance_m = 0.01;  // slack of the pair distance test
   // Workspace: body positions outside [min, max] (world, m) are refused. Automatic (when
@@ -94,6 +113,7 @@ struct LisResult {
   double best_score = 0.0;        // matches - miss_weight * missing of the best consistent pose
   double second_score = 0.0;      // of the next consistent pose (-inf if none)
   int hypotheses = 0;             // P3P solves spent
+  double false_alarms = 0.0;      // FalseAlarms of the confirmed pose (confirmed only)
   int poses_scored = 0;           // P3P solutions scored
   int blob_triples = 0;           // blob triples visited
   bool search_complete = false;   // every feasible triple was tried
@@ -119,10 +139,21 @@ struct LisPrior {
   double raw_slack_rad = 0.05;
 };
 
+// The expected number of poses, among `tests` wrong hypotheses, that would match as many
+// beacons by chance (an a-contrario test): a refined pose predicts `predicted` beacons in view
+// and matches `matched` of them, three of which its hypothesis fitted exactly; each other
+// prediction lands within gate_px of one of the frame set's blobs with probability
+// p = min(1, blobs_per_image * pi * gate_px^2 / image_area_px2), so chance gives at least
+// matched - 3 such landings with the binomial tail. Returns tests * tail.
+double FalseAlarms(int matched, int predicted, double blobs_per_image, double gate_px, double image_area_px2,
+                   double tests);
+
 class LostInSpace {
  public:
   // Precomputes beacon distances and the automatic depth range / workspace. The rig must stay
   // alive and unchanged until the next Reset. Returns false when the rig is unusable.
+  // Also samples the workspace for the co-visibility table (about 0.1 s for 256 beacons on the
+  // host).
   bool Reset(const Rig& rig);
 
   // Identifies blobs[0..num_blobs) (num_blobs <= limits::kMaxObservations). Never allocates.
@@ -131,6 +162,18 @@ class LostInSpace {
   // cameras: those that delivered a frame (BeaconMatcher::SetBlobs); the others refute nothing.
   LisStatus Identify(const BlobObs* blobs, int num_blobs, const LisOptions& options, LisResult* result,
                      const LisPrior* prior = nullptr, std::uint32_t cameras = kAllCameras);
+
+  // The same search spread over several calls, so that a frame set's time budget is kept:
+  // Begin checks and copies the blobs (the caller's list need not outlive the call) and
+  // returns kSearching, or a final status at once (bad input, too few blobs); each Continue
+  // spends at most `budget` P3P solves (o.max_hypotheses in all) and returns kSearching while
+  // the search goes on, else the final status and result as Identify. `prior` (optional) must
+  // stay alive until then. Identify = Begin + Continue(options.max_hypotheses). Any Identify
+  // or Begin abandons a search in progress.
+  LisStatus Begin(const BlobObs* blobs, int num_blobs, const LisOptions& options, LisResult* result,
+                  const LisPrior* prior = nullptr, std::uint32_t cameras = kAllCameras);
+  LisStatus Continue(int budget, LisResult* result);
+  bool searching() const { return searching_; }
 
  private:
   struct Candidate {
@@ -142,8 +185,17 @@ class LostInSpace {
   };
   void SelectBlobs(const LisOptions& o);
   BeaconSet PriorBeacons(int i) const;
-  void PairFeasibility(const P3pOptions& p3p, const LisOptions& o);
-  bool Search(const P3pOptions& p3p, const LisOptions& o, LisResult* result);  // false: budget out
+  void CoVisibilityTable();
+  void SampleCoVisibility(const Eigen::Vector3d& p, double min_depth_m);
+  void OrderTriples();
+  const std::array<BeaconSet, limits::kMaxBeacons>& Feasible(int i, int j);  // i < j, lazily
+  void Confirm(Candidate* c, const LisOptions& o, LisResult* result);
+  bool ExplainsAFourth(const BodyPose& pose, int t_i, int t_j, int t_k, float cos_sq) const;
+  enum class SearchEnd : unsigned char { kDone, kPaused, kBudgetOut };
+  SearchEnd Search(int budget, LisResult* result);
+  void TryTriple(int a, int b, int c, LisResult* result);
+  void SetPass(int pass);
+  SearchEnd SearchPass(int budget, int limit, int* spent, LisResult* result);
   void Score(const BodyPose& pose, const LisOptions& o, LisResult* result);
   bool Refine(Candidate* c, const LisOptions& o);
   bool SamePose(const Candidate& a, const Candidate& b, const LisOptions& o) const;
@@ -155,8 +207,28 @@ class LostInSpace {
   const Rig* rig_ = nullptr;
   double map_diameter_m_ = 0.0;
   Eigen::Vector3d map_min_w_ = Eigen::Vector3d::Zero(), map_max_w_ = Eigen::Vector3d::Zero();
-  std::array<std::array<double, limits::kMaxBeacons>, limits::kMaxBeacons> dist_{};
+  std::array<std::array<float, limits::kMaxBeacons>, limits::kMaxBeacons> dist_{};
+  // Co-visibility table: cosines of the smallest and largest angle under which beacons (a, b),
+  // a < b, are seen together from a sampled workspace point (both facing it); > 1.5: never.
+  std::array<std::array<float, limits::kMaxBeacons>, limits::kMaxBeacons> cos_min_angle_{}, cos_max_angle_{};
+  double p3p_min_m_ = 0.1, p3p_max_m_ = 1.0;   // this Identify's depth range
+  double pair_tol_m_ = 0.0, pair_tol_rad_ = 0.0;
+  double image_area_px2_ = 1.0;
+  std::array<float, limits::kMaxBeacons> beacon_x_{}, beacon_y_{}, beacon_z_{};  // SoA, world
+  int cur_i_ = 0, cur_j_ = 0, cur_k_ = 0;  // the blob triple being searched
+  float fourth_cos_sq_ = 1.0F;
   const BlobObs* blobs_ = nullptr;
+  std::array<BlobObs, limits::kMaxObservations> own_blobs_{};
+  LisOptions options_;
+  P3pOptions p3p_;
+  int num_passes_ = 1;
+  bool searching_ = false;
+  // The next hypothesis of a paused search: triple t, beacons (a, b, c) (-1: the set's first).
+  struct Cursor {
+    int pass = 0, t = 0, a = 0, b = -1, c = -1;
+    bool ready = false;  // triple_ holds triple t's rays
+  };
+  Cursor cur_;
   int num_blobs_ = 0;
   const LisPrior* prior_ = nullptr;
   BeaconMatcher matcher_;
@@ -166,6 +238,15 @@ class LostInSpace {
   // feasible_[pair(i, j)][a]: bit b set when beacons (a, b) may be seen along rays (i, j).
   static constexpr int kMaxPairs = limits::kMaxLisBlobs * (limits::kMaxLisBlobs - 1) / 2;
   std::array<std::array<BeaconSet, limits::kMaxBeacons>, kMaxPairs> feasible_{};
+  std::array<bool, kMaxPairs> feasible_done_{};
+  std::array<BeaconSet, limits::kMaxLisBlobs> allowed_{};  // per selected blob (prior)
+  static constexpr int kMaxTriples = limits::kMaxLisBlobs * (limits::kMaxLisBlobs - 1) * (limits::kMaxLisBlobs - 2) / 6;
+  struct Triple {
+    std::uint8_t i, j, k;  // selected-blob indices, i < j < k
+    float key;             // visiting order, smallest first
+  };
+  std::array<Triple, kMaxTriples> triples_{};
+  int num_triples_ = 0;
   P3pRayTriple triple_;
   std::array<BodyPose, limits::kMaxP3pSolutions> solutions_{};
   int num_cand_ = 0;

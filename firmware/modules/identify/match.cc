@@ -11,6 +11,7 @@ bool MatchOptions::IsValid(const char** why) const {
   const char* bad = nullptr;
   if (!(gate_px > 0.0) || !std::isfinite(gate_px)) bad = "gate_px";
   else if (!(miss_margin_px >= 0.0) || !std::isfinite(miss_margin_px)) bad = "miss_margin_px";
+  else if (!(facing_margin_rad >= 0.0) || !std::isfinite(facing_margin_rad)) bad = "facing_margin_rad";
   if (why != nullptr) *why = bad != nullptr ? bad : "ok";
   return bad == nullptr;
 }
@@ -84,11 +85,14 @@ void BeaconMatcher::MatchPose(const BodyPose& pose, const MatchOptions& o, Match
     std::array<Candidate, 2 * limits::kMaxBeacons> cand;
     int n_cand = 0;
     BeaconSet inner_set;
+    const Eigen::Vector3d centre_w = pose.C_w_b * rig_->cameras[sk].r_b_bk + pose.r_w_wb;
     for (int m = 0; m < rig_->num_beacons; ++m) {
       Eigen::Vector2d uv;
       bool inner = false;
+      if (rig_->has_facing && !BeaconFaces(*rig_, m, centre_w, o.facing_margin_rad)) continue;
       if (!Predict(k, pose, rig_->beacons_w[static_cast<std::size_t>(m)], o.gate_px, o.miss_margin_px, &uv, &inner))
         continue;
+      if (inner && rig_->has_facing && !BeaconFaces(*rig_, m, centre_w, -o.facing_margin_rad)) inner = false;
       if (InImage(rig_->cameras[sk].intrinsics, uv)) ++out->num_predicted;
       if (inner) inner_set.Set(m);
       // Nearest and second-nearest blob of this camera.

@@ -1,11 +1,13 @@
 // Beacon map reprojection and gated one-to-one matching of predicted beacons to blobs, shared
 // by lost-in-space (hypothesis scoring) and tracking.
 //
-// Visibility model: beacon m is predicted in camera k when it is in front of the camera,
+// Visibility model: beacon m is predicted in camera k when it faces the camera (the rig's
+// optional beacon facing, widened by facing_margin_rad), is in front of the camera,
 // inside the camera's view cone (the cone through the image corners, so that the distortion
 // polynomial is never used where it may fold back) and its image falls inside the image grown
 // by the gate. It is predicted "well inside" when its image is at least miss_margin_px inside
-// the image; such a beacon with no blob matched counts as missing.
+// the image and faces the camera by facing_margin_rad inside its beam (an LED seen at the rim of
+// its beam is dim and may go undetected); such a beacon with no blob matched counts as missing.
 //
 // Matching: each predicted beacon takes its nearest blob of that camera within gate_px;
 // conflicts are resolved greedily by distance so that every blob and every (camera, beacon)
@@ -32,6 +34,7 @@ struct MatchOptions {
   double gate_px = 10.0;          // largest blob-to-prediction distance of a match (> 0)
   double miss_margin_px = 15.0;   // "well inside the image" margin for missing beacons (>= 0)
   bool reject_ambiguous = false;  // drop beacons with two blobs inside the gate
+  double facing_margin_rad = 0.1;  // beam rim: predicted within +margin, missing within -margin
 
   bool IsValid(const char** why = nullptr) const;
 };

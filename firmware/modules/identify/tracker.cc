@@ -639,6 +639,10 @@ TrackStatus Tracker::TrackOnce(const BlobObs* blobs, int num_blobs, std::uint64_
     use_prior = false;
     r->lis_status = LisStatus::kFix;
   }
+  // A confirmed fix (>= confirm_beacons beacons, none missing, chance would explain it in
+  // fewer than max_false_alarms of the hypotheses tried) stands on its own, prior or not: its
+  // search ended early, so its list cannot drive the followed poses (it is not complete).
+  if (r->lis_status == LisStatus::kFix && lis_res_.confirmed) use_prior = false;
   // A fix found without a prior stands on its own; under a prior it only says which of the
   // followed poses are left, like any other outcome.
   // Three beacons fit their pose exactly: a unique three-beacon pose may rest on a reflection

@@ -74,6 +74,7 @@ inline void Observe(const Rig& rig, const BodyPose& pose, double sigma_px, std::
     const RigCamera& cam = rig.cameras[static_cast<std::size_t>(k)];
     for (int m = 0; m < rig.num_beacons; ++m) {
       const Eigen::Vector3d& P = rig.beacons_w[static_cast<std::size_t>(m)];
+      if (!BeaconFaces(rig, m, pose.C_w_b * cam.r_b_bk + pose.r_w_wb)) continue;  // seen from behind
       const Eigen::Vector3d p_k = WorldToCamera(cam, pose, P);
       // Within 60 deg of the optic axis: the distortion model is not used beyond the lens.
       if (p_k.z() <= 0.0 || p_k.head<2>().norm() > std::tan(DegToRad(60.0)) * p_k.z()) continue;
@@ -127,6 +128,46 @@ inline Rig RandomBoxRig(int num_beacons, std::mt19937_64* rng) {
     rig.beacons_w[static_cast<std::size_t>(i)] = p;
   }
   return rig;
+}
+
+// A cylindrical station module (axis along x, diameter 2 radius_m, length length_m, centred on
+// the origin) with num_beacons beacons uniformly on its wall and end caps, each facing inward
+// with a 60 deg beam half-angle (has_facing as given), and the paper's three cameras.
+inline Rig RandomCylinderRig(int num_beacons, bool facing, std::mt19937_64* rng, double radius_m = 2.1,
+                             double length_m = 6.0) {
+  Rig rig = PaperRig();
+  rig.beacon_sigma = 0.0;
+  rig.num_beacons = num_beacons;
+  rig.has_facing = facing;
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  const double cap = kPi * radius_m * radius_m, wall = 2.0 * kPi * radius_m * length_m;
+  for (int i = 0; i < num_beacons; ++i) {
+    const auto si = static_cast<std::size_t>(i);
+    const double s = u(*rng) * (wall + 2.0 * cap), th = 2.0 * kPi * u(*rng);
+    if (s < wall) {
+      rig.beacons_w[si] = Eigen::Vector3d((u(*rng) - 0.5) * length_m, radius_m * std::cos(th), radius_m * std::sin(th));
+      rig.beacon_normal_w[si] = Eigen::Vector3d(0.0, -std::cos(th), -std::sin(th));
+    } else {
+      const double r = radius_m * std::sqrt(u(*rng)), side = s < wall + cap ? -1.0 : 1.0;
+      rig.beacons_w[si] = Eigen::Vector3d(side * length_m / 2, r * std::cos(th), r * std::sin(th));
+      rig.beacon_normal_w[si] = Eigen::Vector3d(-side, 0.0, 0.0);
+    }
+    rig.beacon_half_angle[si] = DegToRad(60.0);
+  }
+  return rig;
+}
+
+// A random pose in that cylinder, the body at least margin_m from its walls.
+inline BodyPose RandomCylinderPose(std::mt19937_64* rng, double radius_m = 2.1, double length_m = 6.0,
+                                   double margin_m = 0.3) {
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  BodyPose p;
+  p.C_w_b = RandomRotation(rng);
+  do {
+    p.r_w_wb = Eigen::Vector3d(u(*rng) * (length_m / 2 - margin_m), u(*rng) * (radius_m - margin_m),
+                               u(*rng) * (radius_m - margin_m));
+  } while (p.r_w_wb.tail<2>().norm() > radius_m - margin_m);
+  return p;
 }
 
 // A random pose inside the module, the body at least 0.4 m from every wall.
