@@ -6,6 +6,7 @@
 //   mfns-sim preset NAME            print a built-in scenario (to start a custom one)
 //   mfns-sim analyze --out DIR ...  Figures 4-6 of the paper (error analysis)
 //   mfns-sim report | merge-rig | solve-given   replication tables and report (host/report)
+//   mfns-sim navmatrix ...          acquisition test matrix (host/sim/navmatrix)
 // Exit 0 on success, 1 on a user error with a one-line reason on stderr.
 #include <CLI/CLI.hpp>
 
@@ -18,6 +19,7 @@
 #include "host/sim/calibdata/calib_dataset.h"
 #include "host/sim/eval/compare.h"
 #include "host/sim/frames/render_run.h"
+#include "host/sim/navmatrix/matrix.h"
 #include "host/sim/scenario/scenario.h"
 #include "host/util/atomic_file.h"
 
@@ -121,6 +123,7 @@ int Run(int argc, char** argv) {
 
   AddAnalyzeCommand(app);
   AddReportCommands(app);  // report, merge-rig, solve-given (host/report)
+  AddNavMatrixCommand(app);
 
   try {
     app.parse(argc, argv);

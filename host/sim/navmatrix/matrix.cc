@@ -1,0 +1,336 @@
+#include "host/sim/navmatrix/matrix.h"
+
+#include <unistd.h>
+#include <yaml-cpp/yaml.h>
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cstdio>
+#include <exception>
+#include <iostream>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <thread>
+#include <tuple>
+
+#include "common/limits.h"
+#include "common/rotation/rotation.h"
+
+namespace mfns::host {
+namespace {
+
+YAML::Node PresetNode(const std::string& preset) {
+  std::string text;
+  try {
+    text = PresetYaml(preset);
+  } catch (const UserError& e) {
+    throw UserError(std::string("--presets: ") + e.what());
+  }
+  return YAML::Load(text);
+}
+
+// A generated map (beacons: {layout: ...}) takes beacons.count, .seed and .facing.
+bool HasGeneratedMap(const YAML::Node& root) {
+  const YAML::Node& r = root;  // const lookups insert nothing
+  return r["beacons"].IsDefined() && r["beacons"].IsMap();
+}
+
+Scenario ParseOverridden(const YAML::Node& root, const std::string& preset) {
+  YAML::Emitter out;
+  out << root;
+  return ParseScenarioYaml(out.c_str(), "preset " + preset + " with navmatrix overrides", ".");
+}
+
+std::string Trim(const std::string& s) {
+  const auto b = s.find_first_not_of(" \t");
+  const auto e = s.find_last_not_of(" \t");
+  return b == std::string::npos ? std::string() : s.substr(b, e - b + 1);
+}
+
+std::uint64_t ParseSeed(const std::string& text, const std::string& whole) {
+  const std::string t = Trim(text);
+  if (t.empty() || t.find_first_not_of("0123456789") != std::string::npos || t.size() > 18)
+    throw UserError("--seeds: expected seeds like 1-5 or 1,3,8, got '" + whole + "'");
+  return std::stoull(t);
+}
+
+}  // namespace
+
+Scenario MatrixScenario(const RunSpec& r) {
+  YAML::Node root = PresetNode(r.preset);
+  root["frames"] = r.frames;
+  root["seed"] = r.seed;
+  if (HasGeneratedMap(root)) {
+    root["beacons"]["seed"] = r.seed;  // a new seed, a new station (mfns-sim --seed)
+    if (r.count > 0) root["beacons"]["count"] = r.count;
+    root["beacons"]["facing"] = r.facing;
+  }
+  root["clutter"]["spurious"]["count"] = r.spurious;
+  return ParseOverridden(root, r.preset);
+}
+
+std::vector<std::uint64_t> ParseSeeds(const std::string& text) {
+  std::vector<std::uint64_t> seeds;
+  std::size_t start = 0;
+  while (start <= text.size()) {
+    const std::size_t comma = std::min(text.find(',', start), text.size());
+    const std::string item = text.substr(start, comma - start);
+    const std::size_t dash = item.find('-');
+    if (dash == std::string::npos) {
+      seeds.push_back(ParseSeed(item, text));
+    } else {
+      const std::uint64_t a = ParseSeed(item.substr(0, dash), text), b = ParseSeed(item.substr(dash + 1), text);
+      if (b < a || b - a >= 10000)
+        throw UserError("--seeds: range '" + Trim(item) + "' must go up, 10000 seeds at most");
+      for (std::uint64_t s = a; s <= b; ++s) seeds.push_back(s);
+    }
+    start = comma + 1;
+  }
+  return seeds;
+}
+
+std::vector<RunSpec> ExpandMatrix(const MatrixSpec& m) {
+  if (m.presets.empty()) throw UserError("--presets: give at least one preset");
+  if (m.seeds.empty()) throw UserError("--seeds: give at least one seed");
+  if (m.frames < 1 || m.frames > 1000000) throw UserError("--frames: must be 1..1000000");
+  if (m.spurious < 0 || m.spurious > 100) throw UserError("--spurious: must be 0..100");
+  for (const int c : m.counts)
+    if (c < 10 || c > limits::kMaxBeacons)
+      throw UserError("--counts: " + std::to_string(c) + " is outside 10.." + std::to_string(limits::kMaxBeacons));
+  std::vector<RunSpec> runs;
+  for (const std::string& preset : m.presets) {
+    const YAML::Node root = PresetNode(preset);
+    const bool generated = HasGeneratedMap(root);
+    const Scenario s = MatrixScenario({.preset = preset, .seed = m.seeds.front(), .frames = 1});
+    if (s.rig.num_beacons < 4) throw UserError("--presets: '" + preset + "' has no beacon map to navigate by");
+    if (generated && m.counts.empty()) throw UserError("--counts: '" + preset + "' needs at least one beacon count");
+    const std::vector<int> counts = generated ? m.counts : std::vector<int>{0};
+    std::vector<bool> facings{true, false};
+    if (!s.rig.has_facing || m.facing == FacingMode::kYes) facings = {true};
+    if (s.rig.has_facing && m.facing == FacingMode::kNo) facings = {false};
+    for (const int count : counts)
+      for (const bool facing : facings)
+        for (const std::uint64_t seed : m.seeds)
+          runs.push_back({.preset = preset,
+                          .count = count,
+                          .seed = seed,
+                          .facing = facing,
+                          .map_has_facing = s.rig.has_facing,
+                          .map_beacons = count > 0 ? count : s.rig.num_beacons,
+                          .frames = m.frames,
+                          .spurious = m.spurious});
+  }
+  return runs;
+}
+
+namespace {
+
+std::string Describe(const RunSpec& r) {
+  std::string d = r.preset;
+  if (r.count > 0) d += " " + std::to_string(r.count);
+  if (r.map_has_facing) d += r.facing ? " facing" : " no-facing";
+  return d + " seed " + std::to_string(r.seed);
+}
+
+// One progress line, rewritten in place on a terminal, one line per run otherwise.
+class Progress {
+ public:
+  Progress(std::ostream* out, int total) : out_(out), total_(total), tty_(isatty(STDERR_FILENO) != 0) {}
+  void Done(const RunSpec& spec, const RunResult& r) {
+    if (out_ == nullptr) return;
+    const std::lock_guard<std::mutex> lock(mutex_);
+    ++done_;
+    const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
+    char line[256];
+    std::snprintf(line, sizeof line, "navmatrix: %d/%d runs, %.0f s; last: %s, first fix %d, wrong fixes %d", done_,
+                  total_, s, Describe(spec).c_str(), r.first_fix, r.wrong_fixes);
+    *out_ << (tty_ ? "\r\033[K" : "") << line << (tty_ && done_ < total_ ? "" : "\n") << std::flush;
+  }
+
+ private:
+  std::ostream* out_;
+  int total_, done_ = 0;
+  bool tty_;
+  std::mutex mutex_;
+  std::chrono::steady_clock::time_point start_ = std::chrono::steady_clock::now();
+};
+
+}  // namespace
+
+std::vector<RunResult> RunMatrix(const std::vector<RunSpec>& runs, const NavMatrixOptions& o, int jobs,
+                                 std::ostream* progress) {
+  std::vector<RunResult> results(runs.size());
+  std::atomic<std::size_t> next{0};
+  std::exception_ptr error;
+  std::mutex error_mutex;
+  Progress bar(progress, static_cast<int>(runs.size()));
+  const auto work = [&] {
+    for (std::size_t i = next++; i < runs.size(); i = next++) {
+      try {
+        results[i] = RunNavigation(MatrixScenario(runs[i]), o);
+        bar.Done(runs[i], results[i]);
+      } catch (...) {
+        const std::lock_guard<std::mutex> lock(error_mutex);
+        if (!error) error = std::current_exception();
+        next = runs.size();  // stop the others at their next run
+      }
+    }
+  };
+  const int n = std::max(1, std::min(jobs, static_cast<int>(runs.size())));
+  std::vector<std::thread> threads;
+  for (int t = 1; t < n; ++t) threads.emplace_back(work);
+  work();
+  for (std::thread& t : threads) t.join();
+  if (error) std::rethrow_exception(error);
+  return results;
+}
+
+namespace {
+
+void AddRun(const RunResult& r, const MatrixLimits& limits, MatrixRow* row) {
+  ++row->runs;
+  if (r.HasLag()) row->lags.push_back(r.Lag());
+  row->lag_exceeded += r.LagExceeds(limits.max_lag);
+  row->never_fixed += r.NeverFixed();
+  row->no_view4 += r.first_in_view < 0;
+  if (r.first_fix >= 0) {
+    ++row->fixed_runs;
+    row->min_posed_share = std::min(row->min_posed_share, r.PosedShare());
+  }
+  row->eligible += r.eligible_after_fix;
+  row->posed += r.posed_after_fix;
+  row->fixes += r.fixes;
+  row->degraded += r.degraded;
+  row->wrong_fixes += r.wrong_fixes;
+  row->wrong_degraded += r.wrong_degraded;
+  row->worst_fix_position_m = std::max(row->worst_fix_position_m, r.worst_fix_position_m);
+  row->worst_fix_attitude_rad = std::max(row->worst_fix_attitude_rad, r.worst_fix_attitude_rad);
+  row->worst_step_s = std::max(row->worst_step_s, r.worst_step_s);
+  row->total_step_s += r.total_step_s;
+  row->mean_in_view = (row->mean_in_view * static_cast<double>(row->frames) + r.mean_in_view * r.frames) /
+                      static_cast<double>(row->frames + r.frames);
+  row->frames += r.frames;
+  row->slips += r.slips;
+  row->slow += r.slow;
+}
+
+}  // namespace
+
+std::vector<MatrixRow> Summarise(const std::vector<RunSpec>& runs, const std::vector<RunResult>& results,
+                                 const MatrixLimits& limits) {
+  std::vector<MatrixRow> rows;
+  std::map<std::tuple<std::string, int, bool>, std::size_t> index;
+  for (std::size_t i = 0; i < runs.size() && i < results.size(); ++i) {
+    const RunSpec& r = runs[i];
+    const auto key = std::make_tuple(r.preset, r.count, r.facing);
+    auto it = index.find(key);
+    if (it == index.end()) {
+      it = index.emplace(key, rows.size()).first;
+      MatrixRow row;
+      row.preset = r.preset;
+      row.count = r.count;
+      row.facing = r.facing;
+      row.map_has_facing = r.map_has_facing;
+      row.map_beacons = r.map_beacons;
+      rows.push_back(row);
+    }
+    AddRun(results[i], limits, &rows[it->second]);
+  }
+  return rows;
+}
+
+namespace {
+
+std::string Fixed(double v, int decimals) {
+  char buf[64];
+  std::snprintf(buf, sizeof buf, "%.*f", decimals, v);
+  return buf;
+}
+
+std::string Short(double v) {
+  char buf[64];
+  std::snprintf(buf, sizeof buf, "%g", v);
+  return buf;
+}
+
+std::string LagCell(std::vector<int> lags) {
+  if (lags.empty()) return "—";
+  std::sort(lags.begin(), lags.end());
+  const std::size_t n = lags.size();
+  const double median = n % 2 == 1 ? lags[n / 2] : 0.5 * (lags[n / 2 - 1] + lags[n / 2]);
+  return Short(median) + " / " + std::to_string(lags.back());
+}
+
+// Min over the runs with a first fix / over all their frame sets; nothing to show without one.
+std::string PosedCell(const MatrixRow& r) {
+  if (r.fixed_runs == 0) return "— (no fix)";
+  const double all = r.eligible == 0 ? 1.0 : static_cast<double>(r.posed) / static_cast<double>(r.eligible);
+  return Fixed(100.0 * r.min_posed_share, 2) + " % / " + Fixed(100.0 * all, 2) + " %";
+}
+
+std::string FacingCell(const MatrixRow& r) {
+  if (!r.map_has_facing) return "none in map";
+  return r.facing ? "yes" : "no";
+}
+
+std::string CountCell(const MatrixRow& r) { return std::to_string(r.map_beacons) + (r.count > 0 ? "" : " (own map)"); }
+
+}  // namespace
+
+std::string FormatMatrixTable(const std::vector<MatrixRow>& rows, const MatrixLimits& limits, double frame_period_s,
+                              double slow_frame_s) {
+  const std::string slip_ms = Fixed(frame_period_s * 1e3, 1), slow_ms = Short(slow_frame_s * 1e3);
+  std::string t = "| preset | beacons | facing in map | runs | in view (mean) | first-fix lag median / max | late > " +
+                  std::to_string(limits.max_lag) +
+                  " / never | posed after first fix: min run / all | fixes / degraded | wrong fixes | wrong degraded | "
+                  "worst fix error mm / deg | Step ms worst / mean | slips > " +
+                  slip_ms + " ms | > " + slow_ms + " ms |\n";
+  t += "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n";
+  for (const MatrixRow& r : rows) {
+    t += "| " + r.preset + " | " + CountCell(r) + " | " + FacingCell(r) + " | " + std::to_string(r.runs) + " | " +
+         Fixed(r.mean_in_view, 1) + " | " + LagCell(r.lags) + " | " + std::to_string(r.lag_exceeded) + " / " +
+         std::to_string(r.never_fixed) + " | " + PosedCell(r) + " | " + std::to_string(r.fixes) + " / " +
+         std::to_string(r.degraded) + " | " + std::to_string(r.wrong_fixes) + " | " + std::to_string(r.wrong_degraded) +
+         " | " + Fixed(r.worst_fix_position_m * 1e3, 1) + " / " + Fixed(RadToDeg(r.worst_fix_attitude_rad), 2) + " | " +
+         Fixed(r.worst_step_s * 1e3, 1) + " / " +
+         Fixed(r.frames == 0 ? 0.0 : r.total_step_s * 1e3 / static_cast<double>(r.frames), 2) + " | " +
+         std::to_string(r.slips) + " | " + std::to_string(r.slow) + " |\n";
+  }
+  int no_view4 = 0;
+  for (const MatrixRow& r : rows) no_view4 += r.no_view4;
+  t += "\nFirst-fix lag: frame set of the first fix minus the first frame set with >= 4 beacons in view (truth); "
+       "late: more than " +
+       std::to_string(limits.max_lag) +
+       " frame sets (never: no fix at all in the run). Posed: share of the frame sets with >= 3 beacons in view, "
+       "from the first fix on, that carry a pose (fix or degraded). Wrong: off by more than max(20 mm, 10 x the "
+       "published largest per-axis 1-sigma) in position or 1 deg in attitude. Step ms: CPU time of "
+       "Navigator::Step per frame set. Runs that never had >= 4 beacons in view: " +
+       std::to_string(no_view4) + ".\n";
+  return t;
+}
+
+std::vector<std::string> RequirementFailures(const std::vector<MatrixRow>& rows, const MatrixLimits& limits) {
+  std::vector<std::string> failures;
+  int wrong = 0;
+  for (const MatrixRow& r : rows) {
+    const std::string name = r.preset + (r.count > 0 ? " " + std::to_string(r.count) : std::string()) +
+                             (r.map_has_facing ? (r.facing ? " facing yes" : " facing no") : "");
+    if (r.lag_exceeded > 0)
+      failures.push_back(name + ": first fix more than " + std::to_string(limits.max_lag) +
+                         " frame sets after the first with >= 4 beacons in view in " + std::to_string(r.lag_exceeded) +
+                         " of " + std::to_string(r.runs) + " runs (" + std::to_string(r.never_fixed) + " never fixed)");
+    if (r.min_posed_share < limits.min_posed_share)
+      failures.push_back(name + ": a run posed " + Fixed(100.0 * r.min_posed_share, 2) + " %" +
+                         " of its frame sets with >= 3 beacons in view after the first fix (requirement " +
+                         Short(100.0 * limits.min_posed_share) + " %)");
+    wrong += r.wrong_fixes;
+  }
+  if (wrong > limits.max_wrong_fixes)
+    failures.push_back(std::to_string(wrong) + " wrong fixes over the matrix (requirement " +
+                       std::to_string(limits.max_wrong_fixes) + ")");
+  return failures;
+}
+
+}  // namespace mfns::host

@@ -1,0 +1,136 @@
+#include "host/sim/navmatrix/navmatrix.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <memory>
+
+#include "common/rotation/rotation.h"
+#include "host/sim/observe/observe.h"
+
+namespace mfns::host {
+
+fw::NavigatorOptions NavdNavigatorOptions() {
+  fw::NavigatorOptions o;
+  o.track.solve.sigma_px = 0.15;
+  o.track.lis.solve.sigma_px = 0.15;
+  return o;
+}
+
+bool WrongPose(double position_error_m, double attitude_error_rad, double position_sigma_m, const NavMatrixOptions& o) {
+  const double allowed_m = std::max(o.wrong_position_floor_m, o.wrong_position_sigmas * position_sigma_m);
+  // A NaN error is wrong too: a published pose must be a number.
+  return !(position_error_m <= allowed_m) || !(attitude_error_rad <= o.wrong_attitude_rad);
+}
+
+bool RunResult::LagExceeds(int max_lag) const {
+  if (first_in_view < 0) return false;
+  if (first_fix >= 0) return Lag() > max_lag;
+  return frames - 1 - first_in_view > max_lag;  // the run went on long enough to fix
+}
+
+double RunResult::PosedShare() const {
+  return eligible_after_fix == 0 ? 1.0 : static_cast<double>(posed_after_fix) / eligible_after_fix;
+}
+
+namespace {
+
+void CountPose(const FrameRecord& f, const NavMatrixOptions& o, RunResult* r) {
+  const bool wrong = WrongPose(f.position_error_m, f.attitude_error_rad, f.position_sigma_m, o);
+  if (f.status == fw::NavStatus::kFix) {
+    ++r->fixes;
+    r->wrong_fixes += wrong;
+    r->worst_fix_position_m = std::max(r->worst_fix_position_m, f.position_error_m);
+    r->worst_fix_attitude_rad = std::max(r->worst_fix_attitude_rad, f.attitude_error_rad);
+  } else {
+    ++r->degraded;
+    r->wrong_degraded += wrong;
+  }
+}
+
+void CountTime(const FrameRecord& f, double frame_period_s, const NavMatrixOptions& o, RunResult* r) {
+  r->total_step_s += f.step_s;
+  r->worst_step_s = std::max(r->worst_step_s, f.step_s);
+  r->slips += f.step_s > frame_period_s;
+  r->slow += f.step_s > o.slow_frame_s;
+}
+
+}  // namespace
+
+RunResult ScoreRun(const std::vector<FrameRecord>& frames, double frame_period_s, const NavMatrixOptions& o) {
+  RunResult r;
+  r.frames = static_cast<int>(frames.size());
+  long in_view_sum = 0;
+  for (int i = 0; i < r.frames; ++i) {
+    const FrameRecord& f = frames[static_cast<std::size_t>(i)];
+    in_view_sum += f.in_view;
+    if (r.first_in_view < 0 && f.in_view >= o.first_fix_in_view) r.first_in_view = i;
+    if (r.first_fix < 0 && f.status == fw::NavStatus::kFix) r.first_fix = i;
+    const bool posed = f.status != fw::NavStatus::kLost;
+    if (r.first_fix >= 0 && f.in_view >= o.posed_in_view) {
+      ++r.eligible_after_fix;
+      r.posed_after_fix += posed;
+    }
+    if (posed) CountPose(f, o, &r);
+    CountTime(f, frame_period_s, o, &r);
+  }
+  r.mean_in_view = r.frames == 0 ? 0.0 : static_cast<double>(in_view_sum) / r.frames;
+  return r;
+}
+
+FrameRecord RecordFrame(int in_view, const fw::NavOutput& out, const BodyPose& truth, double step_s) {
+  FrameRecord f;
+  f.in_view = in_view;
+  f.status = out.status;
+  f.step_s = step_s;
+  if (out.status == fw::NavStatus::kLost) return f;
+  f.position_error_m = (out.pose.r_w_wb - truth.r_w_wb).norm();
+  f.attitude_error_rad = LogSO3(truth.C_w_b.transpose() * out.pose.C_w_b).norm();
+  const auto& P = out.covariance;
+  f.position_sigma_m = std::sqrt(std::max({P(0, 0), P(1, 1), P(2, 2), 0.0}));
+  return f;
+}
+
+namespace {
+
+// Everything a run keeps alive: the navigator holds a reference to the rig, and is too big
+// (the tracker's workspaces, ~MB) for a thread's stack, as is NavOutput's match list.
+struct NavRun {
+  Rig rig;
+  fw::Navigator navigator;
+  fw::NavOutput out;
+};
+
+std::uint32_t DeliveredMask(const BlobFrameSet& b, int num_cameras) {
+  std::uint32_t mask = 0;
+  for (int k = 0; k < num_cameras; ++k)
+    if (b.delivered[static_cast<std::size_t>(k)]) mask |= 1u << k;
+  return mask;
+}
+
+}  // namespace
+
+RunResult RunNavigation(const Scenario& s, const NavMatrixOptions& o, std::vector<FrameRecord>* frames_out) {
+  auto run = std::make_unique<NavRun>();
+  run->rig = BelievedRig(s);
+  const char* why = nullptr;
+  if (!run->navigator.Init(run->rig, o.navigator, &why))
+    throw UserError(s.name + ": the navigator refuses the believed rig: " + (why != nullptr ? why : "?"));
+  std::vector<FrameRecord> frames;
+  frames.reserve(static_cast<std::size_t>(s.frames));
+  for (const FrameTruth& f : SimulateTrajectory(s)) {
+    const BlobFrameSet b = SimulateBlobs(s, f);
+    const std::uint32_t delivered = DeliveredMask(b, run->rig.num_cameras);
+    const auto start = std::chrono::steady_clock::now();
+    run->navigator.Step(b.blobs.data(), static_cast<int>(b.blobs.size()), static_cast<std::uint64_t>(f.t_ns), delivered,
+                        /*cameras_down=*/false, &run->out);
+    const std::chrono::duration<double> step = std::chrono::steady_clock::now() - start;
+    frames.push_back(RecordFrame(b.NumVisible(), run->out, f.pose, step.count()));
+  }
+  RunResult r = ScoreRun(frames, 1.0 / s.frame_rate_hz, o);
+  r.counters = run->navigator.counters();
+  if (frames_out != nullptr) *frames_out = std::move(frames);
+  return r;
+}
+
+}  // namespace mfns::host

@@ -1,0 +1,330 @@
+#include "host/sim/navmatrix/navmatrix.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+#include <limits>
+#include <string>
+#include <vector>
+
+#include "common/rotation/rotation.h"
+#include "host/sim/navmatrix/matrix.h"
+
+namespace mfns::host {
+namespace {
+
+using fw::NavStatus;
+
+// ---- (a) Scoring, on synthetic inputs -------------------------------------------------------
+
+TEST(NavMatrixScore, WrongPoseIsTwentyMillimetresOrTenSigmaOrOneDegree) {
+  const NavMatrixOptions o;
+  EXPECT_TRUE(WrongPose(0.025, 0.0, 0.001, o));   // 25 mm, 1 mm sigma: the 20 mm floor rules
+  EXPECT_FALSE(WrongPose(0.015, 0.0, 0.005, o));  // 15 mm, 5 mm sigma
+  EXPECT_FALSE(WrongPose(0.045, 0.0, 0.005, o));  // 45 mm within 10 x 5 mm
+  EXPECT_TRUE(WrongPose(0.055, 0.0, 0.005, o));   // 55 mm beyond it
+  EXPECT_FALSE(WrongPose(0.019, 0.0, 0.0, o));    // no covariance: the floor alone
+  EXPECT_TRUE(WrongPose(0.001, DegToRad(1.1), 0.001, o));
+  EXPECT_FALSE(WrongPose(0.001, DegToRad(0.9), 0.001, o));
+  EXPECT_TRUE(WrongPose(0.001, DegToRad(1.1), 1.0, o));  // a large position sigma excuses no attitude error
+  EXPECT_TRUE(WrongPose(std::numeric_limits<double>::quiet_NaN(), 0.0, 0.001, o));
+}
+
+TEST(NavMatrixScore, RecordFrameMeasuresThePublishedPoseAgainstTruth) {
+  BodyPose truth;
+  truth.C_w_b = EulerToMatrix({0.3, -0.2, 1.1}).transpose();
+  truth.r_w_wb = Eigen::Vector3d(1.0, -0.5, 0.2);
+  fw::NavOutput out;
+  out.status = NavStatus::kDegraded;
+  out.pose.r_w_wb = truth.r_w_wb + Eigen::Vector3d(0.0, 0.024, -0.007);  // 25 mm off
+  out.pose.C_w_b = truth.C_w_b * ExpSO3(Eigen::Vector3d(0.0, 0.0, DegToRad(0.5)));
+  out.covariance.setZero();
+  out.covariance.diagonal() << 1e-6, 9e-6, 4e-6, 1e-8, 1e-8, 1e-8;  // 1, 3, 2 mm
+  const FrameRecord f = RecordFrame(7, out, truth, 0.002);
+  EXPECT_EQ(f.in_view, 7);
+  EXPECT_EQ(f.status, NavStatus::kDegraded);
+  EXPECT_NEAR(f.position_error_m, 0.025, 1e-12);
+  EXPECT_NEAR(f.attitude_error_rad, DegToRad(0.5), 1e-12);
+  EXPECT_NEAR(f.position_sigma_m, 0.003, 1e-12);  // the largest per-axis 1-sigma
+  EXPECT_EQ(f.step_s, 0.002);
+  out.status = NavStatus::kLost;  // a lost frame set has no pose to score
+  const FrameRecord lost = RecordFrame(2, out, truth, 0.001);
+  EXPECT_EQ(lost.position_error_m, 0.0);
+  EXPECT_EQ(lost.attitude_error_rad, 0.0);
+}
+
+FrameRecord Frame(int in_view, NavStatus status, double error_m = 0.001, double sigma_m = 0.001,
+                  double step_s = 0.001) {
+  FrameRecord f;
+  f.in_view = in_view;
+  f.status = status;
+  if (status != NavStatus::kLost) {
+    f.position_error_m = error_m;
+    f.position_sigma_m = sigma_m;
+  }
+  f.step_s = step_s;
+  return f;
+}
+
+// Frame sets 0-2 see 3 beacons, 4 from frame set 3 on; the first fix comes at frame set 9 (lag
+// 6); after it one frame set with 3 in view is lost (counted), one with 2 is lost (not counted).
+TEST(NavMatrixScore, FirstFixLagPosedShareWrongPosesAndTime) {
+  std::vector<FrameRecord> f;
+  for (int i = 0; i < 3; ++i) f.push_back(Frame(3, NavStatus::kLost));
+  for (int i = 3; i < 9; ++i) f.push_back(Frame(4, NavStatus::kLost, 0, 0, 0.016));  // acquiring, slow
+  f.push_back(Frame(4, NavStatus::kFix));                                            // 9: first fix
+  f.push_back(Frame(5, NavStatus::kFix, 0.030, 0.001));              // 10: wrong fix (30 mm, 1 mm sigma)
+  f.push_back(Frame(3, NavStatus::kDegraded, 0.030, 0.005));         // 11: 30 mm with 5 mm sigma: right
+  f.push_back(Frame(3, NavStatus::kDegraded, 0.001, 0.001, 0.060));  // 12: a deadline slip
+  f.push_back(Frame(3, NavStatus::kLost));                           // 13: eligible, no pose
+  f.push_back(Frame(2, NavStatus::kLost));                           // 14: not eligible
+  f.push_back(Frame(2, NavStatus::kDegraded, 0.5, 0.01));            // 15: wrong degraded (not eligible, still scored)
+  const RunResult r = ScoreRun(f, 1.0 / 18.6, NavMatrixOptions{});
+  EXPECT_EQ(r.frames, 16);
+  EXPECT_EQ(r.first_in_view, 3);
+  EXPECT_EQ(r.first_fix, 9);
+  ASSERT_TRUE(r.HasLag());
+  EXPECT_EQ(r.Lag(), 6);
+  EXPECT_FALSE(r.LagExceeds(10));
+  EXPECT_TRUE(r.LagExceeds(5));
+  EXPECT_FALSE(r.NeverFixed());
+  EXPECT_EQ(r.eligible_after_fix, 5);  // 9-13
+  EXPECT_EQ(r.posed_after_fix, 4);
+  EXPECT_DOUBLE_EQ(r.PosedShare(), 0.8);
+  EXPECT_EQ(r.fixes, 2);
+  EXPECT_EQ(r.degraded, 3);
+  EXPECT_EQ(r.wrong_fixes, 1);
+  EXPECT_EQ(r.wrong_degraded, 1);
+  EXPECT_DOUBLE_EQ(r.worst_fix_position_m, 0.030);
+  EXPECT_EQ(r.slips, 1);
+  EXPECT_EQ(r.slow, 7);  // six acquiring frame sets at 16 ms and the slip
+  EXPECT_DOUBLE_EQ(r.worst_step_s, 0.060);
+  EXPECT_NEAR(r.total_step_s, 6 * 0.016 + 0.060 + 9 * 0.001, 1e-12);
+  EXPECT_NEAR(r.mean_in_view, (9 + 6 * 4 + 4 + 5 + 3 * 3 + 2 * 2) / 16.0, 1e-12);
+}
+
+TEST(NavMatrixScore, LateAndMissingFirstFixes) {
+  std::vector<FrameRecord> f(20, Frame(4, NavStatus::kLost));
+  f[2].in_view = 3;
+  f[0].in_view = f[1].in_view = 2;  // first frame set with 4 in view: 3
+  const NavMatrixOptions o;
+  RunResult never = ScoreRun(f, 0.05, o);
+  EXPECT_EQ(never.first_in_view, 3);
+  EXPECT_TRUE(never.NeverFixed());
+  EXPECT_FALSE(never.HasLag());
+  EXPECT_TRUE(never.LagExceeds(10));          // 16 frame sets after frame set 3 without a fix
+  EXPECT_DOUBLE_EQ(never.PosedShare(), 1.0);  // nothing after a fix that never came
+  f[14] = Frame(4, NavStatus::kFix);
+  const RunResult late = ScoreRun(f, 0.05, o);
+  EXPECT_EQ(late.Lag(), 11);
+  EXPECT_TRUE(late.LagExceeds(10));
+  f[14] = Frame(4, NavStatus::kDegraded);  // a degraded pose is no first fix
+  f[13] = Frame(4, NavStatus::kFix);
+  EXPECT_EQ(ScoreRun(f, 0.05, o).Lag(), 10);
+  EXPECT_FALSE(ScoreRun(f, 0.05, o).LagExceeds(10));
+  // A run too short to tell (ends 5 frame sets after the first with 4 in view) is not late.
+  const std::vector<FrameRecord> short_run(f.begin(), f.begin() + 9);
+  EXPECT_TRUE(ScoreRun(short_run, 0.05, o).NeverFixed());
+  EXPECT_FALSE(ScoreRun(short_run, 0.05, o).LagExceeds(10));
+  // No frame set with 4 in view: no lag to judge, and a fix from 3 beacons counts as early.
+  std::vector<FrameRecord> three(20, Frame(3, NavStatus::kLost));
+  three[5] = Frame(3, NavStatus::kFix);
+  const RunResult r3 = ScoreRun(three, 0.05, o);
+  EXPECT_EQ(r3.first_in_view, -1);
+  EXPECT_FALSE(r3.LagExceeds(0));
+  EXPECT_EQ(r3.eligible_after_fix, 15);
+  EXPECT_EQ(r3.posed_after_fix, 1);
+}
+
+// ---- The matrix: expansion, scenarios, aggregation, requirements -----------------------------
+
+TEST(NavMatrixSpec, ExpandsPresetsCountsSeedsAndFacing) {
+  const std::vector<RunSpec> runs = ExpandMatrix(MatrixSpec{});
+  // free-flight: its own 60-beacon map without facing data: one row of 5 seeds; each station
+  // module: 3 counts x 2 facings x 5 seeds.
+  ASSERT_EQ(runs.size(), 5u + 2u * 3u * 2u * 5u);
+  EXPECT_EQ(runs[0].preset, "free-flight");
+  EXPECT_EQ(runs[0].count, 0);
+  EXPECT_EQ(runs[0].map_beacons, 60);
+  EXPECT_FALSE(runs[0].map_has_facing);
+  EXPECT_EQ(runs[4].seed, 5u);
+  EXPECT_EQ(runs[5].preset, "station-cylinder");
+  EXPECT_EQ(runs[5].count, 64);
+  EXPECT_TRUE(runs[5].facing);
+  EXPECT_FALSE(runs[10].facing);
+  EXPECT_EQ(runs[15].count, 128);
+  MatrixSpec only_no;
+  only_no.presets = {"station-box"};
+  only_no.counts = {256};
+  only_no.seeds = ParseSeeds("2,7-8");
+  only_no.facing = FacingMode::kNo;
+  const std::vector<RunSpec> no = ExpandMatrix(only_no);
+  ASSERT_EQ(no.size(), 3u);
+  EXPECT_EQ(no[2].seed, 8u);
+  EXPECT_FALSE(no[0].facing);
+}
+
+// The run's overrides reach the scenario: the count, the map seed, the spurious blobs, the
+// frames, and facing: false empties the navigator's map of facing while the LEDs keep theirs.
+TEST(NavMatrixSpec, ScenarioCarriesTheRunsOverrides) {
+  RunSpec r{.preset = "station-cylinder", .count = 64, .seed = 3, .facing = false, .frames = 17, .spurious = 2};
+  const Scenario s = MatrixScenario(r);
+  EXPECT_EQ(s.rig.num_beacons, 64);
+  EXPECT_EQ(s.frames, 17);
+  EXPECT_EQ(s.seed, 3u);
+  EXPECT_EQ(s.map_seed, 3u);
+  EXPECT_EQ(s.clutter.spurious, 2);
+  EXPECT_EQ(s.trajectory.kind, TrajectoryKind::kWander);
+  EXPECT_TRUE(s.rig.has_facing);
+  EXPECT_FALSE(BelievedRig(s).has_facing);
+  r.facing = true;
+  EXPECT_TRUE(BelievedRig(MatrixScenario(r)).has_facing);
+  r.seed = 4;
+  EXPECT_NE(MatrixScenario(r).rig.beacons_w[0], s.rig.beacons_w[0]);  // a new seed, a new map
+  const Scenario ff = MatrixScenario({.preset = "free-flight", .seed = 2, .frames = 5, .spurious = 2});
+  EXPECT_EQ(ff.rig.num_beacons, 60);
+  EXPECT_FALSE(ff.rig.has_facing);
+  EXPECT_EQ(ff.clutter.spurious, 2);
+  EXPECT_EQ(ff.trajectory.kind, TrajectoryKind::kFreeFlight);
+}
+
+std::string ErrorOf(const MatrixSpec& m) {
+  try {
+    ExpandMatrix(m);
+  } catch (const UserError& e) {
+    return e.what();
+  }
+  return "no error";
+}
+
+TEST(NavMatrixSpec, ErrorsNameTheFlag) {
+  MatrixSpec m;
+  m.counts = {64, 300};
+  EXPECT_EQ(ErrorOf(m), "--counts: 300 is outside 10..256");
+  m = MatrixSpec{};
+  m.presets = {"moon-base"};
+  EXPECT_EQ(ErrorOf(m).rfind("--presets: unknown preset 'moon-base' (known: ", 0), 0u) << ErrorOf(m);
+  m = MatrixSpec{};
+  m.spurious = -1;
+  EXPECT_EQ(ErrorOf(m), "--spurious: must be 0..100");
+  try {
+    ParseSeeds("1-x");
+    ADD_FAILURE() << "no error";
+  } catch (const UserError& e) {
+    EXPECT_STREQ(e.what(), "--seeds: expected seeds like 1-5 or 1,3,8, got '1-x'");
+  }
+  EXPECT_THROW(ParseSeeds("5-1"), UserError);
+  EXPECT_EQ(ParseSeeds("1-3,9"), (std::vector<std::uint64_t>{1, 2, 3, 9}));
+}
+
+TEST(NavMatrixSpec, RowsAggregateSeedsAndRequirementsNameTheFailingRow) {
+  const RunSpec a{.preset = "station-box", .count = 64, .seed = 1, .map_beacons = 64};
+  RunSpec b = a;
+  b.seed = 2;
+  RunResult good;
+  good.frames = 100;
+  good.first_in_view = 2;
+  good.first_fix = 5;
+  good.eligible_after_fix = 90;
+  good.posed_after_fix = 90;
+  good.fixes = 90;
+  RunResult late = good;
+  late.first_fix = 20;
+  late.eligible_after_fix = 80;
+  late.posed_after_fix = 78;
+  late.wrong_fixes = 1;
+  const MatrixLimits limits;
+  const std::vector<MatrixRow> rows = Summarise({a, b}, {good, late}, limits);
+  ASSERT_EQ(rows.size(), 1u);
+  EXPECT_EQ(rows[0].runs, 2);
+  EXPECT_EQ(rows[0].lags, (std::vector<int>{3, 18}));
+  EXPECT_EQ(rows[0].lag_exceeded, 1);
+  EXPECT_DOUBLE_EQ(rows[0].min_posed_share, 78.0 / 80.0);
+  EXPECT_EQ(rows[0].eligible, 170);
+  EXPECT_EQ(rows[0].posed, 168);
+  const std::vector<std::string> failures = RequirementFailures(rows, limits);
+  ASSERT_EQ(failures.size(), 3u);
+  EXPECT_EQ(failures[0].rfind("station-box 64 facing yes: first fix more than 10 frame sets", 0), 0u) << failures[0];
+  EXPECT_NE(failures[1].find("97.50 %"), std::string::npos) << failures[1];
+  EXPECT_EQ(failures[2], "1 wrong fixes over the matrix (requirement 0)");
+  EXPECT_TRUE(RequirementFailures(Summarise({a}, {good}, limits), limits).empty());
+  const std::string table = FormatMatrixTable(rows, limits, 1.0 / 18.6, 0.015);
+  EXPECT_NE(table.find("| station-box | 64 | yes | 2 |"), std::string::npos) << table;
+  EXPECT_NE(table.find("| 10.5 / 18 | 1 / 0 |"), std::string::npos) << table;
+}
+
+// ---- (b) The real navigator on the blob-level simulation ------------------------------------
+
+// The harness against a known outcome: issue 4's must-show (the paper's turntable sweep, cold
+// start, centroid noise only; navd_must_show renders and detects it) acquires in about 22 frame
+// sets and then fixes every frame set with >= 3 beacons. At blob level the same holds.
+TEST(NavMatrix, PaperSweepAtBlobLevelAcquiresThenFixesEveryFrameSet) {
+  const Scenario s = MatrixScenario({.preset = "paper-turntable", .seed = 1, .frames = 360, .spurious = 0});
+  std::vector<FrameRecord> frames;
+  const RunResult r = RunNavigation(s, NavMatrixOptions{}, &frames);
+  std::printf("paper-turntable: first >= 4 in view at %d, first fix at %d, posed %d of %d, fixes %d, worst fix %.2f mm "
+              "%.3f deg\n",
+              r.first_in_view, r.first_fix, r.posed_after_fix, r.eligible_after_fix, r.fixes,
+              r.worst_fix_position_m * 1e3, RadToDeg(r.worst_fix_attitude_rad));
+  ASSERT_EQ(frames.size(), 360u);
+  EXPECT_GE(r.first_fix, 10);  // 3-4 beacons in view: an acquisition over frame sets, not at once
+  EXPECT_LT(r.first_fix, 40);
+  EXPECT_GT(r.eligible_after_fix, 250);
+  EXPECT_EQ(r.posed_after_fix, r.eligible_after_fix);
+  EXPECT_EQ(r.wrong_fixes, 0);
+  EXPECT_EQ(r.wrong_degraded, 0);
+  EXPECT_LT(r.worst_fix_position_m, 0.02);
+}
+
+// station-cylinder with 64 and 128 beacons (2 seeds each, facing in the map) and free-flight
+// (1 seed), 200 frame sets each, 2 spurious blobs per camera, cold start. A wrong fix must never
+// happen. The acquisition requirements of issue 13 (first fix within 10 frame sets of the first
+// with >= 4 beacons in view; >= 99 % of the frame sets with >= 3 in view posed after it) are
+// checked by `mfns-sim navmatrix --check` (baseline in docs/acquisition.md). At that baseline
+// (ad4b26a) the station runs never fix (lost-in-space's budget runs out on 64-128-beacon maps)
+// and free-flight fixes once, at frame set 22, and loses the track at once; so the floors here
+// are what holds today: free-flight fixes within 40 frame sets, the matrix has at least one fix
+// to judge, and every run sees on average more than 3 beacons (the runs test something). Raise
+// them as the identification improves. ~2 min on 2 cores: label slow.
+TEST(NavMatrix, ReducedMatrixNeverPublishesAWrongFix) {
+  MatrixSpec cyl;
+  cyl.presets = {"station-cylinder"};
+  cyl.counts = {64, 128};
+  cyl.seeds = {1, 2};
+  cyl.frames = 200;
+  cyl.facing = FacingMode::kYes;
+  MatrixSpec ff = cyl;
+  ff.presets = {"free-flight"};
+  ff.seeds = {1};
+  std::vector<RunSpec> runs = ExpandMatrix(cyl);
+  for (const RunSpec& r : ExpandMatrix(ff)) runs.push_back(r);
+  ASSERT_EQ(runs.size(), 5u);
+  const NavMatrixOptions o;
+  const std::vector<RunResult> results = RunMatrix(runs, o, 2, nullptr);
+  const MatrixLimits limits;
+  const std::vector<MatrixRow> rows = Summarise(runs, results, limits);
+  std::printf("%s", FormatMatrixTable(rows, limits, 1.0 / 18.6, o.slow_frame_s).c_str());
+  long fixes = 0;
+  for (std::size_t i = 0; i < runs.size(); ++i) {
+    const RunResult& r = results[i];
+    std::printf(
+        "%s %d seed %llu: in view %.1f, first >= 4 at %d, first fix at %d, posed %d/%d, fixes %d, degraded "
+        "%d, wrong %d/%d, worst fix %.1f mm %.3f deg, Step worst %.1f ms mean %.2f ms\n",
+        runs[i].preset.c_str(), runs[i].map_beacons, static_cast<unsigned long long>(runs[i].seed), r.mean_in_view,
+        r.first_in_view, r.first_fix, r.posed_after_fix, r.eligible_after_fix, r.fixes, r.degraded, r.wrong_fixes,
+        r.wrong_degraded, r.worst_fix_position_m * 1e3, RadToDeg(r.worst_fix_attitude_rad), r.worst_step_s * 1e3,
+        r.total_step_s * 1e3 / r.frames);
+    EXPECT_EQ(r.frames, 200);
+    EXPECT_GT(r.mean_in_view, 3.0) << runs[i].preset << " seed " << runs[i].seed;
+    EXPECT_EQ(r.wrong_fixes, 0) << runs[i].preset << " seed " << runs[i].seed;
+    fixes += r.fixes;
+  }
+  EXPECT_GE(fixes, 1);
+  const RunResult& free_flight = results.back();
+  EXPECT_GE(free_flight.first_fix, 0);
+  EXPECT_LT(free_flight.first_fix, 40);
+}
+
+}  // namespace
+}  // namespace mfns::host
