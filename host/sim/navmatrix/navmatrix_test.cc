@@ -281,12 +281,11 @@ TEST(NavMatrix, PaperSweepAtBlobLevelAcquiresThenFixesEveryFrameSet) {
 // (1 seed), 200 frame sets each, 2 spurious blobs per camera, cold start. A wrong fix must never
 // happen. The acquisition requirements of issue 13 (first fix within 10 frame sets of the first
 // with >= 4 beacons in view; >= 99 % of the frame sets with >= 3 in view posed after it) are
-// checked by `mfns-sim navmatrix --check` (baseline in docs/acquisition.md). At that baseline
-// (ad4b26a) the station runs never fix (lost-in-space's budget runs out on 64-128-beacon maps)
-// and free-flight fixes once, at frame set 22, and loses the track at once; so the floors here
-// are what holds today: free-flight fixes within 40 frame sets, the matrix has at least one fix
-// to judge, and every run sees on average more than 3 beacons (the runs test something). Raise
-// them as the identification improves. ~2 min on 2 cores: label slow.
+// checked by `mfns-sim navmatrix --check` (baseline in docs/acquisition.md); they do not hold
+// yet, so this test holds floors that do, and prints the metrics. Measured at d3ef481: first
+// fixes at frame sets 150, 3, 70, 36 (cylinder) and 0 (free-flight); posed after the first fix
+// 74-100 %; 0 wrong fixes in 669. (At ad4b26a, before lost-in-space learnt station maps, the
+// cylinder runs never fixed and free-flight fixed once.) Raise the floors as it improves.
 TEST(NavMatrix, ReducedMatrixNeverPublishesAWrongFix) {
   MatrixSpec cyl;
   cyl.presets = {"station-cylinder"};
@@ -305,7 +304,6 @@ TEST(NavMatrix, ReducedMatrixNeverPublishesAWrongFix) {
   const MatrixLimits limits;
   const std::vector<MatrixRow> rows = Summarise(runs, results, limits);
   std::printf("%s", FormatMatrixTable(rows, limits, 1.0 / 18.6, o.slow_frame_s).c_str());
-  long fixes = 0;
   for (std::size_t i = 0; i < runs.size(); ++i) {
     const RunResult& r = results[i];
     std::printf(
@@ -318,12 +316,13 @@ TEST(NavMatrix, ReducedMatrixNeverPublishesAWrongFix) {
     EXPECT_EQ(r.frames, 200);
     EXPECT_GT(r.mean_in_view, 3.0) << runs[i].preset << " seed " << runs[i].seed;
     EXPECT_EQ(r.wrong_fixes, 0) << runs[i].preset << " seed " << runs[i].seed;
-    fixes += r.fixes;
+    // Floors (requirements: lag <= 10, posed >= 99 %).
+    EXPECT_GE(r.first_fix, 0) << runs[i].preset << " seed " << runs[i].seed;
+    EXPECT_GE(r.PosedShare(), 0.5) << runs[i].preset << " seed " << runs[i].seed;
   }
-  EXPECT_GE(fixes, 1);
   const RunResult& free_flight = results.back();
-  EXPECT_GE(free_flight.first_fix, 0);
   EXPECT_LT(free_flight.first_fix, 40);
+  EXPECT_GE(free_flight.PosedShare(), 0.9);
 }
 
 }  // namespace
