@@ -84,6 +84,7 @@ bool LisOptions::IsValid(const char** why) const {
 
 bool LostInSpace::Reset(const Rig& rig) {
   rig_ = nullptr;
+  searching_ = false;
   if (ValidateRig(rig) != RigStatus::kOk) return false;
   rig_ = &rig;
   matcher_.Reset(rig);

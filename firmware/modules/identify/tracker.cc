@@ -84,7 +84,9 @@ bool TrackOptions::IsValid(const char** why) const {
   else if (!(chain_slack_m >= 0.0) || !(chain_slack_rad >= 0.0)) bad = "chain_slack";
   else if (min_acquire_frames < 2) bad = "min_acquire_frames";
   else if (lis_fix_min_beacons < 3) bad = "lis_fix_min_beacons";
+  else if (lis_budget_per_frame < 1) bad = "lis_budget_per_frame";
   else if (!positive(chain_stale_s)) bad = "chain_stale_s";
+  else if (!(cold_search_s >= 0.0) || !std::isfinite(cold_search_s)) bad = "cold_search_s";
 
   else if (!positive(twin_m) || !positive(twin_rad)) bad = "twin";
   else if (!positive(innovation_m) || !positive(innovation_rad)) bad = "innovation";
@@ -425,7 +427,7 @@ bool Tracker::Acquire(std::uint64_t t_ns, const TrackOptions& o, TrackResult* r)
 // set (lost-in-space without a prior, complete); otherwise the chain restarts from that list.
 bool Tracker::SurvivorIsBest(std::uint64_t t_ns, const TrackOptions& o) {
   ++counters_.lis_runs;
-  lis_.Identify(blobs_, num_blobs_, o.lis, &lis_res_, nullptr, cameras_);
+  RunLis(blobs_, num_blobs_, nullptr, o);
   const LisResult& l = lis_res_;
   if (!l.complete) return false;  // cannot tell now: keep following
   double survivor = -1e300, others = -1e300;
@@ -558,9 +560,52 @@ TrackStatus Tracker::Track(const BlobObs* blobs, int num_blobs, std::uint64_t t_
   return s;
 }
 
+// Lost-in-space within what is left of this frame set's budget (TrackOptions::
+// lis_budget_per_frame, over every search of the frame set): the frame deadline holds whatever
+// the map. A search cut by it reports kBudgetExhausted, never a guess.
+LisStatus Tracker::RunLis(const BlobObs* blobs, int num_blobs, const LisPrior* prior, const TrackOptions& o) {
+  // A hypothesis costs a P3P solve plus, per solution, work that grows with the map
+  // (the fourth-blob test, the reprojection): one unit + num_beacons / 64.
+  const double units_per_hypothesis = 1.0 + rig_->num_beacons / 64.0;
+  if (lis_budget_left_ <= 0) {
+    lis_res_.status = LisStatus::kBudgetExhausted;
+    lis_res_.complete = false;
+    lis_res_.confirmed = false;
+    lis_res_.num_consistent = 0;
+    return lis_res_.status;
+  }
+  LisOptions lo = o.lis;
+  lo.max_hypotheses = std::clamp(static_cast<int>(lis_budget_left_ / units_per_hypothesis), 1, lo.max_hypotheses);
+  const LisStatus s = lis_.Identify(blobs, num_blobs, lo, &lis_res_, prior, cameras_);
+  lis_budget_left_ -= static_cast<int>(std::ceil(std::max(1, lis_res_.hypotheses) * units_per_hypothesis));
+  return s;
+}
+
+// Lost-in-space with no prior, spread over frame sets (LostInSpace::Begin/Continue): a search
+// begun on an earlier frame set goes on with this frame set's budget until it ends or grows
+// older than cold_search_s; then one begins on this frame set. *old: the result is of the
+// frame set at cold_t_ns_, not this one.
+LisStatus Tracker::ColdSearch(const BlobObs* blobs, int num_blobs, std::uint64_t t_ns, const TrackOptions& o,
+                              bool* old) {
+  *old = false;
+  if (!lis_.searching() || Seconds(t_ns, cold_t_ns_) > o.cold_search_s || t_ns < cold_t_ns_) {
+    cold_t_ns_ = t_ns;
+    const LisStatus s = lis_.Begin(blobs, num_blobs, o.lis, &lis_res_, nullptr, cameras_);
+    if (s != LisStatus::kSearching) return s;
+  }
+  *old = cold_t_ns_ != t_ns;
+  const double units_per_hypothesis = 1.0 + rig_->num_beacons / 64.0;
+  const int before = lis_res_.hypotheses;
+  const int budget = std::max(1, static_cast<int>(lis_budget_left_ / units_per_hypothesis));
+  const LisStatus s = lis_.Continue(budget, &lis_res_);
+  lis_budget_left_ -= static_cast<int>(std::ceil(std::max(1, lis_res_.hypotheses - before) * units_per_hypothesis));
+  return s;
+}
+
 TrackStatus Tracker::TrackOnce(const BlobObs* blobs, int num_blobs, std::uint64_t t_ns, const TrackOptions& o,
                                TrackResult* r) {
   ++counters_.frames;
+  lis_budget_left_ = o.lis_budget_per_frame;
   r->t_ns = t_ns;
   r->lis_run = false;
   r->lis_status = LisStatus::kBadInput;
@@ -625,14 +670,31 @@ TrackStatus Tracker::TrackOnce(const BlobObs* blobs, int num_blobs, std::uint64_
   // near them: cheaper, and complete far more often when spurious blobs multiply the poses.
   LisPrior prior;
   bool use_prior = ChainPrior(t_ns, o, &prior);
-  r->lis_status = lis_.Identify(blobs, num_blobs, o.lis, &lis_res_, use_prior ? &prior : nullptr, cameras_);
+  if (!use_prior && rig_->num_beacons >= o.lis.fourth_blob_min_beacons) {
+    // Nothing to follow, and a map too large for complete lists of three-beacon poses (the
+    // acquisition's chain): the search may span frame sets (ColdSearch).
+    bool old = false;
+    r->lis_status = ColdSearch(blobs, num_blobs, t_ns, o, &old);
+    if (r->lis_status == LisStatus::kSearching) return Lost(TrackReason::kAcquiring, r);
+    if (old) {
+      // The search ended on an earlier frame set. Only a confirmed fix tells anything now: it
+      // seeds this frame set (within the motion bounds since then); otherwise start afresh.
+      if (r->lis_status != LisStatus::kFix || !lis_res_.confirmed) return Lost(TrackReason::kAcquiring, r);
+      SetPose(lis_res_.pose, cold_t_ns_, PositionSigma(lis_res_.solve.covariance),
+              AttitudeSigma(lis_res_.solve.covariance));
+      --counters_.frames;  // the same frame set again, now with a seed
+      return TrackOnce(blobs, num_blobs, t_ns, o, r);
+    }
+  } else {
+    r->lis_status = RunLis(blobs, num_blobs, use_prior ? &prior : nullptr, o);
+  }
   if (use_prior && r->lis_status == LisStatus::kNoHypothesis && lis_res_.complete) {
     // Nothing consistent near the followed (or predicted) poses: fewer than three true beacons
     // in this frame set, or a motion beyond the bounds. A pose lost-in-space settles on its
     // own (typically >= 5 beacons in view) is a fix all the same, and replaces the prior.
     chain_n_ = 0;
     ++counters_.lis_runs;
-    if (lis_.Identify(blobs, num_blobs, o.lis, &lis_res_, nullptr, cameras_) != LisStatus::kFix ||
+    if (RunLis(blobs, num_blobs, nullptr, o) != LisStatus::kFix ||
         lis_res_.matches.num_beacons < o.lis_fix_min_beacons)
       return Lost(has_seed_ ? TrackReason::kTooFewBeacons : TrackReason::kNoHypothesis, r);
     has_pose_ = has_velocity_ = has_seed_ = false;

@@ -113,6 +113,17 @@ struct TrackOptions {
   double chain_slack_m = 0.02;       // plus estimation noise
   double chain_slack_rad = 0.02;
   int min_acquire_frames = 3;        // frame sets an unseeded acquisition must last (>= 2)
+  // Work of every lost-in-space search of one frame set together, in units of a P3P solve with
+  // a 64-beacon map (a solve costs 1 + num_beacons / 64 units: its scoring grows with the
+  // map): ~12 ms on the host whatever the map, so that the 53.8 ms deadline of 18.6 Hz holds on
+  // a board a few times slower. A cut search is never a guess (kBudgetExhausted).
+  int lis_budget_per_frame = 9000;
+  // With nothing to follow in a map of >= lis.fourth_blob_min_beacons beacons, one
+  // lost-in-space search goes on over the frame sets of this span (each with its budget)
+  // before it starts again on a newer one; a confirmed fix of the older frame set then seeds
+  // the current one. (Smaller maps search each frame set on its own: the acquisition follows
+  // their complete lists of poses over frame sets.)
+  double cold_search_s = 0.6;
   int lis_fix_min_beacons = 4;       // a lost-in-space fix on its own needs this many beacons
                                      // (three fit exactly, so a reflection among them shows not)
   double chain_stale_s = 1.0;        // a followed pose unconfirmed this long restarts it all
@@ -237,6 +248,8 @@ class Tracker {
                         TrackResult* result);
   void Accept(std::uint64_t t_ns, const TrackOptions& o, TrackResult* r);
   TrackStatus Lost(TrackReason why, TrackResult* r);
+  LisStatus RunLis(const BlobObs* blobs, int num_blobs, const LisPrior* prior, const TrackOptions& o);
+  LisStatus ColdSearch(const BlobObs* blobs, int num_blobs, std::uint64_t t_ns, const TrackOptions& o, bool* old);
 
   const Rig* rig_ = nullptr;
   const BlobObs* blobs_ = nullptr;
@@ -245,6 +258,8 @@ class Tracker {
   BeaconMatcher matcher_;
   LostInSpace lis_;
   LisResult lis_res_;
+  int lis_budget_left_ = 0;  // work units left to this frame set
+  std::uint64_t cold_t_ns_ = 0;  // the frame set of the cold search in progress
   MatchSet set_;
   P3pRayTriple twin_;
   std::array<BodyPose, limits::kMaxP3pSolutions> twin_poses_{};
