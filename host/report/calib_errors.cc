@@ -53,6 +53,9 @@ Rig MergeRig(const Rig& cameras, const Rig& beacons) {
   r.num_beacons = beacons.num_beacons;
   r.beacons_w = beacons.beacons_w;
   r.beacon_sigma = beacons.beacon_sigma;
+  r.has_facing = beacons.has_facing;
+  r.beacon_normal_w = beacons.beacon_normal_w;
+  r.beacon_half_angle = beacons.beacon_half_angle;
   return r;
 }
 

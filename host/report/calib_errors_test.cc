@@ -70,7 +70,15 @@ TEST(CalibErrors, MergeTakesCamerasFromOneAndBeaconsFromTheOther) {
   cams.cameras[0].r_b_bk.x() += 0.001;
   Rig map = PaperRig();
   map.beacons_w[3].z() += 0.0004;
+  map.has_facing = true;  // the map's facing comes along, the cameras' rig has none
+  for (int i = 0; i < map.num_beacons; ++i) {
+    map.beacon_normal_w[static_cast<std::size_t>(i)] = Eigen::Vector3d::UnitZ();
+    map.beacon_half_angle[static_cast<std::size_t>(i)] = 1.0;
+  }
   const Rig m = MergeRig(cams, map);
+  EXPECT_TRUE(m.has_facing);
+  EXPECT_EQ(m.beacon_normal_w[3], Eigen::Vector3d::UnitZ());
+  EXPECT_EQ(m.beacon_half_angle[3], 1.0);
   EXPECT_EQ(m.num_beacons, map.num_beacons);
   EXPECT_EQ(m.beacons_w[3], map.beacons_w[3]);
   EXPECT_EQ(m.cameras[0].r_b_bk, cams.cameras[0].r_b_bk);
