@@ -38,7 +38,8 @@
 // either they share four identities or they lie within same_pose_m / same_pose_rad of each
 // other (three identities alone leave the P3P's discrete ambiguity).
 //
-// Memory: one object (about 270 kB) holds every buffer; construct it at start (static or
+// Memory: one object (about 2.0 MB at 256 beacons: pair bits 1 MB, co-visibility table 0.5 MB,
+// distances 0.25 MB, a copy of the blobs) holds every buffer; construct it at start (static or
 // reserved), Reset() it with the rig, then Identify() never allocates.
 #pragma once
 
