@@ -564,6 +564,11 @@ TrackStatus Tracker::Track(const BlobObs* blobs, int num_blobs, std::uint64_t t_
 // lis_budget_per_frame, over every search of the frame set): the frame deadline holds whatever
 // the map. A search cut by it reports kBudgetExhausted, never a guess.
 LisStatus Tracker::RunLis(const BlobObs* blobs, int num_blobs, const LisPrior* prior, const TrackOptions& o) {
+  // A small map's acquisition follows complete lists of poses, which a cut search would not
+  // give (the paper sweep with two reflections: first fix 43 -> 103 frame sets): unbudgeted,
+  // as cheap as it always was there.
+  if (rig_->num_beacons < o.lis.fourth_blob_min_beacons)
+    return lis_.Identify(blobs, num_blobs, o.lis, &lis_res_, prior, cameras_);
   // A hypothesis costs a P3P solve plus, per solution, work that grows with the map
   // (the fourth-blob test, the reprojection): one unit + num_beacons / 64.
   const double units_per_hypothesis = 1.0 + rig_->num_beacons / 64.0;

@@ -113,7 +113,9 @@ struct TrackOptions {
   double chain_slack_m = 0.02;       // plus estimation noise
   double chain_slack_rad = 0.02;
   int min_acquire_frames = 3;        // frame sets an unseeded acquisition must last (>= 2)
-  // Work of every lost-in-space search of one frame set together, in units of a P3P solve with
+  // In maps of >= lis.fourth_blob_min_beacons beacons (smaller maps search each frame set
+  // completely, as their acquisition needs): work of every lost-in-space search of one frame
+  // set together, in units of a P3P solve with
   // a 64-beacon map (a solve costs 1 + num_beacons / 64 units: its scoring grows with the
   // map): ~12 ms on the host whatever the map, so that the 53.8 ms deadline of 18.6 Hz holds on
   // a board a few times slower. A cut search is never a guess (kBudgetExhausted).
