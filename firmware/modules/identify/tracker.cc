@@ -569,9 +569,6 @@ LisStatus Tracker::RunLis(const BlobObs* blobs, int num_blobs, const LisPrior* p
   // as cheap as it always was there.
   if (rig_->num_beacons < o.lis.fourth_blob_min_beacons)
     return lis_.Identify(blobs, num_blobs, o.lis, &lis_res_, prior, cameras_);
-  // A hypothesis costs a P3P solve plus, per solution, work that grows with the map
-  // (the fourth-blob test, the reprojection): one unit + num_beacons / 64.
-  const double units_per_hypothesis = 1.0 + rig_->num_beacons / 64.0;
   if (lis_budget_left_ <= 0) {
     lis_res_.status = LisStatus::kBudgetExhausted;
     lis_res_.complete = false;
@@ -580,10 +577,20 @@ LisStatus Tracker::RunLis(const BlobObs* blobs, int num_blobs, const LisPrior* p
     return lis_res_.status;
   }
   LisOptions lo = o.lis;
-  lo.max_hypotheses = std::clamp(static_cast<int>(lis_budget_left_ / units_per_hypothesis), 1, lo.max_hypotheses);
+  lo.max_hypotheses = std::min(HypothesesLeft(), lo.max_hypotheses);
   const LisStatus s = lis_.Identify(blobs, num_blobs, lo, &lis_res_, prior, cameras_);
-  lis_budget_left_ -= static_cast<int>(std::ceil(std::max(1, lis_res_.hypotheses) * units_per_hypothesis));
+  Charge(lis_res_.hypotheses);
   return s;
+}
+
+// A hypothesis costs a P3P solve plus, per solution, work that grows with the map (the
+// fourth-blob test, the reprojection): one unit + num_beacons / 64.
+int Tracker::HypothesesLeft() const {
+  return std::max(1, static_cast<int>(lis_budget_left_ / (1.0 + rig_->num_beacons / 64.0)));
+}
+
+void Tracker::Charge(int hypotheses) {
+  lis_budget_left_ -= static_cast<int>(std::ceil(std::max(1, hypotheses) * (1.0 + rig_->num_beacons / 64.0)));
 }
 
 // Lost-in-space with no prior, spread over frame sets (LostInSpace::Begin/Continue): a search
@@ -599,11 +606,9 @@ LisStatus Tracker::ColdSearch(const BlobObs* blobs, int num_blobs, std::uint64_t
     if (s != LisStatus::kSearching) return s;
   }
   *old = cold_t_ns_ != t_ns;
-  const double units_per_hypothesis = 1.0 + rig_->num_beacons / 64.0;
   const int before = lis_res_.hypotheses;
-  const int budget = std::max(1, static_cast<int>(lis_budget_left_ / units_per_hypothesis));
-  const LisStatus s = lis_.Continue(budget, &lis_res_);
-  lis_budget_left_ -= static_cast<int>(std::ceil(std::max(1, lis_res_.hypotheses - before) * units_per_hypothesis));
+  const LisStatus s = lis_.Continue(HypothesesLeft(), &lis_res_);
+  Charge(lis_res_.hypotheses - before);
   return s;
 }
 

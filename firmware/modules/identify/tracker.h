@@ -251,6 +251,8 @@ class Tracker {
   void Accept(std::uint64_t t_ns, const TrackOptions& o, TrackResult* r);
   TrackStatus Lost(TrackReason why, TrackResult* r);
   LisStatus RunLis(const BlobObs* blobs, int num_blobs, const LisPrior* prior, const TrackOptions& o);
+  int HypothesesLeft() const;  // of this frame set's budget (lis_budget_per_frame), >= 1
+  void Charge(int hypotheses);
   LisStatus ColdSearch(const BlobObs* blobs, int num_blobs, std::uint64_t t_ns, const TrackOptions& o, bool* old);
 
   const Rig* rig_ = nullptr;
