@@ -64,6 +64,7 @@ inline constexpr int kMaxLisCandidateMatches = 32;  // lost-in-space: matches ke
 inline constexpr int kMaxP3pScanSteps = 512;     // generalized P3P: depth samples of its 1-D scan
 inline constexpr int kMaxP3pSolutions = 16;      // generalized P3P: 4 branch pairs x 4 roots
 inline constexpr int kMaxBisectionIterations = 64;
+inline constexpr int kMaxAmbiguousMatches = 8;   // tracker: beacons with two blobs in their gate, resolved by trial
 inline constexpr int kMaxTrackHistory = 16;      // tracker: recent poses kept for the velocity
 
 }  // namespace mfns::limits

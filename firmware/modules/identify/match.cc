@@ -65,7 +65,9 @@ bool BeaconMatcher::Predict(int k, const BodyPose& pose, const Eigen::Vector3d& 
   return true;
 }
 
-void BeaconMatcher::MatchPose(const BodyPose& pose, const MatchOptions& o, MatchSet* out) const {
+void BeaconMatcher::MatchPose(const BodyPose& pose, const MatchOptions& o, MatchSet* out,
+                              AmbiguityList* ambiguous) const {
+  if (ambiguous != nullptr) ambiguous->num = ambiguous->num_dropped = 0;
   out->num_matches = 0;
   out->beacons.Reset();
   out->num_beacons = 0;
@@ -111,7 +113,15 @@ void BeaconMatcher::MatchPose(const BodyPose& pose, const MatchOptions& o, Match
         }
       }
       if (j1 < 0 || d1 > gate_sq) continue;
-      if (o.reject_ambiguous && j2 >= 0 && d2 <= gate_sq) continue;
+      if (o.reject_ambiguous && j2 >= 0 && d2 <= gate_sq) {
+        if (ambiguous == nullptr) continue;
+        if (ambiguous->num < limits::kMaxAmbiguousMatches)
+          ambiguous->items[static_cast<std::size_t>(ambiguous->num++)] =
+              AmbiguousMatch{k, m, index_[sk][static_cast<std::size_t>(j1)], index_[sk][static_cast<std::size_t>(j2)]};
+        else
+          ++ambiguous->num_dropped;
+        continue;
+      }
       cand[static_cast<std::size_t>(n_cand++)] = Candidate{d1, m, j1};
       if (j2 >= 0 && d2 <= gate_sq) cand[static_cast<std::size_t>(n_cand++)] = Candidate{d2, m, j2};
     }

@@ -91,6 +91,21 @@ bool Compatible(const MatchList<kA>& a, const MatchList<kB>& b, int* shared) {
   return true;
 }
 
+// Beacons with a second blob inside the gate (up to limits::kMaxAmbiguousMatches; the rest are
+// counted in num_dropped): MatchPose with reject_ambiguous leaves them out and lists them here,
+// so that the tracker can try either blob.
+struct AmbiguousMatch {
+  int camera = 0;
+  int beacon = 0;
+  int blob_near = 0;  // index into the frame set's blob list: the nearest blob
+  int blob_far = 0;   // the second-nearest
+};
+struct AmbiguityList {
+  int num = 0;
+  int num_dropped = 0;
+  std::array<AmbiguousMatch, limits::kMaxAmbiguousMatches> items{};
+};
+
 class BeaconMatcher {
  public:
   // Precomputes each camera's view cone. The rig must stay alive and unchanged while in use.
@@ -103,7 +118,10 @@ class BeaconMatcher {
   int SetBlobs(const BlobObs* blobs, int num_blobs, std::uint32_t cameras = kAllCameras);
 
   // Predicts every beacon at `pose` and matches. out->matches come camera by camera.
-  void MatchPose(const BodyPose& pose, const MatchOptions& options, MatchSet* out) const;
+  // ambiguous (nullptr: not wanted), with reject_ambiguous: the beacons left out for a second
+  // blob in the gate.
+  void MatchPose(const BodyPose& pose, const MatchOptions& options, MatchSet* out,
+                 AmbiguityList* ambiguous = nullptr) const;
 
   // Whether beacon P_w is predicted in camera k at `pose`; *uv_px its image; *inner whether
   // it is margin_px inside the image.

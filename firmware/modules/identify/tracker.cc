@@ -67,6 +67,8 @@ bool TrackOptions::IsValid(const char** why) const {
   else if (!positive(refine_gate_px)) bad = "refine_gate_px";
   else if (!(miss_margin_px >= 0.0) || !std::isfinite(miss_margin_px)) bad = "miss_margin_px";
   else if (max_missing < 0) bad = "max_missing";
+  else if (max_ambiguous_tried < 0 || max_ambiguous_tried > limits::kMaxAmbiguousMatches) bad = "max_ambiguous_tried";
+  else if (!positive(ambiguity_chi2)) bad = "ambiguity_chi2";
   else if (!positive(max_rms_px)) bad = "max_rms_px";
   else if (!positive(max_coast_s)) bad = "max_coast_s";
   else if (!positive(velocity_window_s)) bad = "velocity_window_s";
@@ -261,11 +263,94 @@ void Tracker::PredictionBounds(double since_s, const TrackOptions& o, double* ma
   }
 }
 
+// Tracking from the prediction. Beacons with one blob in the gate are matched to it; one with
+// two (a reflection beside it) is tried with either (max_ambiguous_tried of them: 2^n trials).
+// A trial with a wrong blob is refuted by its residual or, with three beacons, by the
+// innovation test, or lands near the true pose when the solve's outlier rejection and the
+// tight re-match put the right blob back. The best consistent trial (most beacons, then
+// lowest residual) is the tracked pose when every consistent trial agrees with it; otherwise
+// nothing is tracked (never a guess). *refuted: every trial was refuted by the blobs.
 bool Tracker::TrackFrom(const BodyPose& predicted, double max_m, double max_rad, double gate_px,
                         const TrackOptions& o, TrackResult* r, bool* refuted) {
   *refuted = false;
-  matcher_.MatchPose(predicted, MatchOptions{gate_px, o.miss_margin_px, true}, &set_);
-  if (set_.num_beacons < 3) return false;
+  matcher_.MatchPose(predicted, MatchOptions{gate_px, o.miss_margin_px, true}, &base_, &ambiguous_);
+  const int n = std::min(ambiguous_.num, o.max_ambiguous_tried);
+  if (n > 0) ++counters_.ambiguous_tried;
+  int tried = 0, refutations = 0, consistent = 0;
+  for (std::uint32_t choice = 0; choice < (1U << n); ++choice) {
+    if (!ChooseAmbiguous(choice, n) || set_.num_beacons < 3) continue;
+    ++tried;
+    bool trial_refuted = false;
+    if (!SolveTracked(predicted, max_m, max_rad, o, &trial_, &trial_refuted)) {
+      refutations += trial_refuted;
+      continue;
+    }
+    trial_poses_[static_cast<std::size_t>(consistent)] = trial_.pose;
+    trial_beacons_[static_cast<std::size_t>(consistent)] = trial_.matches.num_beacons;
+    trial_cost_[static_cast<std::size_t>(consistent)] = trial_.solve.cost;
+    const int nb = trial_.matches.num_beacons;
+    const bool better = consistent == 0 || nb > r->matches.num_beacons ||
+                        (nb == r->matches.num_beacons && trial_.solve.rms_px < r->solve.rms_px);
+    ++consistent;
+    if (better) {
+      r->pose = trial_.pose;
+      r->matches = trial_.matches;
+      r->solve = trial_.solve;
+    }
+  }
+  *refuted = tried > 0 && refutations == tried;
+  if (consistent == 0) return false;
+  if (!AgreeWith(*r, consistent, o)) {
+    ++counters_.ambiguous_refused;
+    return false;
+  }
+  return true;
+}
+
+// set_ = the unambiguous matches plus, for ambiguous beacon i < n, its nearer blob (bit i of
+// choice clear) or its farther one (set). False when a blob would be used twice.
+bool Tracker::ChooseAmbiguous(std::uint32_t choice, int n) {
+  set_ = base_;
+  for (int i = 0; i < n; ++i) {
+    const AmbiguousMatch& a = ambiguous_.items[static_cast<std::size_t>(i)];
+    const int blob = (choice >> i & 1U) != 0 ? a.blob_far : a.blob_near;
+    for (int j = 0; j < set_.num_matches; ++j)
+      if (set_.matches[static_cast<std::size_t>(j)].blob == blob) return false;
+    if (set_.num_matches >= limits::kMaxMatches) return false;
+    set_.matches[static_cast<std::size_t>(set_.num_matches++)] = Match{blob, a.beacon, a.camera};
+    set_.beacons.Set(a.beacon);
+  }
+  set_.num_beacons = set_.beacons.Count();
+  return true;
+}
+
+// Every consistent trial that explains the blobs about as well as best lies within gate_sigmas
+// of best's 1-sigma (centroid noise and the map's error), or 1 mm / 1 mrad when that is
+// smaller: which blob is right then makes no difference the covariance does not already state.
+// A trial explains worse when it has fewer beacons (a wrong blob among four or more is often
+// dropped by the solve's outlier rejection) or, with as many, a chi-square (residuals over the
+// centroid noise and the map's error) above best's by ambiguity_chi2 (a wrong blob among
+// four or more that the pose bent to fit); among three, every trial fits exactly.
+bool Tracker::AgreeWith(const TrackResult& best, int num_trials, const TrackOptions& o) const {
+  const double total = std::hypot(1.0, o.MapToCentroidRatio());
+  const double var_px2 = o.solve.sigma_px * o.solve.sigma_px + o.map_error_px * o.map_error_px;
+  const bool cov = best.solve.has_covariance;
+  const double tol_m = std::max(1e-3, cov ? o.gate_sigmas * total * PositionSigma(best.solve.covariance) : 0.0);
+  const double tol_rad = std::max(1e-3, cov ? o.gate_sigmas * total * AttitudeSigma(best.solve.covariance) : 0.0);
+  for (int i = 0; i < num_trials; ++i) {
+    const BodyPose& q = trial_poses_[static_cast<std::size_t>(i)];
+    if (trial_beacons_[static_cast<std::size_t>(i)] < best.matches.num_beacons) continue;
+    if (2.0 * (trial_cost_[static_cast<std::size_t>(i)] - best.solve.cost) > o.ambiguity_chi2 * var_px2) continue;
+    if ((q.r_w_wb - best.pose.r_w_wb).norm() > tol_m || LogSO3(best.pose.C_w_b.transpose() * q.C_w_b).norm() > tol_rad)
+      return false;
+  }
+  return true;
+}
+
+// One trial: solve from the prediction with the identities in set_, then the innovation test.
+bool Tracker::SolveTracked(const BodyPose& predicted, double max_m, double max_rad, const TrackOptions& o,
+                           TrackResult* r, bool* refuted) {
+  *refuted = false;
   const TwinRegion region{&predicted, max_m, max_rad};
   if (!SolveAt(predicted, region, o, r)) {
     *refuted = r->matches.num_missing > o.max_missing || r->solve.rms_px > o.max_rms_px;

@@ -93,6 +93,14 @@ struct TrackOptions {
   double miss_margin_px = 15.0;      // "well inside the image" for missing beacons
   int max_missing = 0;               // more: the tracked pose is refuted
   double max_rms_px = 2.0;           // more: the tracked pose is refuted
+  // A beacon with two blobs in its tracking gate (a reflection beside it) is tried with either
+  // blob: up to this many such beacons (2^n solves; the rest are left out, 0..limits::
+  // kMaxAmbiguousMatches). The tracked pose is the best of the consistent trials, accepted only
+  // when every other consistent trial agrees with it within gate_sigmas of its 1-sigma.
+  int max_ambiguous_tried = 4;
+  // A trial with as many beacons whose chi-square exceeds the best's by more than this (25:
+  // five sigmas) explains the blobs worse and does not count against it.
+  double ambiguity_chi2 = 25.0;
   double max_coast_s = 2.0;          // tracking goes on this long without an accepted frame
   double max_seed_s = 5.0;           // and the last pose seeds re-acquisition this long
   // Degraded when:
@@ -199,6 +207,8 @@ struct TrackCounters {
   std::array<std::uint32_t, kNumTrackStatus> by_status{};
   std::array<std::uint32_t, kNumTrackReason> by_reason{};
   std::uint32_t tracked = 0, lost_in_space_fixes = 0, acquired = 0;
+  std::uint32_t ambiguous_tried = 0;    // tracked frame sets with a beacon tried with two blobs
+  std::uint32_t ambiguous_refused = 0;  // ... whose consistent trials disagreed: not tracked
   std::uint32_t lis_runs = 0, track_refuted = 0, innovation_refused = 0;
   std::uint32_t previous_refused = 0;  // an acquired pose that does not explain the previous frame set
   std::uint32_t chain_restarts = 0;    // an unseeded acquisition's survivor outscored: restarted
@@ -238,6 +248,10 @@ class Tracker {
   void PredictionBounds(double since_s, const TrackOptions& o, double* max_m, double* max_rad) const;
   bool TrackFrom(const BodyPose& predicted, double max_m, double max_rad, double gate_px, const TrackOptions& o,
                  TrackResult* r, bool* refuted);
+  bool SolveTracked(const BodyPose& predicted, double max_m, double max_rad, const TrackOptions& o, TrackResult* r,
+                    bool* refuted);
+  bool ChooseAmbiguous(std::uint32_t choice, int n);
+  bool AgreeWith(const TrackResult& best, int num_trials, const TrackOptions& o) const;
   bool SolveAt(const BodyPose& start, const TwinRegion& twin, const TrackOptions& o, TrackResult* r);
   bool NearbyTwin(const TwinRegion& region, const TrackOptions& o, const TrackResult* r);
   void PrepareChain(std::uint64_t t_ns, const TrackOptions& o);
@@ -265,6 +279,15 @@ class Tracker {
   int lis_budget_left_ = 0;  // work units left to this frame set
   std::uint64_t cold_t_ns_ = 0;  // the frame set of the cold search in progress
   MatchSet set_;
+  // Tracking's trials of ambiguous beacons: the unambiguous matches, the ambiguous beacons,
+  // the best consistent trial and every consistent trial's pose.
+  MatchSet base_;
+  AmbiguityList ambiguous_;
+  TrackResult trial_;
+  static constexpr int kMaxTrials = 1 << limits::kMaxAmbiguousMatches;
+  std::array<BodyPose, kMaxTrials> trial_poses_{};
+  std::array<int, kMaxTrials> trial_beacons_{};
+  std::array<double, kMaxTrials> trial_cost_{};
   P3pRayTriple twin_;
   std::array<BodyPose, limits::kMaxP3pSolutions> twin_poses_{};
   MatchSet twin_set_;

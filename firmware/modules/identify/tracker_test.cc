@@ -191,6 +191,59 @@ TEST(TrackerTest, SmoothSixDofPath) {
   }
 }
 
+// A reflection beside a beacon (5-20 px: a shiny panel next to the LED) falls inside its
+// tracking gate. Left out, the beacon is lost to the track, and with three or four beacons in
+// view so is the pose; tried with either blob, the track holds (and never on the reflection).
+// Measured on the frame sets that tracking decides: >= 4 beacons in view and a pose in the
+// frame set before. (With three beacons and a reflection beside one, two exact poses a few
+// pixels apart remain: refused, never guessed.)
+struct ReflectionRun {
+  int eligible = 0, posed = 0, wrong = 0;
+};
+
+ReflectionRun YawSweepWithReflections(int tried, int frames) {
+  const Rig rig = PaperRig();
+  TrackOptions o;
+  o.max_ambiguous_tried = tried;
+  ReflectionRun run;
+  if (!g_tracker.Reset(rig)) return run;
+  g_tracker.SetPose(testing::YawPose(0.0), 0);
+  std::mt19937_64 rng(1300);
+  Sweep sweep;
+  bool posed_before = false;
+  for (int step = 0; step < frames; ++step) {
+    testing::Observe(rig, testing::YawPose(DegToRad(0.5 * step)), 0.1, &rng, &g_scene);
+    testing::AddReflections(rig, 2, 5.0, 20.0, &rng, &g_scene);
+    const int before = sweep.wrong;
+    Step(rig, g_scene, static_cast<std::uint64_t>(step) * kFrameNs, o, &sweep);
+    run.wrong += sweep.wrong - before;
+    const bool posed = g_result.status != TrackStatus::kLost;
+    if (g_scene.NumVisibleBeacons() >= 4 && posed_before) {
+      ++run.eligible;
+      run.posed += posed;
+    }
+    posed_before = posed;
+  }
+  return run;
+}
+
+TEST(TrackerTest, ReflectionsBesideBeaconsKeepTheTrack) {
+  const int frames = testing::Trials(400, 160);
+  const ReflectionRun left_out = YawSweepWithReflections(0, frames);
+  const ReflectionRun tried = YawSweepWithReflections(TrackOptions{}.max_ambiguous_tried, frames);
+  std::printf("reflections beside beacons: posed %d of %d frame sets with >= 4 beacons after a pose (tried), "
+              "%d of %d (left out)\n", tried.posed, tried.eligible, left_out.posed, left_out.eligible);
+  EXPECT_EQ(tried.wrong, 0);
+  EXPECT_EQ(left_out.wrong, 0);
+  // (Measured: 77 of 88 tried, 31 of 47 left out. The rest are frame sets where a trial with
+  // the reflection fits as well as the truth: three beacons, or a fourth that the pose bends
+  // to within the chi-square margin.)
+  ASSERT_GT(tried.eligible, frames / 8);
+  EXPECT_GE(tried.posed * 100, tried.eligible * 85);
+  EXPECT_LT(left_out.posed * 100, left_out.eligible * 75);  // the trials are what keeps it
+  EXPECT_GT(g_tracker.counters().ambiguous_tried, 0U);
+}
+
 // The body is "kidnapped": after tracking, its attitude jumps by 120 deg. The tracker must not
 // follow the old pose into a wrong fix; it re-identifies and tracks again.
 TEST(TrackerTest, KidnappedBodyIsReidentified) {

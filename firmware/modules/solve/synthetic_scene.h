@@ -100,6 +100,22 @@ inline void AddSpurious(const Rig& rig, int n, std::mt19937_64* rng, Scene* s) {
   }
 }
 
+// n reflections: each a blob min_px..max_px from a randomly chosen beacon blob, in a random
+// direction, in that blob's camera (truth -1); none when the scene has no beacon blob.
+inline void AddReflections(const Rig& rig, int n, double min_px, double max_px, std::mt19937_64* rng, Scene* s) {
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  const int beacon_blobs = s->num_blobs;
+  for (int i = 0; i < n && beacon_blobs > 0; ++i) {
+    const auto j = static_cast<std::size_t>(std::min(beacon_blobs - 1, static_cast<int>(unit(*rng) * beacon_blobs)));
+    if (s->truth_beacon[j] < 0) continue;
+    const double r = min_px + (max_px - min_px) * unit(*rng), a = 2.0 * 3.14159265358979 * unit(*rng);
+    const Eigen::Vector2d uv = s->blobs[j].uv_px + r * Eigen::Vector2d(std::cos(a), std::sin(a));
+    const CameraIntrinsics& in = rig.cameras[static_cast<std::size_t>(s->blobs[j].camera)].intrinsics;
+    if (uv.x() < 1.0 || uv.y() < 1.0 || uv.x() > in.width - 2.0 || uv.y() > in.height - 2.0) continue;
+    AddBlob(rig, s->blobs[j].camera, uv, -1, s->blobs[j].flux, s);
+  }
+}
+
 // The paper's yaw sweep: body at the world origin, yawed by psi about z (C_b_w = R3(psi)).
 inline BodyPose YawPose(double psi_rad) {
   BodyPose p;

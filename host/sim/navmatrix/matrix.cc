@@ -160,8 +160,9 @@ class Progress {
 }  // namespace
 
 std::vector<RunResult> RunMatrix(const std::vector<RunSpec>& runs, const NavMatrixOptions& o, int jobs,
-                                 std::ostream* progress) {
+                                 std::ostream* progress, std::vector<std::vector<FrameRecord>>* traces) {
   std::vector<RunResult> results(runs.size());
+  if (traces != nullptr) traces->assign(runs.size(), {});
   std::atomic<std::size_t> next{0};
   std::exception_ptr error;
   std::mutex error_mutex;
@@ -169,7 +170,7 @@ std::vector<RunResult> RunMatrix(const std::vector<RunSpec>& runs, const NavMatr
   const auto work = [&] {
     for (std::size_t i = next++; i < runs.size(); i = next++) {
       try {
-        results[i] = RunNavigation(MatrixScenario(runs[i]), o);
+        results[i] = RunNavigation(MatrixScenario(runs[i]), o, traces != nullptr ? &(*traces)[i] : nullptr);
         bar.Done(runs[i], results[i]);
       } catch (...) {
         const std::lock_guard<std::mutex> lock(error_mutex);
@@ -185,6 +186,26 @@ std::vector<RunResult> RunMatrix(const std::vector<RunSpec>& runs, const NavMatr
   for (std::thread& t : threads) t.join();
   if (error) std::rethrow_exception(error);
   return results;
+}
+
+std::string FormatTraceCsv(const std::vector<RunSpec>& runs, const std::vector<std::vector<FrameRecord>>& traces) {
+  std::string out =
+      "preset,count,facing,seed,frame,in_view,blobs,status,reason,source,beacons,position_error_mm,"
+      "attitude_error_deg,position_sigma_mm,step_ms\n";
+  char line[512];
+  for (std::size_t i = 0; i < runs.size() && i < traces.size(); ++i) {
+    const RunSpec& r = runs[i];
+    for (std::size_t k = 0; k < traces[i].size(); ++k) {
+      const FrameRecord& f = traces[i][k];
+      std::snprintf(line, sizeof line, "%s,%d,%s,%llu,%zu,%d,%d,%s,%s,%s,%d,%.3f,%.4f,%.3f,%.3f\n", r.preset.c_str(),
+                    r.map_beacons, r.map_has_facing ? (r.facing ? "yes" : "no") : "none",
+                    static_cast<unsigned long long>(r.seed), k, f.in_view, f.num_blobs, fw::ToString(f.status),
+                    fw::ToString(f.reason), fw::ToString(f.source), f.num_beacons, f.position_error_m * 1e3,
+                    RadToDeg(f.attitude_error_rad), f.position_sigma_m * 1e3, f.step_s * 1e3);
+      out += line;
+    }
+  }
+  return out;
 }
 
 namespace {

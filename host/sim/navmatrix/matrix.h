@@ -50,9 +50,16 @@ std::vector<RunSpec> ExpandMatrix(const MatrixSpec& m);
 std::vector<std::uint64_t> ParseSeeds(const std::string& text);
 
 // Runs every spec on `jobs` threads (each with its own navigator), results in spec order. One
-// progress line on *progress (nullptr: none), rewritten after each run.
+// progress line on *progress (nullptr: none), rewritten after each run. traces (nullptr: none)
+// receives every run's frame records, in spec order.
 std::vector<RunResult> RunMatrix(const std::vector<RunSpec>& runs, const NavMatrixOptions& o, int jobs,
-                                 std::ostream* progress);
+                                 std::ostream* progress, std::vector<std::vector<FrameRecord>>* traces = nullptr);
+
+// The frame records of every run as CSV (a header, then one row per frame set: the run's preset,
+// count, facing and seed, the frame set, truth in view, blobs, the published status, reason,
+// source and beacons, the errors in mm and deg, the published 1-sigma in mm, Step in ms), for
+// finding where a run loses its track.
+std::string FormatTraceCsv(const std::vector<RunSpec>& runs, const std::vector<std::vector<FrameRecord>>& traces);
 
 // One table row: the runs of a preset x count x facing, over its seeds.
 struct MatrixRow {

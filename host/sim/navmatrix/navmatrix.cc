@@ -82,6 +82,9 @@ FrameRecord RecordFrame(int in_view, const fw::NavOutput& out, const BodyPose& t
   FrameRecord f;
   f.in_view = in_view;
   f.status = out.status;
+  f.reason = out.reason;
+  f.source = out.source;
+  f.num_beacons = out.num_beacons;
   f.step_s = step_s;
   if (out.status == fw::NavStatus::kLost) return f;
   f.position_error_m = (out.pose.r_w_wb - truth.r_w_wb).norm();
@@ -126,6 +129,7 @@ RunResult RunNavigation(const Scenario& s, const NavMatrixOptions& o, std::vecto
                         /*cameras_down=*/false, &run->out);
     const std::chrono::duration<double> step = std::chrono::steady_clock::now() - start;
     frames.push_back(RecordFrame(b.NumVisible(), run->out, f.pose, step.count()));
+    frames.back().num_blobs = static_cast<int>(b.blobs.size());
   }
   RunResult r = ScoreRun(frames, 1.0 / s.frame_rate_hz, o);
   r.counters = run->navigator.counters();

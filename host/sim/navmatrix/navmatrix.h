@@ -44,7 +44,11 @@ struct NavMatrixOptions {
 // One frame set of a run, as ScoreRun needs it.
 struct FrameRecord {
   int in_view = 0;  // truth: beacons seen (BlobFrameSet::NumVisible)
+  int num_blobs = 0;  // blobs given to the navigator (beacons and spurious)
   fw::NavStatus status = fw::NavStatus::kLost;
+  fw::NavReason reason = fw::NavReason::kNoFrames;  // as published
+  fw::TrackSource source = fw::TrackSource::kNone;
+  int num_beacons = 0;  // beacons the published pose used
   // When not lost: |r_est - r_true| (m), the angle of C_true^T C_est (rad), and the published
   // largest per-axis position 1-sigma (m; sqrt of the largest of covariance(0..2, 0..2)'s
   // diagonal, the tracker's PositionSigma).

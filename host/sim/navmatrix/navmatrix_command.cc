@@ -21,6 +21,7 @@ struct NavMatrixArgs {
   std::string facing = "both";
   int jobs = 0;
   std::string out;
+  std::string trace;
   bool check = false;
 };
 
@@ -46,7 +47,10 @@ void RunNavMatrixCommand(const NavMatrixArgs& a) {
   const MatrixLimits limits;
   std::fprintf(stderr, "navmatrix: %zu runs of %d frame sets on %d threads\n", runs.size(), spec.frames, jobs);
   const auto start = std::chrono::steady_clock::now();
-  const std::vector<RunResult> results = RunMatrix(runs, options, jobs, &std::cerr);
+  std::vector<std::vector<FrameRecord>> traces;
+  const std::vector<RunResult> results =
+      RunMatrix(runs, options, jobs, &std::cerr, a.trace.empty() ? nullptr : &traces);
+  if (!a.trace.empty()) WriteFileAtomic(a.trace, FormatTraceCsv(runs, traces));
   const double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   const std::vector<MatrixRow> rows = Summarise(runs, results, limits);
   // The deadline of the first run's scenario (every preset runs at 18.6 Hz).
@@ -83,6 +87,7 @@ void AddNavMatrixCommand(CLI::App& app) {
   cmd->add_option("--jobs", a->jobs, "Worker threads, each with its own navigator (0: all cores)")
       ->capture_default_str();
   cmd->add_option("--out", a->out, "Also write the table to this markdown file");
+  cmd->add_option("--trace", a->trace, "Also write every run's frame sets (status, reason, errors) to this CSV file");
   cmd->add_flag("--check", a->check, "Exit 1 when a requirement of issue 13 fails");
   cmd->callback([a]() { RunNavMatrixCommand(*a); });
 }
