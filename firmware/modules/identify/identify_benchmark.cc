@@ -240,6 +240,26 @@ void P3pSolveOnly(benchmark::State& state) {
 }
 BENCHMARK(P3pSolveOnly)->Unit(benchmark::kMicrosecond);
 
+// The same rays with their origins 1e-9 m apart: the general (multi-camera) scan instead of the
+// central closed form, the cost of a cross-camera hypothesis.
+void P3pSolveOnlyGeneralScan(benchmark::State& state) {
+  const Rig& rig = PaperRigOnce();
+  const P3pCase c = OneCameraP3pCase();
+  static P3pRayTriple triple;
+  static std::array<BodyPose, limits::kMaxP3pSolutions> poses;
+  std::array<BodyRay, 3> rays = {RayOfBlob(rig, c.blobs[0]), RayOfBlob(rig, c.blobs[1]), RayOfBlob(rig, c.blobs[2])};
+  rays[1].o_b.x() += 1e-9;
+  rays[2].o_b.y() += 1e-9;
+  triple.Set(rays, P3pOptions{});
+  int n = 0;
+  for (auto _ : state) {
+    n = triple.Solve(c.P_w, &poses);
+    benchmark::DoNotOptimize(poses[0].r_w_wb.data());
+  }
+  state.counters["solutions"] = n;
+}
+BENCHMARK(P3pSolveOnlyGeneralScan)->Unit(benchmark::kMicrosecond);
+
 #ifdef MFNS_HAVE_OPENCV
 // Baseline: OpenCV's P3P (Gao et al., with undistortion of the three pixels) on the same case.
 void OpenCvSolveP3P(benchmark::State& state) {

@@ -1,5 +1,6 @@
 #include "firmware/modules/identify/p3p.h"
 
+#include <Eigen/Geometry>
 #include <Eigen/LU>
 #include <Eigen/SVD>
 #include <algorithm>
@@ -53,6 +54,16 @@ bool P3pRayTriple::Set(const std::array<BodyRay, 3>& rays, const P3pOptions& opt
   d2_o23_ = rays[1].d_b.dot(o23);
   d3_o23_ = rays[2].d_b.dot(o23);
   d2_d3_ = rays[1].d_b.dot(rays[2].d_b);
+  // One camera: the closed form (SolveCentral) needs no scan.
+  const double scale = 1.0 + rays[0].o_b.norm();
+  central_ = (rays[1].o_b - rays[0].o_b).norm() <= 1e-12 * scale && (rays[2].o_b - rays[0].o_b).norm() <= 1e-12 * scale;
+  cos_a_ = rays[1].d_b.dot(rays[2].d_b);
+  cos_b_ = rays[0].d_b.dot(rays[2].d_b);
+  cos_c_ = rays[0].d_b.dot(rays[1].d_b);
+  if (central_) {
+    n_ = options.scan_steps;
+    return true;
+  }
   // Geometric grid: the same relative depth resolution near and far (computed once per depth
   // range).
   if (options.min_depth_m != grid_min_ || options.max_depth_m != grid_max_ || options.scan_steps != grid_n_) {
@@ -184,6 +195,7 @@ bool P3pRayTriple::Root(double a, double b, int s2, int s3, const Distances& D, 
 int P3pRayTriple::Solve(const std::array<Eigen::Vector3d, 3>& P_w,
                         std::array<BodyPose, limits::kMaxP3pSolutions>* poses,
                         std::array<Eigen::Vector3d, limits::kMaxP3pSolutions>* depths) const {
+  if (central_) return n_ > 0 ? SolveCentral(P_w, poses, depths) : 0;
   const Distances D{(P_w[1] - P_w[0]).squaredNorm(), (P_w[2] - P_w[0]).squaredNorm(),
                     (P_w[2] - P_w[1]).squaredNorm()};
   int count = 0;
@@ -201,7 +213,7 @@ int P3pRayTriple::Solve(const std::array<Eigen::Vector3d, 3>& P_w,
     const std::array<Eigen::Vector3d, 3> q = {rays_[0].o_b + l1 * rays_[0].d_b, rays_[1].o_b + l2 * rays_[1].d_b,
                                               rays_[2].o_b + l3 * rays_[2].d_b};
     BodyPose pose;
-    if (!AbsoluteOrientation(q, P_w, &pose)) return;
+    if (!TriangleOrientation(q, P_w, &pose)) return;
     (*poses)[static_cast<std::size_t>(count)] = pose;
     if (depths != nullptr) (*depths)[static_cast<std::size_t>(count)] = Eigen::Vector3d(l1, l2, l3);
     emitted_l1[static_cast<std::size_t>(count)] = l1;
@@ -309,6 +321,199 @@ bool P3pRayTriple::Extremum(double a, double b, int s2, int s3, const Distances&
   *x = first ? x1 : x2;
   *fx = first ? f1 : f2;
   return true;
+}
+
+namespace {
+
+// Product of polynomials a (degree na) and b (degree nb), coefficients lowest first.
+template <std::size_t kOut>
+void PolyMul(const double* a, int na, const double* b, int nb, std::array<double, kOut>* out) {
+  out->fill(0.0);
+  for (int i = 0; i <= na; ++i)
+    for (int j = 0; j <= nb; ++j) (*out)[static_cast<std::size_t>(i + j)] += a[i] * b[j];
+}
+
+// Value and derivative of c[0] + ... + c[n] x^n at x (Horner).
+double Horner(const double* c, int n, double x, double* derivative) {
+  double p = c[n], dp = 0.0;
+  for (int i = n - 1; i >= 0; --i) {
+    dp = dp * x + p;
+    p = p * x + c[i];
+  }
+  *derivative = dp;
+  return p;
+}
+
+// Newton steps on the three depths s of a central P3P: |s_i y_i - s_j y_j|^2 = D_ij^2, i.e.
+// s_i^2 + s_j^2 - 2 s_i s_j cos_ij = D_ij^2 (pairs (2,3), (1,3), (1,2) with cosines ca, cb, cg).
+void PolishDepths(double ca, double cb, double cg, double a2, double b2, double c2, Eigen::Vector3d* s) {
+  for (int it = 0; it < 2; ++it) {
+    const double s1 = (*s)(0), s2 = (*s)(1), s3 = (*s)(2);
+    const Eigen::Vector3d r(s2 * s2 + s3 * s3 - 2.0 * s2 * s3 * ca - a2, s1 * s1 + s3 * s3 - 2.0 * s1 * s3 * cb - b2,
+                            s1 * s1 + s2 * s2 - 2.0 * s1 * s2 * cg - c2);
+    Eigen::Matrix3d J;
+    J << 0.0, 2.0 * (s2 - s3 * ca), 2.0 * (s3 - s2 * ca),  //
+        2.0 * (s1 - s3 * cb), 0.0, 2.0 * (s3 - s1 * cb),   //
+        2.0 * (s1 - s2 * cg), 2.0 * (s2 - s1 * cg), 0.0;
+    const Eigen::Vector3d step = J.partialPivLu().solve(r);
+    if (!step.allFinite()) return;
+    *s -= step;
+  }
+}
+
+}  // namespace
+
+int PolynomialRealRoots(const double* c, int n, double* roots) {
+  while (n > 0 && c[n] == 0.0) --n;
+  if (n <= 0 || n > 4) return 0;
+  if (n == 1) {
+    roots[0] = -c[0] / c[1];
+    return 1;
+  }
+  double bound = 0.0;  // Cauchy's bound on |root|
+  for (int i = 0; i < n; ++i) bound = std::max(bound, std::abs(c[i] / c[n]));
+  bound += 1.0;
+  std::array<double, 4> dc{};
+  for (int i = 1; i <= n; ++i) dc[static_cast<std::size_t>(i - 1)] = i * c[i];
+  std::array<double, 5> pts{};
+  int np = 0;
+  pts[static_cast<std::size_t>(np++)] = -bound;
+  std::array<double, 3> crit{};
+  const int nc = PolynomialRealRoots(dc.data(), n - 1, crit.data());
+  for (int i = 0; i < nc; ++i)
+    if (crit[static_cast<std::size_t>(i)] > -bound && crit[static_cast<std::size_t>(i)] < bound)
+      pts[static_cast<std::size_t>(np++)] = crit[static_cast<std::size_t>(i)];
+  pts[static_cast<std::size_t>(np++)] = bound;
+  int count = 0;
+  auto add = [&](double x) {
+    if (count > 0 && std::abs(roots[count - 1] - x) <= 1e-12 * std::max(1.0, std::abs(x))) return;
+    roots[count++] = x;
+  };
+  for (int i = 0; i + 1 < np; ++i) {
+    double a = pts[static_cast<std::size_t>(i)], b = pts[static_cast<std::size_t>(i + 1)], d = 0.0;
+    const double fa = Horner(c, n, a, &d), fb = Horner(c, n, b, &d);
+    // A critical point on zero (within rounding of the terms): a double root.
+    double mag = 0.0;
+    for (int k = n; k >= 0; --k) mag = mag * std::abs(a) + std::abs(c[k]);
+    if (i > 0 && std::abs(fa) <= 1e-13 * mag) {
+      add(a);
+      continue;
+    }
+    if ((fa < 0.0) == (fb < 0.0) || fb == 0.0) continue;
+    double x = 0.5 * (a + b);
+    for (int it = 0; it < limits::kMaxBisectionIterations; ++it) {
+      const double f = Horner(c, n, x, &d);
+      if (f == 0.0) break;
+      if ((f < 0.0) == (fa < 0.0)) a = x;
+      else b = x;
+      double next = x - f / d;
+      if (!(next > a && next < b)) next = 0.5 * (a + b);
+      const bool done = std::abs(next - x) <= 1e-15 * std::max(1.0, std::abs(x));
+      x = next;
+      if (done) break;
+    }
+    add(x);
+  }
+  return count;
+}
+
+// Grunert: with s2 = u s1, s3 = v s1, W(v) = 1 + v^2 - 2 v cb, K1 = a^2/b^2, K2 = c^2/b^2,
+// the distance equations over the (1,3) one read
+//   E1: u^2 - 2 u v ca + v^2 = K1 W,    E2: u^2 - 2 u cg + 1 = K2 W.
+// E1 - E2 is linear in u: u M = N with M = 2 (cg - v ca), N = 1 - v^2 + (K1 - K2) W; into E2
+// times M^2: N^2 - 2 cg N M + (1 - K2 W) M^2 = 0, a quartic in v. For each root v > 0,
+// s1 = b / sqrt(W) and u from E2's two roots (no division by M, which may vanish), kept when
+// the depths satisfy all three distances (after two Newton steps).
+int P3pRayTriple::SolveCentral(const std::array<Eigen::Vector3d, 3>& P_w,
+                               std::array<BodyPose, limits::kMaxP3pSolutions>* poses,
+                               std::array<Eigen::Vector3d, limits::kMaxP3pSolutions>* depths) const {
+  const double a2 = (P_w[2] - P_w[1]).squaredNorm(), b2 = (P_w[2] - P_w[0]).squaredNorm();
+  const double c2 = (P_w[1] - P_w[0]).squaredNorm();
+  if (!(a2 > 0.0) || !(b2 > 0.0) || !(c2 > 0.0) || !std::isfinite(a2 + b2 + c2)) return 0;
+  const double ca = cos_a_, cb = cos_b_, cg = cos_c_;
+  const double K1 = a2 / b2, K2 = c2 / b2, k = K1 - K2;
+  const double W[3] = {1.0, -2.0 * cb, 1.0};
+  const double N[3] = {1.0 + k, -2.0 * k * cb, k - 1.0};
+  const double M[2] = {2.0 * cg, -2.0 * ca};
+  const double E[3] = {1.0 - K2, 2.0 * K2 * cb, -K2};  // 1 - K2 W
+  std::array<double, 5> NN{}, M2{}, quartic{};
+  std::array<double, 4> NM{};
+  std::array<double, 5> EM2{};
+  PolyMul(N, 2, N, 2, &NN);
+  PolyMul(N, 2, M, 1, &NM);
+  PolyMul(M, 1, M, 1, &M2);
+  PolyMul(E, 2, M2.data(), 2, &EM2);
+  for (std::size_t i = 0; i < 5; ++i) quartic[i] = NN[i] + EM2[i] - (i < 4 ? 2.0 * cg * NM[i] : 0.0);
+  std::array<double, 4> vs{};
+  const int nv = PolynomialRealRoots(quartic.data(), 4, vs.data());
+  const std::array<Eigen::Vector3d, 3> y = {rays_[0].d_b, rays_[1].d_b, rays_[2].d_b};
+  const Eigen::Vector3d& o = rays_[0].o_b;
+  int count = 0;
+  for (int i = 0; i < nv; ++i) {
+    const double v = vs[static_cast<std::size_t>(i)];
+    const double w = W[0] + v * (W[1] + v * W[2]);
+    if (!(v > 0.0) || !(w > 0.0)) continue;
+    const double s1 = std::sqrt(b2 / w);
+    const double disc = cg * cg - 1.0 + K2 * w;
+    if (disc < -1e-9) continue;
+    const double root = std::sqrt(std::max(0.0, disc));
+    for (int branch = 0; branch < (root > 0.0 ? 2 : 1) && count < limits::kMaxP3pSolutions; ++branch) {
+      const double u = cg + (branch == 0 ? root : -root);
+      Eigen::Vector3d s(s1, u * s1, v * s1);
+      if (!(s.minCoeff() > 0.0)) continue;
+      PolishDepths(ca, cb, cg, a2, b2, c2, &s);
+      const double e_a = s(1) * s(1) + s(2) * s(2) - 2.0 * s(1) * s(2) * ca - a2;
+      const double e_b = s(0) * s(0) + s(2) * s(2) - 2.0 * s(0) * s(2) * cb - b2;
+      const double e_c = s(0) * s(0) + s(1) * s(1) - 2.0 * s(0) * s(1) * cg - c2;
+      if (std::abs(e_a) > 1e-9 * a2 || std::abs(e_b) > 1e-9 * b2 || std::abs(e_c) > 1e-9 * c2) continue;
+      if (s(0) < options_.min_depth_m || s(0) > options_.max_depth_m || s(1) < options_.min_depth_m ||
+          s(2) < options_.min_depth_m)
+        continue;
+      bool seen = false;  // both branches may polish onto one solution
+      for (int j = 0; j < count && !seen; ++j)
+        seen = depths != nullptr ? ((*depths)[static_cast<std::size_t>(j)] - s).norm() <= 1e-9 * s.norm()
+                                 : false;
+      if (seen) continue;
+      const std::array<Eigen::Vector3d, 3> q = {o + s(0) * y[0], o + s(1) * y[1], o + s(2) * y[2]};
+      BodyPose pose;
+      if (!TriangleOrientation(q, P_w, &pose)) continue;
+      bool same = false;
+      for (int j = 0; j < count && !same; ++j) {
+        const BodyPose& p = (*poses)[static_cast<std::size_t>(j)];
+        same = (p.r_w_wb - pose.r_w_wb).norm() <= 1e-9 * (1.0 + pose.r_w_wb.norm()) &&
+               (p.C_w_b - pose.C_w_b).norm() <= 1e-9;
+      }
+      if (same) continue;
+      (*poses)[static_cast<std::size_t>(count)] = pose;
+      if (depths != nullptr) (*depths)[static_cast<std::size_t>(count)] = s;
+      ++count;
+    }
+  }
+  return count;
+}
+
+namespace {
+bool TriangleFrame(const std::array<Eigen::Vector3d, 3>& p, Eigen::Matrix3d* F) {
+  const Eigen::Vector3d e1 = p[1] - p[0], x2 = p[2] - p[0];
+  const Eigen::Vector3d e3 = e1.cross(x2);
+  const double n1 = e1.norm(), n3 = e3.norm();
+  if (!(n1 > 0.0) || !(n3 > 1e-9 * n1 * x2.norm())) return false;
+  F->col(0) = e1 / n1;
+  F->col(2) = e3 / n3;
+  F->col(1) = F->col(2).cross(F->col(0));
+  return F->allFinite();
+}
+}  // namespace
+
+bool TriangleOrientation(const std::array<Eigen::Vector3d, 3>& q_b, const std::array<Eigen::Vector3d, 3>& P_w,
+                         BodyPose* pose) {
+  Eigen::Matrix3d Fb, Fw;
+  if (!TriangleFrame(q_b, &Fb) || !TriangleFrame(P_w, &Fw)) return false;
+  pose->C_w_b = Fw * Fb.transpose();
+  const Eigen::Vector3d qc = (q_b[0] + q_b[1] + q_b[2]) / 3.0;
+  const Eigen::Vector3d Pc = (P_w[0] + P_w[1] + P_w[2]) / 3.0;
+  pose->r_w_wb = Pc - pose->C_w_b * qc;
+  return pose->C_w_b.allFinite() && pose->r_w_wb.allFinite();
 }
 
 bool AbsoluteOrientation(const std::array<Eigen::Vector3d, 3>& q_b, const std::array<Eigen::Vector3d, 3>& P_w,

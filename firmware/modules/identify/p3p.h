@@ -7,7 +7,13 @@
 // q_i = o_i + l_i d_i and the beacons P_i give the pose by absolute orientation
 // (P_w = C_w_b q_b + r_w_wb).
 //
-// Method (any camera split, central or not): l_2 and l_3 follow from l_1 through the (1,2)
+// Central case (the three rays from one camera, the common case in lost-in-space): Grunert's
+// closed form. With s_2 = u s_1 and s_3 = v s_1, the ratios of the three distance equations
+// give u as a rational function of v and a quartic in v, whose real roots are bracketed
+// between the critical points (roots of its derivative, recursively) and polished; each root
+// gives the depths, each solution is checked against all three distances.
+//
+// Other splits: l_2 and l_3 follow from l_1 through the (1,2)
 // and (1,3) distance quadratics (two branches each); the (2,3) distance residual is then a
 // function of l_1 alone for each of the four branch pairs. It is sampled on a geometric grid
 // over [min_depth_m, max_depth_m], each sign change (including one at a branch's end, where
@@ -75,10 +81,14 @@ class P3pRayTriple {
   bool Eval(double l1, int s2, int s3, const Distances& D, double* f, double* l2, double* l3) const;
   bool BranchEnd(double lo, double hi, double near, const Distances& D, double* l1) const;
   bool Root(double a, double b, int s2, int s3, const Distances& D, double* l1) const;
+  int SolveCentral(const std::array<Eigen::Vector3d, 3>& P_w, std::array<BodyPose, limits::kMaxP3pSolutions>* poses,
+                   std::array<Eigen::Vector3d, limits::kMaxP3pSolutions>* depths) const;
   bool Extremum(double a, double b, int s2, int s3, const Distances& D, bool minimum, double* x, double* fx) const;
 
   std::array<BodyRay, 3> rays_{};
   P3pOptions options_{};
+  bool central_ = false;                        // the three rays share their origin
+  double cos_a_ = 0.0, cos_b_ = 0.0, cos_c_ = 0.0;  // angles between rays (2,3), (1,3), (1,2)
   RayCoefficients ray2_{}, ray3_{};
   double o23_sq_ = 0.0, d2_o23_ = 0.0, d3_o23_ = 0.0, d2_d3_ = 0.0;  // o23 = o2 - o3
   int n_ = 0;
@@ -87,6 +97,19 @@ class P3pRayTriple {
   int grid_n_ = 0;
   std::array<double, limits::kMaxP3pScanSteps> depth_grid_{};
 };
+
+// The rigid transform with P_w[i] = C_w_b q_b[i] + r_w_wb for two congruent triangles (the
+// P3P's: its depths reproduce the beacons' distances): the orthonormal frames of the two
+// triangles, C_w_b = F_w F_b^T, about the centroids. No SVD; false when a triangle is
+// (nearly) collinear or non-finite. For noisy, non-congruent points use AbsoluteOrientation.
+bool TriangleOrientation(const std::array<Eigen::Vector3d, 3>& q_b, const std::array<Eigen::Vector3d, 3>& P_w,
+                         BodyPose* pose);
+
+// Real roots of c[0] + c[1] x + ... + c[n] x^n (n <= 4, c[n] != 0), ascending; returns how
+// many. Each monotone stretch between the roots of the derivative (found the same way) that
+// changes sign holds one root, found by safeguarded Newton steps; a double root where the
+// polynomial only touches zero counts when it does so within rounding.
+int PolynomialRealRoots(const double* c, int n, double* roots);
 
 // Least-squares rigid transform with P_w[i] = C_w_b q_b[i] + r_w_wb (Kabsch/Horn, SVD of the
 // 3x3 cross-covariance, reflection excluded). False when the points are (nearly) collinear

@@ -105,6 +105,76 @@ void CheckRecovery(int force_camera, std::uint64_t seed) {
 TEST(P3pTest, RecoversPoseFromRaysOfAnyCameraSplit) { CheckRecovery(-1, 11); }
 TEST(P3pTest, RecoversPoseFromOneCamera) { CheckRecovery(1, 12); }
 
+// Polynomials built from known roots: every real root is found (a double root too), complex
+// pairs give none.
+TEST(P3pTest, PolynomialRealRootsFindsEveryRealRoot) {
+  std::mt19937_64 rng(16);
+  std::uniform_real_distribution<double> u(-5.0, 5.0);
+  auto expand = [](const std::array<double, 4>& r, double lead, std::array<double, 5>* c) {
+    // lead * prod (x - r_i), lowest coefficient first.
+    *c = {lead, 0.0, 0.0, 0.0, 0.0};
+    for (int i = 0; i < 4; ++i) {
+      for (int k = i + 1; k >= 1; --k) (*c)[static_cast<std::size_t>(k)] = (*c)[static_cast<std::size_t>(k - 1)] - r[static_cast<std::size_t>(i)] * (*c)[static_cast<std::size_t>(k)];
+      (*c)[0] = -r[static_cast<std::size_t>(i)] * (*c)[0];
+    }
+  };
+  for (int trial = 0; trial < 2000; ++trial) {
+    std::array<double, 4> r = {u(rng), u(rng), u(rng), u(rng)};
+    if (trial % 4 == 1) r[1] = r[0];  // a double root
+    std::array<double, 5> c{};
+    expand(r, 0.5 + std::abs(u(rng)), &c);
+    std::array<double, 4> found{};
+    const int n = PolynomialRealRoots(c.data(), 4, found.data());
+    std::sort(r.begin(), r.end());
+    for (double x : r) {
+      bool hit = false;
+      for (int i = 0; i < n; ++i) hit = hit || std::abs(found[static_cast<std::size_t>(i)] - x) < 1e-6;
+      EXPECT_TRUE(hit) << "trial " << trial << " root " << x;
+    }
+    for (int i = 0; i + 1 < n; ++i) EXPECT_LT(found[static_cast<std::size_t>(i)], found[static_cast<std::size_t>(i + 1)]);
+  }
+  // (x^2 + 1)(x^2 + 4): no real root; (x^2 + 1)(x - 2)(x + 3): two.
+  const double none[5] = {4.0, 0.0, 5.0, 0.0, 1.0};
+  double roots[4];
+  EXPECT_EQ(PolynomialRealRoots(none, 4, roots), 0);
+  const double two[5] = {-6.0, 1.0, -5.0, 1.0, 1.0};
+  ASSERT_EQ(PolynomialRealRoots(two, 4, roots), 2);
+  EXPECT_NEAR(roots[0], -3.0, 1e-12);
+  EXPECT_NEAR(roots[1], 2.0, 1e-12);
+}
+
+// The central closed form (one camera) against the general scan on the same rays with their
+// origins moved apart by 1e-9 m (which takes the scan's path): the same solutions.
+TEST(P3pTest, CentralClosedFormMatchesTheGeneralScan) {
+  const Rig rig = PaperRig();
+  std::mt19937_64 rng(17);
+  P3pOptions o;
+  o.min_depth_m = 0.1;
+  o.max_depth_m = 4.0;
+  P3pRayTriple central, general;
+  std::array<BodyPose, limits::kMaxP3pSolutions> a, b;
+  int closed_total = 0, scan_total = 0, missing = 0;
+  const int trials = testing::Trials(2000, 300);
+  for (int i = 0; i < trials; ++i) {
+    const Trial t = RandomTrial(rig, &rng, i % 3);
+    std::array<BodyRay, 3> moved = t.rays;
+    moved[1].o_b.x() += 1e-9;
+    moved[2].o_b.y() += 1e-9;
+    ASSERT_TRUE(central.Set(t.rays, o));
+    ASSERT_TRUE(general.Set(moved, o));
+    const int n = central.Solve(t.P_w, &a);
+    const int m = general.Solve(t.P_w, &b);
+    closed_total += n;
+    scan_total += m;
+    ExpectAllSolutionsConsistent(t, a, n);
+    for (int j = 0; j < m; ++j) missing += !ContainsTruth(a, n, b[static_cast<std::size_t>(j)], 1e-5);
+  }
+  std::printf("closed form %d solutions, scan %d, scan's not in the closed form's %d\n", closed_total, scan_total,
+              missing);
+  EXPECT_LE(missing, 1 + trials / 1000);
+  EXPECT_GE(closed_total, scan_total - trials / 1000);
+}
+
 TEST(P3pTest, AbsoluteOrientationExactAndRefusesCollinear) {
   std::mt19937_64 rng(13);
   for (int i = 0; i < 100; ++i) {
@@ -119,9 +189,13 @@ TEST(P3pTest, AbsoluteOrientationExactAndRefusesCollinear) {
     ASSERT_TRUE(AbsoluteOrientation(q, P, &est));
     EXPECT_LT(AngleBetween(est.C_w_b, truth.C_w_b), 1e-12);
     EXPECT_LT((est.r_w_wb - truth.r_w_wb).norm(), 1e-12);
+    ASSERT_TRUE(TriangleOrientation(q, P, &est));
+    EXPECT_LT(AngleBetween(est.C_w_b, truth.C_w_b), 1e-12);
+    EXPECT_LT((est.r_w_wb - truth.r_w_wb).norm(), 1e-12);
     q[2] = q[0] + 2.0 * (q[1] - q[0]);
     P[2] = truth.C_w_b * q[2] + truth.r_w_wb;
     EXPECT_FALSE(AbsoluteOrientation(q, P, &est));
+    EXPECT_FALSE(TriangleOrientation(q, P, &est));
   }
 }
 
