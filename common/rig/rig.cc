@@ -112,16 +112,27 @@ RigStatus ValidateRig(const Rig& rig, int* camera_index) {
   return RigStatus::kOk;
 }
 
-bool BeaconFaces(const Rig& rig, int m, const Eigen::Vector3d& p_w, double margin_rad) {
-  if (!rig.has_facing) return true;
+double FacingCosine(const Rig& rig, int m, double margin_rad) {
+  if (!rig.has_facing) return -2.0;
+  const double half = rig.beacon_half_angle[static_cast<std::size_t>(m)] + margin_rad;
+  if (half >= kPi) return -2.0;
+  if (half <= 0.0) return 2.0;
+  return std::cos(half);
+}
+
+bool BeaconFacesCos(const Rig& rig, int m, const Eigen::Vector3d& p_w, double facing_cosine) {
+  if (facing_cosine <= -1.0) return true;
+  if (facing_cosine > 1.0) return false;
   const auto idx = static_cast<std::size_t>(m);
-  const double half = rig.beacon_half_angle[idx] + margin_rad;
-  if (half >= kPi) return true;
-  if (half <= 0.0) return false;
   const Eigen::Vector3d u = p_w - rig.beacons_w[idx];
   const double len = u.norm();
   if (!(len > 0.0)) return true;
-  return u.dot(rig.beacon_normal_w[idx]) >= std::cos(half) * len;
+  return u.dot(rig.beacon_normal_w[idx]) >= facing_cosine * len;
+}
+
+bool BeaconFaces(const Rig& rig, int m, const Eigen::Vector3d& p_w, double margin_rad) {
+  if (!rig.has_facing) return true;
+  return BeaconFacesCos(rig, m, p_w, FacingCosine(rig, m, margin_rad));
 }
 
 BodyPose Retract(const BodyPose& pose, const PoseDelta& delta) {

@@ -50,6 +50,11 @@ struct Rig {
 // without facing data). margin_rad widens the beam (> 0, for points known only roughly) or
 // narrows it (< 0, where only a beacon well inside its beam is surely detected).
 bool BeaconFaces(const Rig& rig, int m, const Eigen::Vector3d& p_w, double margin_rad = 0.0);
+// The same test split for loops over many points: FacingCosine (the cosine of beacon m's beam
+// half-angle plus margin_rad; -2 for a beam that covers every direction, 2 for none) once,
+// then BeaconFacesCos per point.
+double FacingCosine(const Rig& rig, int m, double margin_rad);
+bool BeaconFacesCos(const Rig& rig, int m, const Eigen::Vector3d& p_w, double facing_cosine);
 
 // Why a rig is not usable; kOk when it is.
 enum class RigStatus : unsigned char {

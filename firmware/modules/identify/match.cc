@@ -16,8 +16,18 @@ bool MatchOptions::IsValid(const char** why) const {
   return bad == nullptr;
 }
 
+void BeaconMatcher::CacheFacing(double margin_rad) const {
+  if (margin_rad == facing_margin_ || rig_ == nullptr) return;
+  for (int m = 0; m < rig_->num_beacons; ++m) {
+    cos_wide_[static_cast<std::size_t>(m)] = FacingCosine(*rig_, m, margin_rad);
+    cos_narrow_[static_cast<std::size_t>(m)] = FacingCosine(*rig_, m, -margin_rad);
+  }
+  facing_margin_ = margin_rad;
+}
+
 void BeaconMatcher::Reset(const Rig& rig) {
   rig_ = &rig;
+  facing_margin_ = -1.0;
   blobs_ = nullptr;
   count_.fill(0);
   for (int k = 0; k < rig.num_cameras && k < limits::kMaxCameras; ++k) {
@@ -75,6 +85,7 @@ void BeaconMatcher::MatchPose(const BodyPose& pose, const MatchOptions& o, Match
   out->num_missing = 0;
   out->sum_sq_px = 0.0;
   if (rig_ == nullptr || blobs_ == nullptr) return;
+  if (rig_->has_facing) CacheFacing(o.facing_margin_rad);
   struct Candidate {
     double d;
     int beacon;
@@ -91,10 +102,11 @@ void BeaconMatcher::MatchPose(const BodyPose& pose, const MatchOptions& o, Match
     for (int m = 0; m < rig_->num_beacons; ++m) {
       Eigen::Vector2d uv;
       bool inner = false;
-      if (rig_->has_facing && !BeaconFaces(*rig_, m, centre_w, o.facing_margin_rad)) continue;
+      const auto sm = static_cast<std::size_t>(m);
+      if (rig_->has_facing && !BeaconFacesCos(*rig_, m, centre_w, cos_wide_[sm])) continue;
       if (!Predict(k, pose, rig_->beacons_w[static_cast<std::size_t>(m)], o.gate_px, o.miss_margin_px, &uv, &inner))
         continue;
-      if (inner && rig_->has_facing && !BeaconFaces(*rig_, m, centre_w, -o.facing_margin_rad)) inner = false;
+      if (inner && rig_->has_facing && !BeaconFacesCos(*rig_, m, centre_w, cos_narrow_[sm])) inner = false;
       if (InImage(rig_->cameras[sk].intrinsics, uv)) ++out->num_predicted;
       if (inner) inner_set.Set(m);
       // Nearest and second-nearest blob of this camera.

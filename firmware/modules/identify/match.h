@@ -132,8 +132,13 @@ class BeaconMatcher {
   int BlobOfCamera(int k, int j) const { return index_[static_cast<std::size_t>(k)][static_cast<std::size_t>(j)]; }
 
  private:
+  // FacingCosine of every beacon for +-margin (a cache: MatchPose is called per hypothesis).
+  void CacheFacing(double margin_rad) const;
+
   const Rig* rig_ = nullptr;
   std::array<double, limits::kMaxCameras> max_tan_sq_{};  // view cone: (x^2 + y^2) / z^2 bound
+  mutable double facing_margin_ = -1.0;  // of the cache; < 0: none
+  mutable std::array<double, limits::kMaxBeacons> cos_wide_{}, cos_narrow_{};
   const BlobObs* blobs_ = nullptr;
   std::uint32_t cameras_ = kAllCameras;
   std::array<int, limits::kMaxCameras> count_{};

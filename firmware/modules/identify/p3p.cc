@@ -355,7 +355,7 @@ void PolishDepths(double ca, double cb, double cg, double a2, double b2, double 
     J << 0.0, 2.0 * (s2 - s3 * ca), 2.0 * (s3 - s2 * ca),  //
         2.0 * (s1 - s3 * cb), 0.0, 2.0 * (s3 - s1 * cb),   //
         2.0 * (s1 - s2 * cg), 2.0 * (s2 - s1 * cg), 0.0;
-    const Eigen::Vector3d step = J.partialPivLu().solve(r);
+    const Eigen::Vector3d step = J.inverse() * r;  // (cofactors: a 3 x 3 needs no pivoting here)
     if (!step.allFinite()) return;
     *s -= step;
   }
@@ -370,9 +370,24 @@ int PolynomialRealRoots(const double* c, int n, double* roots) {
     roots[0] = -c[0] / c[1];
     return 1;
   }
-  double bound = 0.0;  // Cauchy's bound on |root|
-  for (int i = 0; i < n; ++i) bound = std::max(bound, std::abs(c[i] / c[n]));
-  bound += 1.0;
+  if (n == 2) {
+    double x0 = 0.0, x1 = 0.0;
+    const int k = Quadratic(c[2], c[1], c[0], &x0, &x1);
+    if (k == 0) return 0;
+    if (x0 > x1) std::swap(x0, x1);
+    roots[0] = x0;
+    if (k == 1 || x1 == x0) return 1;
+    roots[1] = x1;
+    return 2;
+  }
+  // Fujiwara's bound on |root|: 2 max |c[n-k] / c[n]|^(1/k), the last term halved (far
+  // tighter than Cauchy's, so the outer stretches need fewer safeguarded steps).
+  double bound = 0.0;
+  for (int k = 1; k <= n; ++k) {
+    const double r = std::abs(c[n - k] / c[n]) * (k == n ? 0.5 : 1.0);
+    bound = std::max(bound, k == 1 ? r : std::pow(r, 1.0 / k));
+  }
+  bound = 2.0 * bound * (1.0 + 1e-12) + 1e-300;
   std::array<double, 4> dc{};
   for (int i = 1; i <= n; ++i) dc[static_cast<std::size_t>(i - 1)] = i * c[i];
   std::array<double, 5> pts{};
@@ -400,15 +415,21 @@ int PolynomialRealRoots(const double* c, int n, double* roots) {
       continue;
     }
     if ((fa < 0.0) == (fb < 0.0) || fb == 0.0) continue;
-    double x = 0.5 * (a + b);
+    // Newton from the secant point, kept inside the shrinking bracket (bisection otherwise).
+    double x = a - fa * (b - a) / (fb - fa);
+    if (!(x > a && x < b)) x = 0.5 * (a + b);
+    const bool rising = fa < 0.0;
     for (int it = 0; it < limits::kMaxBisectionIterations; ++it) {
       const double f = Horner(c, n, x, &d);
       if (f == 0.0) break;
-      if ((f < 0.0) == (fa < 0.0)) a = x;
+      if ((f < 0.0) == rising) a = x;
       else b = x;
       double next = x - f / d;
       if (!(next > a && next < b)) next = 0.5 * (a + b);
-      const bool done = std::abs(next - x) <= 1e-15 * std::max(1.0, std::abs(x));
+      // (Near the root the rounding of f makes Newton jitter by more than an ulp: stop at
+      // 1e-13; the P3P polishes its depths on the distance equations afterwards.)
+      const double tol = 1e-13 * std::max(1.0, std::abs(x));
+      const bool done = std::abs(next - x) <= tol || b - a <= tol;
       x = next;
       if (done) break;
     }
