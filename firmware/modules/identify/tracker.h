@@ -122,12 +122,13 @@ struct TrackOptions {
   double chain_slack_rad = 0.02;
   int min_acquire_frames = 3;        // frame sets an unseeded acquisition must last (>= 2)
   // In maps of >= lis.fourth_blob_min_beacons beacons (smaller maps search each frame set
-  // completely, as their acquisition needs): work of every lost-in-space search of one frame
-  // set together, in units of a P3P solve with
-  // a 64-beacon map (a solve costs 1 + num_beacons / 64 units: its scoring grows with the
-  // map): ~12 ms on the host whatever the map, so that the 53.8 ms deadline of 18.6 Hz holds on
-  // a board a few times slower. A cut search is never a guess (kBudgetExhausted).
-  int lis_budget_per_frame = 9000;
+  // completely, as their acquisition needs): P3P hypotheses of every lost-in-space search of
+  // one frame set together, in units of a hypothesis (solve and scoring) in a map with facing
+  // data, about 5 us on the host whatever the map's size (without facing data a hypothesis
+  // costs more units, growing with the map: Tracker::HypothesisUnits): ~12.5 ms, so that the
+  // host's frame set stays under 15 ms and the 53.8 ms deadline of 18.6 Hz holds on a board a
+  // few times slower. A cut search is never a guess (kBudgetExhausted).
+  int lis_budget_per_frame = 2500;
   // With nothing to follow in a map of >= lis.fourth_blob_min_beacons beacons, one
   // lost-in-space search goes on over the frame sets of this span (each with its budget)
   // before it starts again on a newer one; a confirmed fix of the older frame set then seeds
@@ -265,6 +266,7 @@ class Tracker {
   void Accept(std::uint64_t t_ns, const TrackOptions& o, TrackResult* r);
   TrackStatus Lost(TrackReason why, TrackResult* r);
   LisStatus RunLis(const BlobObs* blobs, int num_blobs, const LisPrior* prior, const TrackOptions& o);
+  double HypothesisUnits() const;  // budget units of one hypothesis in this map
   int HypothesesLeft() const;  // of this frame set's budget (lis_budget_per_frame), >= 1
   void Charge(int hypotheses);
   LisStatus ColdSearch(const BlobObs* blobs, int num_blobs, std::uint64_t t_ns, const TrackOptions& o, bool* old);

@@ -286,43 +286,65 @@ TEST(NavMatrix, PaperSweepAtBlobLevelAcquiresThenFixesEveryFrameSet) {
 // fixes at frame sets 150, 3, 70, 36 (cylinder) and 0 (free-flight); posed after the first fix
 // 74-100 %; 0 wrong fixes in 669. (At ad4b26a, before lost-in-space learnt station maps, the
 // cylinder runs never fixed and free-flight fixed once.) Raise the floors as it improves.
+// The matrix of issue 13 reduced for CI (seeds 1-3 of 5, 300 frame sets of 600): both station
+// modules at 64, 128 and 256 beacons with facing data, free-flight, and one row without facing
+// data. Floors, not the requirements (lag <= 10, posed >= 99 %: docs/acquisition.md): never a
+// wrong fix; free-flight fixes, and at most one station run with facing data never fixes in
+// 300 frame sets (measured: cylinder 64 seed 3, 3.6 beacons in view on average); after the first
+// fix, the frame sets with >= 3 beacons in view carry a pose in >= 85 % of each row (pooled;
+// measured 91-100 %) and >= 50 % of each run.
 TEST(NavMatrix, ReducedMatrixNeverPublishesAWrongFix) {
-  MatrixSpec cyl;
-  cyl.presets = {"station-cylinder"};
-  cyl.counts = {64, 128};
-  cyl.seeds = {1, 2};
-  cyl.frames = 200;
-  cyl.facing = FacingMode::kYes;
-  MatrixSpec ff = cyl;
+  MatrixSpec stations;
+  stations.presets = {"station-cylinder", "station-box"};
+  stations.counts = {64, 128, 256};
+  stations.seeds = {1, 2, 3};
+  stations.frames = 300;
+  stations.facing = FacingMode::kYes;
+  MatrixSpec ff = stations;
   ff.presets = {"free-flight"};
-  ff.seeds = {1};
-  std::vector<RunSpec> runs = ExpandMatrix(cyl);
-  for (const RunSpec& r : ExpandMatrix(ff)) runs.push_back(r);
-  ASSERT_EQ(runs.size(), 5u);
+  ff.seeds = {1, 2};
+  MatrixSpec no_facing = stations;
+  no_facing.presets = {"station-cylinder"};
+  no_facing.counts = {128};
+  no_facing.seeds = {1, 2};
+  no_facing.facing = FacingMode::kNo;
+  std::vector<RunSpec> runs = ExpandMatrix(stations);
+  for (const MatrixSpec* m : {&ff, &no_facing})
+    for (const RunSpec& r : ExpandMatrix(*m)) runs.push_back(r);
+  ASSERT_EQ(runs.size(), 22u);
   const NavMatrixOptions o;
   const std::vector<RunResult> results = RunMatrix(runs, o, 2, nullptr);
   const MatrixLimits limits;
   const std::vector<MatrixRow> rows = Summarise(runs, results, limits);
   std::printf("%s", FormatMatrixTable(rows, limits, 1.0 / 18.6, o.slow_frame_s).c_str());
+  int never = 0;
   for (std::size_t i = 0; i < runs.size(); ++i) {
     const RunResult& r = results[i];
-    std::printf(
-        "%s %d seed %llu: in view %.1f, first >= 4 at %d, first fix at %d, posed %d/%d, fixes %d, degraded "
-        "%d, wrong %d/%d, worst fix %.1f mm %.3f deg, Step worst %.1f ms mean %.2f ms\n",
-        runs[i].preset.c_str(), runs[i].map_beacons, static_cast<unsigned long long>(runs[i].seed), r.mean_in_view,
-        r.first_in_view, r.first_fix, r.posed_after_fix, r.eligible_after_fix, r.fixes, r.degraded, r.wrong_fixes,
-        r.wrong_degraded, r.worst_fix_position_m * 1e3, RadToDeg(r.worst_fix_attitude_rad), r.worst_step_s * 1e3,
-        r.total_step_s * 1e3 / r.frames);
-    EXPECT_EQ(r.frames, 200);
-    EXPECT_GT(r.mean_in_view, 3.0) << runs[i].preset << " seed " << runs[i].seed;
-    EXPECT_EQ(r.wrong_fixes, 0) << runs[i].preset << " seed " << runs[i].seed;
-    // Floors (requirements: lag <= 10, posed >= 99 %).
-    EXPECT_GE(r.first_fix, 0) << runs[i].preset << " seed " << runs[i].seed;
-    EXPECT_GE(r.PosedShare(), 0.5) << runs[i].preset << " seed " << runs[i].seed;
+    const std::string what = runs[i].preset + " " + std::to_string(runs[i].map_beacons) + " seed " +
+                             std::to_string(runs[i].seed) + (runs[i].facing ? "" : " (no facing)");
+    std::printf("%s: in view %.1f, first >= 4 at %d, first fix at %d, posed %d/%d, fixes %d, degraded %d, wrong "
+                "%d/%d, worst fix %.1f mm %.3f deg, Step worst %.1f ms mean %.2f ms\n",
+                what.c_str(), r.mean_in_view, r.first_in_view, r.first_fix, r.posed_after_fix, r.eligible_after_fix,
+                r.fixes, r.degraded, r.wrong_fixes, r.wrong_degraded, r.worst_fix_position_m * 1e3,
+                RadToDeg(r.worst_fix_attitude_rad), r.worst_step_s * 1e3, r.total_step_s * 1e3 / r.frames);
+    EXPECT_EQ(r.frames, 300);
+    EXPECT_GT(r.mean_in_view, 3.0) << what;
+    EXPECT_EQ(r.wrong_fixes, 0) << what;
+    if (!runs[i].facing && runs[i].map_has_facing) continue;  // (reported, far from the requirement)
+    if (!runs[i].map_has_facing) {
+      EXPECT_GE(r.first_fix, 0) << what;
+    }
+    never += r.first_fix < 0;
+    if (r.first_fix >= 0) {
+      EXPECT_GE(r.PosedShare(), 0.5) << what;
+    }
   }
-  const RunResult& free_flight = results.back();
-  EXPECT_LT(free_flight.first_fix, 40);
-  EXPECT_GE(free_flight.PosedShare(), 0.9);
+  EXPECT_LE(never, 1);
+  for (const MatrixRow& row : rows) {
+    if (!row.facing && row.map_has_facing) continue;
+    ASSERT_GT(row.eligible, 0) << row.preset << " " << row.count;
+    EXPECT_GE(static_cast<double>(row.posed) / static_cast<double>(row.eligible), 0.85) << row.preset << " " << row.count;
+  }
 }
 
 }  // namespace
