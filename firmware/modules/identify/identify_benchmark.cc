@@ -78,6 +78,47 @@ void LostInSpaceFrame(benchmark::State& state, int beacons, int spurious) {
   state.counters["fix"] = res->status == LisStatus::kFix;
 }
 BENCHMARK_CAPTURE(LostInSpaceFrame, 3beacons, 3, 0)->Unit(benchmark::kMillisecond);
+
+// Lost-in-space against the map's size: a cylindrical module (4.2 m x 6 m, beacons facing
+// inward, 60 deg beams) with range(0) beacons, 16 random poses with >= 4 beacons in view, 0.2
+// px noise and range(1) spurious blobs per camera; each Identify gets one frame set's budget
+// (TrackOptions::lis_budget_per_frame hypotheses). Counters: hypotheses and blobs per frame
+// set, the share that fixed within it, and the CPU time per hypothesis (P3P solve and scoring).
+void LostInSpaceStation(benchmark::State& state) {
+  const int num_beacons = static_cast<int>(state.range(0));
+  const int spurious = static_cast<int>(state.range(1));
+  static Rig rig;
+  static auto lis = std::make_unique<LostInSpace>();
+  static auto res = std::make_unique<LisResult>();
+  static std::vector<testing::Scene> scenes;
+  std::mt19937_64 rng(900 + static_cast<std::uint64_t>(num_beacons));
+  rig = testing::RandomCylinderRig(num_beacons, true, &rng);
+  lis->Reset(rig);
+  scenes.assign(16, testing::Scene{});
+  for (auto& sc : scenes) {
+    do testing::Observe(rig, testing::RandomCylinderPose(&rng), 0.2, &rng, &sc);
+    while (sc.NumVisibleBeacons() < 4);
+    testing::AddSpurious(rig, spurious * rig.num_cameras, &rng, &sc);
+  }
+  LisOptions o;
+  o.max_hypotheses = TrackOptions{}.lis_budget_per_frame;
+  std::size_t i = 0;
+  double hypotheses = 0.0, fixes = 0.0, blobs = 0.0, frames = 0.0;
+  for (auto _ : state) {
+    const testing::Scene& sc = scenes[i++ % scenes.size()];
+    lis->Identify(sc.blobs.data(), sc.num_blobs, o, res.get());
+    hypotheses += res->hypotheses;
+    fixes += res->status == LisStatus::kFix;
+    blobs += sc.num_blobs;
+    frames += 1.0;
+  }
+  state.counters["hypotheses"] = hypotheses / frames;
+  state.counters["blobs"] = blobs / frames;
+  state.counters["fixed"] = fixes / frames;
+  state.counters["per_hypothesis"] =
+      benchmark::Counter(hypotheses, benchmark::Counter::kIsRate | benchmark::Counter::kInvert);
+}
+BENCHMARK(LostInSpaceStation)->Args({10, 2})->Args({64, 0})->Args({64, 2})->Args({256, 2})->Unit(benchmark::kMillisecond);
 BENCHMARK_CAPTURE(LostInSpaceFrame, 4beacons, 4, 0)->Unit(benchmark::kMillisecond);
 BENCHMARK_CAPTURE(LostInSpaceFrame, 5beacons, 5, 0)->Unit(benchmark::kMillisecond);
 BENCHMARK_CAPTURE(LostInSpaceFrame, 3beacons_2spurious, 3, 2)->Unit(benchmark::kMillisecond);

@@ -69,6 +69,7 @@ bool TrackOptions::IsValid(const char** why) const {
   else if (max_missing < 0) bad = "max_missing";
   else if (max_ambiguous_tried < 0 || max_ambiguous_tried > limits::kMaxAmbiguousMatches) bad = "max_ambiguous_tried";
   else if (!positive(ambiguity_chi2)) bad = "ambiguity_chi2";
+  else if (!(ambiguity_innovation_factor >= 1.0) || !std::isfinite(ambiguity_innovation_factor)) bad = "ambiguity_innovation_factor";
   else if (!positive(max_rms_px)) bad = "max_rms_px";
   else if (!positive(max_coast_s)) bad = "max_coast_s";
   else if (!positive(velocity_window_s)) bad = "velocity_window_s";
@@ -276,18 +277,22 @@ bool Tracker::TrackFrom(const BodyPose& predicted, double max_m, double max_rad,
   matcher_.MatchPose(predicted, MatchOptions{gate_px, o.miss_margin_px, true}, &base_, &ambiguous_);
   const int n = std::min(ambiguous_.num, o.max_ambiguous_tried);
   if (n > 0) ++counters_.ambiguous_tried;
-  int tried = 0, refutations = 0, consistent = 0;
+  int tried = 0, refutations = 0, consistent = 0, competitors = 0;
   for (std::uint32_t choice = 0; choice < (1U << n); ++choice) {
     if (!ChooseAmbiguous(choice, n) || set_.num_beacons < 3) continue;
     ++tried;
     bool trial_refuted = false;
-    if (!SolveTracked(predicted, max_m, max_rad, o, &trial_, &trial_refuted)) {
-      refutations += trial_refuted;
-      continue;
-    }
-    trial_poses_[static_cast<std::size_t>(consistent)] = trial_.pose;
-    trial_beacons_[static_cast<std::size_t>(consistent)] = trial_.matches.num_beacons;
-    trial_cost_[static_cast<std::size_t>(consistent)] = trial_.solve.cost;
+    double innovation = -1.0;
+    const bool ok = SolveTracked(predicted, max_m, max_rad, o, &trial_, &trial_refuted, &innovation);
+    refutations += trial_refuted;
+    // A trial the innovation test refused by a small factor still competes (the truth itself
+    // may lie just beyond the motion bounds: then the one inside them is not the truth).
+    if (!ok && !(n > 0 && innovation > 0.0 && innovation <= o.ambiguity_innovation_factor)) continue;
+    trial_poses_[static_cast<std::size_t>(competitors)] = trial_.pose;
+    trial_beacons_[static_cast<std::size_t>(competitors)] = trial_.matches.num_beacons;
+    trial_cost_[static_cast<std::size_t>(competitors)] = trial_.solve.cost;
+    ++competitors;
+    if (!ok) continue;
     const int nb = trial_.matches.num_beacons;
     const bool better = consistent == 0 || nb > r->matches.num_beacons ||
                         (nb == r->matches.num_beacons && trial_.solve.rms_px < r->solve.rms_px);
@@ -300,7 +305,7 @@ bool Tracker::TrackFrom(const BodyPose& predicted, double max_m, double max_rad,
   }
   *refuted = tried > 0 && refutations == tried;
   if (consistent == 0) return false;
-  if (!AgreeWith(*r, consistent, o)) {
+  if (!AgreeWith(*r, competitors, o)) {
     ++counters_.ambiguous_refused;
     return false;
   }
@@ -348,9 +353,12 @@ bool Tracker::AgreeWith(const TrackResult& best, int num_trials, const TrackOpti
 }
 
 // One trial: solve from the prediction with the identities in set_, then the innovation test.
+// *innovation: the solved pose's distance from the prediction over the allowed one (the larger
+// of position and attitude; > 1: refused), -1 when it did not solve.
 bool Tracker::SolveTracked(const BodyPose& predicted, double max_m, double max_rad, const TrackOptions& o,
-                           TrackResult* r, bool* refuted) {
+                           TrackResult* r, bool* refuted, double* innovation) {
   *refuted = false;
+  *innovation = -1.0;
   const TwinRegion region{&predicted, max_m, max_rad};
   if (!SolveAt(predicted, region, o, r)) {
     *refuted = r->matches.num_missing > o.max_missing || r->solve.rms_px > o.max_rms_px;
@@ -366,8 +374,9 @@ bool Tracker::SolveTracked(const BodyPose& predicted, double max_m, double max_r
     allow_m += o.gate_sigmas * scale * PositionSigma(r->solve.covariance);
     allow_rad += o.gate_sigmas * scale * AttitudeSigma(r->solve.covariance);
   }
-  if ((r->pose.r_w_wb - predicted.r_w_wb).norm() > allow_m ||
-      LogSO3(predicted.C_w_b.transpose() * r->pose.C_w_b).norm() > allow_rad) {
+  *innovation = std::max((r->pose.r_w_wb - predicted.r_w_wb).norm() / allow_m,
+                         LogSO3(predicted.C_w_b.transpose() * r->pose.C_w_b).norm() / allow_rad);
+  if (*innovation > 1.0) {
     ++counters_.innovation_refused;
     return false;
   }

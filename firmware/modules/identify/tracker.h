@@ -101,6 +101,10 @@ struct TrackOptions {
   // A trial with as many beacons whose chi-square exceeds the best's by more than this (25:
   // five sigmas) explains the blobs worse and does not count against it.
   double ambiguity_chi2 = 25.0;
+  // A trial refused by the innovation test by less than this factor (its distance from the
+  // prediction over the allowed one) still competes: the truth itself may lie just beyond the
+  // motion bounds (seen after a 1 s coast: the truth 1.2 times out, a reflection's pose inside).
+  double ambiguity_innovation_factor = 3.0;
   double max_coast_s = 2.0;          // tracking goes on this long without an accepted frame
   double max_seed_s = 5.0;           // and the last pose seeds re-acquisition this long
   // Degraded when:
@@ -250,7 +254,7 @@ class Tracker {
   bool TrackFrom(const BodyPose& predicted, double max_m, double max_rad, double gate_px, const TrackOptions& o,
                  TrackResult* r, bool* refuted);
   bool SolveTracked(const BodyPose& predicted, double max_m, double max_rad, const TrackOptions& o, TrackResult* r,
-                    bool* refuted);
+                    bool* refuted, double* innovation);
   bool ChooseAmbiguous(std::uint32_t choice, int n);
   bool AgreeWith(const TrackResult& best, int num_trials, const TrackOptions& o) const;
   bool SolveAt(const BodyPose& start, const TwinRegion& twin, const TrackOptions& o, TrackResult* r);
