@@ -78,6 +78,7 @@ bool TrackOptions::IsValid(const char** why) const {
   else if (!positive(max_seed_s)) bad = "max_seed_s";
   else if (fix_min_beacons < 3) bad = "fix_min_beacons";
   else if (!positive(degraded_rms_px)) bad = "degraded_rms_px";
+  else if (!positive(fix_rms_sigmas)) bad = "fix_rms_sigmas";
   else if (!positive(max_position_sigma_m)) bad = "max_position_sigma_m";
   else if (!positive(max_attitude_sigma_rad)) bad = "max_attitude_sigma_rad";
   else if (!positive(max_speed_m_s)) bad = "max_speed_m_s";
@@ -307,9 +308,28 @@ bool Tracker::TrackFrom(const BodyPose& predicted, double max_m, double max_rad,
   if (consistent == 0) return false;
   if (!AgreeWith(*r, competitors, o)) {
     ++counters_.ambiguous_refused;
+    ambiguity_refused_ = true;
     return false;
   }
   return true;
+}
+
+// A pose from re-identification took each beacon's nearest blob within a tight gate; a
+// reflection beside a beacon may have been taken instead, bending the pose (seen: a confirmed
+// seven-beacon fix 23 mm off, its residuals 0.14 px). The pose goes through tracking's trials
+// from itself, with hold_gate_px (reflections lie within tens of pixels) and bounds twin_m /
+// twin_rad: false when they disagree; otherwise *r is the best trial when one is consistent.
+bool Tracker::Unambiguous(const TrackOptions& o, TrackResult* r) {
+  const BodyPose found = r->pose;
+  bool refuted = false;
+  trial_result_.pose = r->pose;
+  if (TrackFrom(found, o.twin_m, o.twin_rad, o.hold_gate_px, o, &trial_result_, &refuted)) {
+    r->pose = trial_result_.pose;
+    r->matches = trial_result_.matches;
+    r->solve = trial_result_.solve;
+    return true;
+  }
+  return !ambiguity_refused_;
 }
 
 // set_ = the unambiguous matches plus, for ambiguous beacon i < n, its nearer blob (bit i of
@@ -620,7 +640,9 @@ void Tracker::Accept(std::uint64_t t_ns, const TrackOptions& o, TrackResult* r) 
   const double sigma_r = total * last_sigma_m_, sigma_a = total * last_sigma_rad_;
   r->status = TrackStatus::kDegraded;
   if (r->matches.num_beacons < o.fix_min_beacons) r->reason = TrackReason::kFewBeacons;
-  else if (r->solve.rms_px > o.degraded_rms_px) r->reason = TrackReason::kLargeResidual;
+  else if (r->solve.rms_px > o.degraded_rms_px ||
+           r->solve.rms_px > o.fix_rms_sigmas * std::hypot(o.solve.sigma_px, o.map_error_px))
+    r->reason = TrackReason::kLargeResidual;
   else if (!r->solve.has_covariance || sigma_r > o.max_position_sigma_m || sigma_a > o.max_attitude_sigma_rad)
     r->reason = TrackReason::kLargeCovariance;
   else {
@@ -649,6 +671,7 @@ TrackStatus Tracker::Lost(TrackReason why, TrackResult* r) {
 TrackStatus Tracker::Track(const BlobObs* blobs, int num_blobs, std::uint64_t t_ns, const TrackOptions& o,
                            TrackResult* r, std::uint32_t cameras) {
   cameras_ = cameras;
+  ambiguity_refused_ = false;
   // One budget for the frame set, also when a finished cold search seeds it again (TrackOnce).
   lis_budget_left_ = o.lis_budget_per_frame;
   const TrackStatus s = TrackOnce(blobs, num_blobs, t_ns, o, r);
@@ -773,7 +796,10 @@ TrackStatus Tracker::TrackOnce(const BlobObs* blobs, int num_blobs, std::uint64_
       chain_n_ = 0;
     }
   }
-  // 2. Re-identification.
+  // 2. Re-identification. Not when tracking found two poses near the prediction that explain
+  // the blobs equally well (a reflection beside a beacon): lost-in-space would face the same
+  // choice, with no motion model to weigh it (seen: confirmed fixes 23 mm off).
+  if (ambiguity_refused_) return Lost(TrackReason::kAmbiguous, r);
   if (num_blobs < 3) return Lost(has_seed_ ? TrackReason::kTooFewBeacons : TrackReason::kTooFewBlobs, r);
   r->lis_run = true;
   ++counters_.lis_runs;
@@ -826,6 +852,7 @@ TrackStatus Tracker::TrackOnce(const BlobObs* blobs, int num_blobs, std::uint64_
   if (r->lis_status == LisStatus::kFix && !use_prior) {
     set_ = lis_res_.matches;
     if (SolveAt(lis_res_.pose, TwinRegion{nullptr, o.twin_m, o.twin_rad}, o, r)) {
+      if (!Unambiguous(o, r)) return Lost(TrackReason::kAmbiguous, r);
       r->source = TrackSource::kLostInSpace;
       Accept(t_ns, o, r);
       ++counters_.by_status[static_cast<std::size_t>(r->status)];
@@ -837,6 +864,7 @@ TrackStatus Tracker::TrackOnce(const BlobObs* blobs, int num_blobs, std::uint64_
   if (r->lis_status == LisStatus::kFix || r->lis_status == LisStatus::kAmbiguous ||
       r->lis_status == LisStatus::kNoHypothesis) {
     if (Acquire(t_ns, o, r)) {
+      if (!Unambiguous(o, r)) return Lost(TrackReason::kAmbiguous, r);
       r->source = TrackSource::kAcquired;
       Accept(t_ns, o, r);
       ++counters_.by_status[static_cast<std::size_t>(r->status)];

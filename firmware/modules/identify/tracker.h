@@ -59,7 +59,7 @@ enum class TrackReason : unsigned char {
   kNone = 0,
   // kDegraded:
   kFewBeacons,       // fewer than fix_min_beacons beacons
-  kLargeResidual,    // residual RMS above degraded_rms_px
+  kLargeResidual,    // residual RMS above degraded_rms_px or fix_rms_sigmas of the noise
   kLargeCovariance,  // 1-sigma position or attitude above its bound
   // kLost:
   kTooFewBlobs,      // fewer than 3 blobs and nothing to track
@@ -110,6 +110,11 @@ struct TrackOptions {
   // Degraded when:
   int fix_min_beacons = 3;
   double degraded_rms_px = 1.0;
+  // ... or residual RMS above this many of the expected per-axis noise (hypot(solve.sigma_px,
+  // map_error_px)): the residuals are then not the noise the covariance assumes (seen: a
+  // reflection taken for a sixth beacon, 0.42 px RMS at 0.15 px noise, the pose 36 mm off with
+  // a 1 mm 1-sigma).
+  double fix_rms_sigmas = 2.5;
   double max_position_sigma_m = 0.05;
   double max_attitude_sigma_rad = 0.02;
   // Motion bounds. Speed and rate bound a held pose and the acquisition between frame sets;
@@ -257,6 +262,7 @@ class Tracker {
                     bool* refuted, double* innovation);
   bool ChooseAmbiguous(std::uint32_t choice, int n);
   bool AgreeWith(const TrackResult& best, int num_trials, const TrackOptions& o) const;
+  bool Unambiguous(const TrackOptions& o, TrackResult* r);
   bool SolveAt(const BodyPose& start, const TwinRegion& twin, const TrackOptions& o, TrackResult* r);
   bool NearbyTwin(const TwinRegion& region, const TrackOptions& o, const TrackResult* r);
   void PrepareChain(std::uint64_t t_ns, const TrackOptions& o);
@@ -289,7 +295,8 @@ class Tracker {
   // the best consistent trial and every consistent trial's pose.
   MatchSet base_;
   AmbiguityList ambiguous_;
-  TrackResult trial_;
+  bool ambiguity_refused_ = false;  // this frame set's trials disagreed
+  TrackResult trial_, trial_result_;
   static constexpr int kMaxTrials = 1 << limits::kMaxAmbiguousMatches;
   std::array<BodyPose, kMaxTrials> trial_poses_{};
   std::array<int, kMaxTrials> trial_beacons_{};

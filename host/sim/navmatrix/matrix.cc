@@ -191,17 +191,17 @@ std::vector<RunResult> RunMatrix(const std::vector<RunSpec>& runs, const NavMatr
 std::string FormatTraceCsv(const std::vector<RunSpec>& runs, const std::vector<std::vector<FrameRecord>>& traces) {
   std::string out =
       "preset,count,facing,seed,frame,in_view,blobs,status,reason,source,beacons,position_error_mm,"
-      "attitude_error_deg,position_sigma_mm,step_ms\n";
+      "attitude_error_deg,position_sigma_mm,rms_px,wrong_ids,step_ms\n";
   char line[512];
   for (std::size_t i = 0; i < runs.size() && i < traces.size(); ++i) {
     const RunSpec& r = runs[i];
     for (std::size_t k = 0; k < traces[i].size(); ++k) {
       const FrameRecord& f = traces[i][k];
-      std::snprintf(line, sizeof line, "%s,%d,%s,%llu,%zu,%d,%d,%s,%s,%s,%d,%.3f,%.4f,%.3f,%.3f\n", r.preset.c_str(),
+      std::snprintf(line, sizeof line, "%s,%d,%s,%llu,%zu,%d,%d,%s,%s,%s,%d,%.3f,%.4f,%.3f,%.3f,%d,%.3f\n", r.preset.c_str(),
                     r.map_beacons, r.map_has_facing ? (r.facing ? "yes" : "no") : "none",
                     static_cast<unsigned long long>(r.seed), k, f.in_view, f.num_blobs, fw::ToString(f.status),
                     fw::ToString(f.reason), fw::ToString(f.source), f.num_beacons, f.position_error_m * 1e3,
-                    RadToDeg(f.attitude_error_rad), f.position_sigma_m * 1e3, f.step_s * 1e3);
+                    RadToDeg(f.attitude_error_rad), f.position_sigma_m * 1e3, f.rms_px, f.wrong_ids, f.step_s * 1e3);
       out += line;
     }
   }

@@ -57,7 +57,8 @@ std::vector<RunResult> RunMatrix(const std::vector<RunSpec>& runs, const NavMatr
 
 // The frame records of every run as CSV (a header, then one row per frame set: the run's preset,
 // count, facing and seed, the frame set, truth in view, blobs, the published status, reason,
-// source and beacons, the errors in mm and deg, the published 1-sigma in mm, Step in ms), for
+// source, beacons, residual RMS and wrong identities (against the simulation), the errors in mm and deg, the published 1-sigma in mm, Step
+// in ms), for
 // finding where a run loses its track.
 std::string FormatTraceCsv(const std::vector<RunSpec>& runs, const std::vector<std::vector<FrameRecord>>& traces);
 

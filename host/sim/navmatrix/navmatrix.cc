@@ -85,6 +85,7 @@ FrameRecord RecordFrame(int in_view, const fw::NavOutput& out, const BodyPose& t
   f.reason = out.reason;
   f.source = out.source;
   f.num_beacons = out.num_beacons;
+  f.rms_px = out.rms_px;
   f.step_s = step_s;
   if (out.status == fw::NavStatus::kLost) return f;
   f.position_error_m = (out.pose.r_w_wb - truth.r_w_wb).norm();
@@ -130,6 +131,12 @@ RunResult RunNavigation(const Scenario& s, const NavMatrixOptions& o, std::vecto
     const std::chrono::duration<double> step = std::chrono::steady_clock::now() - start;
     frames.push_back(RecordFrame(b.NumVisible(), run->out, f.pose, step.count()));
     frames.back().num_blobs = static_cast<int>(b.blobs.size());
+    if (run->out.status != fw::NavStatus::kLost)
+      for (int i = 0; i < run->out.num_matches; ++i) {
+        const fw::Match& m = run->out.matches[static_cast<std::size_t>(i)];
+        frames.back().wrong_ids += m.blob < 0 || m.blob >= static_cast<int>(b.beacon.size()) ||
+                                   b.beacon[static_cast<std::size_t>(m.blob)] != m.beacon;
+      }
   }
   RunResult r = ScoreRun(frames, 1.0 / s.frame_rate_hz, o);
   r.counters = run->navigator.counters();

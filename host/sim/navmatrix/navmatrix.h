@@ -49,6 +49,8 @@ struct FrameRecord {
   fw::NavReason reason = fw::NavReason::kNoFrames;  // as published
   fw::TrackSource source = fw::TrackSource::kNone;
   int num_beacons = 0;  // beacons the published pose used
+  double rms_px = 0.0;  // its residual RMS
+  int wrong_ids = 0;    // its matches whose blob is not that beacon (a spurious blob or another beacon)
   // When not lost: |r_est - r_true| (m), the angle of C_true^T C_est (rad), and the published
   // largest per-axis position 1-sigma (m; sqrt of the largest of covariance(0..2, 0..2)'s
   // diagonal, the tracker's PositionSigma).
