@@ -266,31 +266,16 @@ void P3pOneHypothesis(benchmark::State& state) {
 BENCHMARK(P3pOneHypothesis)->Unit(benchmark::kMicrosecond);
 
 // Lost-in-space sets the ray triple once per blob triple and solves it for many beacon triples.
-void P3pSolveOnly(benchmark::State& state) {
-  const Rig& rig = PaperRigOnce();
-  const P3pCase c = OneCameraP3pCase();
-  static P3pRayTriple triple;
-  static std::array<BodyPose, limits::kMaxP3pSolutions> poses;
-  triple.Set({RayOfBlob(rig, c.blobs[0]), RayOfBlob(rig, c.blobs[1]), RayOfBlob(rig, c.blobs[2])}, P3pOptions{});
-  int n = 0;
-  for (auto _ : state) {
-    n = triple.Solve(c.P_w, &poses);
-    benchmark::DoNotOptimize(poses[0].r_w_wb.data());
-  }
-  state.counters["solutions"] = n;
-}
-BENCHMARK(P3pSolveOnly)->Unit(benchmark::kMicrosecond);
-
-// The same rays with their origins 1e-9 m apart: the general (multi-camera) scan instead of the
-// central closed form, the cost of a cross-camera hypothesis.
-void P3pSolveOnlyGeneralScan(benchmark::State& state) {
+// separate_m > 0 moves rays 2 and 3's origins that far apart: the general (multi-camera) scan
+// instead of the central closed form, the cost of a cross-camera hypothesis.
+void P3pSolveOnly(benchmark::State& state, double separate_m) {
   const Rig& rig = PaperRigOnce();
   const P3pCase c = OneCameraP3pCase();
   static P3pRayTriple triple;
   static std::array<BodyPose, limits::kMaxP3pSolutions> poses;
   std::array<BodyRay, 3> rays = {RayOfBlob(rig, c.blobs[0]), RayOfBlob(rig, c.blobs[1]), RayOfBlob(rig, c.blobs[2])};
-  rays[1].o_b.x() += 1e-9;
-  rays[2].o_b.y() += 1e-9;
+  rays[1].o_b.x() += separate_m;
+  rays[2].o_b.y() += separate_m;
   triple.Set(rays, P3pOptions{});
   int n = 0;
   for (auto _ : state) {
@@ -299,7 +284,8 @@ void P3pSolveOnlyGeneralScan(benchmark::State& state) {
   }
   state.counters["solutions"] = n;
 }
-BENCHMARK(P3pSolveOnlyGeneralScan)->Unit(benchmark::kMicrosecond);
+BENCHMARK_CAPTURE(P3pSolveOnly, central, 0.0)->Unit(benchmark::kMicrosecond);
+BENCHMARK_CAPTURE(P3pSolveOnly, general_scan, 1e-9)->Unit(benchmark::kMicrosecond);
 
 #ifdef MFNS_HAVE_OPENCV
 // Baseline: OpenCV's P3P (Gao et al., with undistortion of the three pixels) on the same case.
