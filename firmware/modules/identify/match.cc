@@ -77,7 +77,7 @@ bool BeaconMatcher::Predict(int k, const BodyPose& pose, const Eigen::Vector3d& 
 
 void BeaconMatcher::MatchPose(const BodyPose& pose, const MatchOptions& o, MatchSet* out,
                               AmbiguityList* ambiguous) const {
-  if (ambiguous != nullptr) ambiguous->num = ambiguous->num_dropped = 0;
+  if (ambiguous != nullptr) ambiguous->num = 0;
   out->num_matches = 0;
   out->beacons.Reset();
   out->num_beacons = 0;
@@ -126,12 +126,9 @@ void BeaconMatcher::MatchPose(const BodyPose& pose, const MatchOptions& o, Match
       }
       if (j1 < 0 || d1 > gate_sq) continue;
       if (o.reject_ambiguous && j2 >= 0 && d2 <= gate_sq) {
-        if (ambiguous == nullptr) continue;
-        if (ambiguous->num < limits::kMaxAmbiguousMatches)
+        if (ambiguous != nullptr && ambiguous->num < limits::kMaxAmbiguousMatches)
           ambiguous->items[static_cast<std::size_t>(ambiguous->num++)] =
               AmbiguousMatch{k, m, index_[sk][static_cast<std::size_t>(j1)], index_[sk][static_cast<std::size_t>(j2)]};
-        else
-          ++ambiguous->num_dropped;
         continue;
       }
       cand[static_cast<std::size_t>(n_cand++)] = Candidate{d1, m, j1};

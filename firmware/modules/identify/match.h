@@ -92,7 +92,7 @@ bool Compatible(const MatchList<kA>& a, const MatchList<kB>& b, int* shared) {
 }
 
 // Beacons with a second blob inside the gate (up to limits::kMaxAmbiguousMatches; the rest are
-// counted in num_dropped): MatchPose with reject_ambiguous leaves them out and lists them here,
+// left out, unmatched): MatchPose with reject_ambiguous leaves them out and lists them here,
 // so that the tracker can try either blob.
 struct AmbiguousMatch {
   int camera = 0;
@@ -102,7 +102,6 @@ struct AmbiguousMatch {
 };
 struct AmbiguityList {
   int num = 0;
-  int num_dropped = 0;
   std::array<AmbiguousMatch, limits::kMaxAmbiguousMatches> items{};
 };
 

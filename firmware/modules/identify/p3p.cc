@@ -490,15 +490,10 @@ int P3pRayTriple::SolveCentral(const std::array<Eigen::Vector3d, 3>& P_w,
       if (s(0) < options_.min_depth_m || s(0) > options_.max_depth_m || s(1) < options_.min_depth_m ||
           s(2) < options_.min_depth_m)
         continue;
-      bool seen = false;  // both branches may polish onto one solution
-      for (int j = 0; j < count && !seen; ++j)
-        seen = depths != nullptr ? ((*depths)[static_cast<std::size_t>(j)] - s).norm() <= 1e-9 * s.norm()
-                                 : false;
-      if (seen) continue;
       const std::array<Eigen::Vector3d, 3> q = {o + s(0) * y[0], o + s(1) * y[1], o + s(2) * y[2]};
       BodyPose pose;
       if (!TriangleOrientation(q, P_w, &pose)) continue;
-      bool same = false;
+      bool same = false;  // both branches may polish onto one solution
       for (int j = 0; j < count && !same; ++j) {
         const BodyPose& p = (*poses)[static_cast<std::size_t>(j)];
         same = (p.r_w_wb - pose.r_w_wb).norm() <= 1e-9 * (1.0 + pose.r_w_wb.norm()) &&

@@ -320,10 +320,8 @@ bool Tracker::TrackFrom(const BodyPose& predicted, double max_m, double max_rad,
 // from itself, with hold_gate_px (reflections lie within tens of pixels) and bounds twin_m /
 // twin_rad: false when they disagree; otherwise *r is the best trial when one is consistent.
 bool Tracker::Unambiguous(const TrackOptions& o, TrackResult* r) {
-  const BodyPose found = r->pose;
   bool refuted = false;
-  trial_result_.pose = r->pose;
-  if (TrackFrom(found, o.twin_m, o.twin_rad, o.hold_gate_px, o, &trial_result_, &refuted)) {
+  if (TrackFrom(r->pose, o.twin_m, o.twin_rad, o.hold_gate_px, o, &trial_result_, &refuted)) {
     r->pose = trial_result_.pose;
     r->matches = trial_result_.matches;
     r->solve = trial_result_.solve;
