@@ -60,6 +60,8 @@ class Navigator {
   // The pose of the last Step, when it was not lost (fix or degraded).
   bool LastPose(BodyPose* pose) const;
   const TrackCounters& counters() const { return tracker_.counters(); }
+  // The tracker's outcome of the last Step (diagnostics: lost-in-space status, followed poses).
+  const TrackResult& last_track() const { return result_; }
 
  private:
   NavigatorOptions options_;

@@ -370,9 +370,10 @@ BeaconSet LostInSpace::PriorBeacons(int i) const {
 // the beacons it allows for each blob. Computed on first use in an Identify.
 const std::array<BeaconSet, limits::kMaxBeacons>& LostInSpace::Feasible(int i, int j) {
   const auto pi = static_cast<std::size_t>(PairIndex(i, j));
-  auto& f = feasible_[pi];
-  if (feasible_done_[pi]) return f;
-  feasible_done_[pi] = true;
+  const auto range = static_cast<std::size_t>(near_ ? 1 : 0);
+  auto& f = feasible_[range][pi];
+  if (feasible_done_[range][pi]) return f;
+  feasible_done_[range][pi] = true;
   const int nb = rig_->num_beacons;
   const BodyRay& ri = rays_[static_cast<std::size_t>(i)];
   const BodyRay& rj = rays_[static_cast<std::size_t>(j)];
@@ -407,28 +408,42 @@ const std::array<BeaconSet, limits::kMaxBeacons>& LostInSpace::Feasible(int i, i
   return f;
 }
 
-// Blob triples, most compact first: a same-camera triple by its largest ray angle (fewer beacon
-// pairs are seen under a small angle, so its candidate list is short), cross-camera triples
-// after them in the order of selection (brightest first).
-void LostInSpace::OrderTriples() {
-  num_triples_ = 0;
+// The search's work list: every blob triple over the near depth range (when below the full
+// one) and over the full range. Same-camera triples first, near range then full, then the
+// cross-camera ones likewise: a same-camera triple's ray angles prune its beacon triples (the
+// co-visibility table) and its solve is closed-form, while a cross-camera pair is pruned by its
+// distance only and its solve scans (checked on 150 views of station maps: the true triple is
+// reached after 2-4x fewer solves than when each triple's two ranges follow one another, or
+// when triples are ordered by their expected number of beacon triples). Within a group, a
+// same-camera triple by its largest ray angle (fewer beacon pairs are seen under a small
+// angle), a cross-camera one in the order of selection (brightest first).
+void LostInSpace::OrderItems(bool near_pass) {
+  num_items_ = 0;
+  int t = 0;
+  const auto& d = [&](int x) { return rays_[static_cast<std::size_t>(x)].d_b; };
   for (int k = 2; k < num_sel_; ++k)
     for (int j = 1; j < k; ++j)
-      for (int i = 0; i < j; ++i) {
+      for (int i = 0; i < j; ++i, ++t) {
+        triples_[static_cast<std::size_t>(t)] =
+            Triple{static_cast<std::uint8_t>(i), static_cast<std::uint8_t>(j), static_cast<std::uint8_t>(k)};
         const int ci = blobs_[sel_[static_cast<std::size_t>(i)]].camera;
         const bool same = ci == blobs_[sel_[static_cast<std::size_t>(j)]].camera &&
                           ci == blobs_[sel_[static_cast<std::size_t>(k)]].camera;
-        const auto& d = [&](int x) { return rays_[static_cast<std::size_t>(x)].d_b; };
         const double widest = std::max({std::acos(std::clamp(d(i).dot(d(j)), -1.0, 1.0)),
                                         std::acos(std::clamp(d(i).dot(d(k)), -1.0, 1.0)),
                                         std::acos(std::clamp(d(j).dot(d(k)), -1.0, 1.0))});
-        const float key = same ? static_cast<float>(widest) : static_cast<float>(10.0 + num_triples_);
-        triples_[static_cast<std::size_t>(num_triples_++)] =
-            Triple{static_cast<std::uint8_t>(i), static_cast<std::uint8_t>(j), static_cast<std::uint8_t>(k), key};
+        for (const bool near : {true, false}) {
+          if (near && !near_pass) continue;
+          const int group = (same ? 0 : 2) + (near ? 0 : 1);
+          items_[static_cast<std::size_t>(num_items_++)] =
+              Item{static_cast<std::uint16_t>(t), near, group, static_cast<float>(same ? widest : t)};
+        }
       }
-  std::sort(triples_.begin(), triples_.begin() + num_triples_, [](const Triple& a, const Triple& b) {
-    return a.key < b.key || (a.key == b.key && (a.k < b.k || (a.k == b.k && (a.j < b.j || (a.j == b.j && a.i < b.i)))));
+  // (std::sort with the index as tie-break: deterministic, and no heap.)
+  std::sort(items_.begin(), items_.begin() + num_items_, [](const Item& a, const Item& b) {
+    return a.group < b.group || (a.group == b.group && (a.key < b.key || (a.key == b.key && a.t < b.t)));
   });
+  near_done_.fill(false);
 }
 
 // Visits blob triples and their feasible beacon triples from the cursor on; at most `budget`
@@ -436,27 +451,14 @@ void LostInSpace::OrderTriples() {
 // next hypothesis, so that a paused search resumes exactly where it stopped.
 LostInSpace::SearchEnd LostInSpace::Search(int budget, LisResult* res) {
   int spent = 0;
-  for (; cur_.pass < num_passes_; ++cur_.pass, cur_.t = 0, cur_.a = 0, cur_.b = cur_.c = -1, cur_.ready = false) {
-    SetPass(cur_.pass);
-    // The near pass gets half of the search's hypotheses, the full range the rest.
-    const bool last = cur_.pass + 1 == num_passes_;
-    const int limit = last ? options_.max_hypotheses : options_.max_hypotheses / 2;
-    const SearchEnd end = SearchPass(budget, limit, &spent, res);
-    if (end == SearchEnd::kPaused || (end == SearchEnd::kDone && res->confirmed)) return end;
-    if (end == SearchEnd::kBudgetOut && last) return end;
-  }
-  return SearchEnd::kDone;
-}
-
-// The current pass from the cursor on, until `limit` hypotheses in all (kBudgetOut), `budget`
-// in this call (kPaused), a confirmed pose or the last triple (kDone).
-LostInSpace::SearchEnd LostInSpace::SearchPass(int budget, int limit, int* spent, LisResult* res) {
   const int nb = rig_->num_beacons;
-  for (; cur_.t < num_triples_; ++cur_.t, cur_.a = 0, cur_.b = cur_.c = -1, cur_.ready = false) {
-    const Triple& tr = triples_[static_cast<std::size_t>(cur_.t)];
+  for (; cur_.item < num_items_; ++cur_.item, cur_.a = 0, cur_.b = cur_.c = -1, cur_.ready = false) {
+    const Item& item = items_[static_cast<std::size_t>(cur_.item)];
+    const Triple& tr = triples_[item.t];
     cur_i_ = tr.i;
     cur_j_ = tr.j;
     cur_k_ = tr.k;
+    SetRange(item.near);
     if (!cur_.ready) {
       ++res->blob_triples;
       triple_.Set({rays_[tr.i], rays_[tr.j], rays_[tr.k]}, p3p_);
@@ -465,6 +467,8 @@ LostInSpace::SearchEnd LostInSpace::SearchPass(int budget, int limit, int* spent
     const auto& fij = Feasible(tr.i, tr.j);
     const auto& fik = Feasible(tr.i, tr.k);
     const auto& fjk = Feasible(tr.j, tr.k);
+    // Over the full range, the beacon triples its near item already tried are skipped.
+    const bool skip_near = !item.near && near_done_[item.t];
     for (; cur_.a < nb; ++cur_.a, cur_.b = cur_.c = -1) {
       const int a = cur_.a;
       const BeaconSet& bs = fij[static_cast<std::size_t>(a)];
@@ -473,32 +477,43 @@ LostInSpace::SearchEnd LostInSpace::SearchPass(int budget, int limit, int* spent
         BeaconSet cs = fik[static_cast<std::size_t>(a)] & fjk[static_cast<std::size_t>(b)];
         cs.Clear(a);
         cs.Clear(b);
+        if (skip_near && NearPairTried(tr, a, b)) cs = cs.Minus(NearThirds(tr, a, b));
         for (int c = cur_.c < 0 ? cs.First() : cur_.c; c >= 0; c = cs.Next(c + 1)) {
           cur_.c = c;
-          if (res->hypotheses >= limit) return SearchEnd::kBudgetOut;
-          if (*spent >= budget) return SearchEnd::kPaused;
-          ++*spent;
+          if (res->hypotheses >= options_.max_hypotheses) return SearchEnd::kBudgetOut;
+          if (spent >= budget) return SearchEnd::kPaused;
+          ++spent;
           ++res->hypotheses;
           TryTriple(a, b, c, res);
           if (res->confirmed) return SearchEnd::kDone;
         }
       }
     }
+    if (item.near) near_done_[item.t] = true;
   }
   return SearchEnd::kDone;
 }
 
-// Pass 0 pairs beacons as if within near_depth_m of the cameras (when that is below the full
-// range): in a dense map many beacons are that near, and the short range prunes beacon pairs
-// by their distance; the last pass covers the full range. (The solver's scan keeps the full
-// range: a triple of near pairs may still have a beacon beyond it.) Changing the range
-// invalidates the pair bits.
-void LostInSpace::SetPass(int pass) {
-  const double max_m = pass + 1 < num_passes_ ? std::min(p3p_.max_depth_m, options_.near_depth_m) : p3p_.max_depth_m;
-  if (max_m == p3p_max_m_ && p3p_.min_depth_m == p3p_min_m_) return;
+// Whether the near item of triple tr had beacons (a, b) on its first pair, and the third
+// beacons it tried with them (its pair bits are kept beside the full range's).
+bool LostInSpace::NearPairTried(const Triple& tr, int a, int b) const {
+  const auto pi = static_cast<std::size_t>(PairIndex(tr.i, tr.j));
+  return feasible_done_[1][pi] && feasible_[1][pi][static_cast<std::size_t>(a)].Has(b);
+}
+
+BeaconSet LostInSpace::NearThirds(const Triple& tr, int a, int b) const {
+  return feasible_[1][static_cast<std::size_t>(PairIndex(tr.i, tr.k))][static_cast<std::size_t>(a)] &
+         feasible_[1][static_cast<std::size_t>(PairIndex(tr.j, tr.k))][static_cast<std::size_t>(b)];
+}
+
+// The near range pairs beacons as if within near_depth_m of the cameras (when that is below
+// the full range): in a dense map many beacons are that near, and the short range prunes
+// beacon pairs by their distance. (The solver's scan keeps the full range: a triple of near
+// pairs may still have a beacon beyond it.) Each range keeps its own pair bits.
+void LostInSpace::SetRange(bool near) {
+  near_ = near;
   p3p_min_m_ = p3p_.min_depth_m;
-  p3p_max_m_ = max_m;
-  feasible_done_.fill(false);
+  p3p_max_m_ = near ? near_max_m_ : p3p_.max_depth_m;
 }
 
 // One hypothesis: the P3P poses of beacons (a, b, c) along the current rays, scored when they
@@ -570,14 +585,14 @@ LisStatus LostInSpace::Begin(const BlobObs* blobs, int num_blobs, const LisOptio
   num_blobs_ = num_blobs;
   matcher_.SetBlobs(blobs_, num_blobs, cameras);
   SelectBlobs(o);
-  p3p_min_m_ = p3p_max_m_ = -1.0;  // SetPass sets them
-  num_passes_ = o.near_depth_m > 0.0 && o.near_depth_m < p3p_.max_depth_m && o.near_depth_m > p3p_.min_depth_m ? 2 : 1;
+  const bool near_pass = o.near_depth_m > 0.0 && o.near_depth_m < p3p_.max_depth_m && o.near_depth_m > p3p_.min_depth_m;
+  near_max_m_ = near_pass ? o.near_depth_m : p3p_.max_depth_m;
   pair_tol_m_ = o.pair_tolerance_m;
   pair_tol_rad_ = o.pair_angle_tolerance_rad;
   fourth_cos_sq_ = static_cast<float>(std::cos(o.fourth_blob_max_rad) * std::cos(o.fourth_blob_max_rad));
   for (int i = 0; i < num_sel_; ++i) allowed_[static_cast<std::size_t>(i)] = PriorBeacons(i);
-  feasible_done_.fill(false);
-  OrderTriples();
+  for (auto& done : feasible_done_) done.fill(false);
+  OrderItems(near_pass);
   cur_ = Cursor{};
   searching_ = true;
   return res.status = LisStatus::kSearching;

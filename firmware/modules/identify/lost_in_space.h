@@ -10,11 +10,16 @@
 //    the workspace (facing them both, when the rig has facing data): Reset samples the
 //    workspace for it (the co-visibility table). With unknown depths the distance test alone
 //    prunes nothing for a same-camera pair; the table is what makes large maps searchable.
-//    The bits are computed for a blob pair when a triple first needs them.
-// 3. Blob triples are visited most compact first: same-camera triples by their largest ray
-//    angle (the smaller, the fewer beacon pairs are seen under it), then the others; for
-//    each, every ordered beacon triple whose three pairs are feasible goes through the
-//    generalized three-point solver (p3p.h), at most max_hypotheses times per frame set.
+//    The bits are computed for a blob pair when a triple first needs them, for two depth
+//    ranges: the full one and a near one (within near_depth_m, which prunes beacon pairs by
+//    their distance in a dense map).
+// 3. Work items, a blob triple over one range, are visited in four groups: same-camera
+//    triples over the near range, then over the full range, then the cross-camera ones
+//    likewise (a same-camera triple is cheap: its angles prune, its solve is closed-form);
+//    same-camera triples by their largest ray angle (the smaller, the fewer beacon pairs are
+//    seen under it). For each item, every ordered beacon triple whose three pairs are feasible
+//    (and, over the full range, not already tried over the near one) goes through the
+//    generalized three-point solver (p3p.h), at most max_hypotheses times per search.
 // 4. Solution poses outside the workspace box are refused; the others are scored by
 //    reprojecting the whole beacon map with visibility (match.h): matched blobs minus
 //    miss_weight per beacon predicted well inside an image with no blob there. The best
@@ -38,7 +43,7 @@
 // either they share four identities or they lie within same_pose_m / same_pose_rad of each
 // other (three identities alone leave the P3P's discrete ambiguity).
 //
-// Memory: one object (about 2.0 MB at 256 beacons: pair bits 1 MB, co-visibility table 0.5 MB,
+// Memory: one object (about 3.0 MB at 256 beacons: pair bits 2 MB, co-visibility table 0.5 MB,
 // distances 0.25 MB, a copy of the blobs) holds every buffer; construct it at start (static or
 // reserved), Reset() it with the rig, then Identify() never allocates.
 #pragma once
@@ -89,8 +94,8 @@ struct LisOptions {
   // sees a beacon within fourth_blob_max_rad of its ray (its list of three-beacon poses could
   // never be complete, nor a three-beacon pose a fix).
   int fourth_blob_min_beacons = 32;
-  // A first pass, with half of max_hypotheses, pairs beacons as if within this depth of the
-  // cameras (<= 0: no such pass; see SetPass).
+  // Each blob triple is also searched with beacons paired as if within this depth of the
+  // cameras, a cheaper work item visited earlier (<= 0: no such items; see SetRange).
   double near_depth_m = 1.0;
   double fourth_blob_max_rad = 0.015;
   double max_rms_px = 2.0;        // refined residual RMS of a consistent pose
@@ -186,19 +191,23 @@ class LostInSpace {
     double rms_px = 0.0;
     bool refined = false;
   };
+  struct Triple {
+    std::uint8_t i, j, k;  // selected-blob indices, i < j < k
+  };
   void SelectBlobs(const LisOptions& o);
   BeaconSet PriorBeacons(int i) const;
   void CoVisibilityTable();
   void SampleCoVisibility(const Eigen::Vector3d& p, double min_depth_m);
-  void OrderTriples();
-  const std::array<BeaconSet, limits::kMaxBeacons>& Feasible(int i, int j);  // i < j, lazily
+  void OrderItems(bool near_pass);
+  const std::array<BeaconSet, limits::kMaxBeacons>& Feasible(int i, int j);  // i < j, lazily, current range
+  bool NearPairTried(const Triple& tr, int a, int b) const;
+  BeaconSet NearThirds(const Triple& tr, int a, int b) const;
   void Confirm(Candidate* c, const LisOptions& o, LisResult* result);
   bool ExplainsAFourth(const BodyPose& pose, int t_i, int t_j, int t_k, float cos_sq) const;
   enum class SearchEnd : unsigned char { kDone, kPaused, kBudgetOut };
   SearchEnd Search(int budget, LisResult* result);
   void TryTriple(int a, int b, int c, LisResult* result);
-  void SetPass(int pass);
-  SearchEnd SearchPass(int budget, int limit, int* spent, LisResult* result);
+  void SetRange(bool near);
   void Score(const BodyPose& pose, const LisOptions& o, LisResult* result);
   bool Refine(Candidate* c, const LisOptions& o);
   bool SamePose(const Candidate& a, const Candidate& b, const LisOptions& o) const;
@@ -214,7 +223,9 @@ class LostInSpace {
   // Co-visibility table: cosines of the smallest and largest angle under which beacons (a, b),
   // a < b, are seen together from a sampled workspace point (both facing it); > 1.5: never.
   std::array<std::array<float, limits::kMaxBeacons>, limits::kMaxBeacons> cos_min_angle_{}, cos_max_angle_{};
-  double p3p_min_m_ = 0.1, p3p_max_m_ = 1.0;   // this Identify's depth range
+  double p3p_min_m_ = 0.1, p3p_max_m_ = 1.0;   // the current range's depths
+  bool near_ = false;                          // the current range is the near one
+  double near_max_m_ = 1.0;                    // its far end
   double pair_tol_m_ = 0.0, pair_tol_rad_ = 0.0;
   double image_area_px2_ = 1.0;
   std::array<float, limits::kMaxBeacons> beacon_x_{}, beacon_y_{}, beacon_z_{};  // SoA, world
@@ -224,12 +235,11 @@ class LostInSpace {
   std::array<BlobObs, limits::kMaxObservations> own_blobs_{};
   LisOptions options_;
   P3pOptions p3p_;
-  int num_passes_ = 1;
   bool searching_ = false;
-  // The next hypothesis of a paused search: triple t, beacons (a, b, c) (-1: the set's first).
+  // The next hypothesis of a paused search: work item `item`, beacons (a, b, c) (-1: the set's first).
   struct Cursor {
-    int pass = 0, t = 0, a = 0, b = -1, c = -1;
-    bool ready = false;  // triple_ holds triple t's rays
+    int item = 0, a = 0, b = -1, c = -1;
+    bool ready = false;  // triple_ holds the item's rays
   };
   Cursor cur_;
   int num_blobs_ = 0;
@@ -238,18 +248,24 @@ class LostInSpace {
   int num_sel_ = 0;
   std::array<int, limits::kMaxLisBlobs> sel_{};  // selected blob indices
   std::array<BodyRay, limits::kMaxLisBlobs> rays_{};
-  // feasible_[pair(i, j)][a]: bit b set when beacons (a, b) may be seen along rays (i, j).
+  // feasible_[range][pair(i, j)][a]: bit b set when beacons (a, b) may be seen along rays (i, j)
+  // (range 0: the full depth range, 1: the near one).
   static constexpr int kMaxPairs = limits::kMaxLisBlobs * (limits::kMaxLisBlobs - 1) / 2;
-  std::array<std::array<BeaconSet, limits::kMaxBeacons>, kMaxPairs> feasible_{};
-  std::array<bool, kMaxPairs> feasible_done_{};
+  std::array<std::array<std::array<BeaconSet, limits::kMaxBeacons>, kMaxPairs>, 2> feasible_{};
+  std::array<std::array<bool, kMaxPairs>, 2> feasible_done_{};
   std::array<BeaconSet, limits::kMaxLisBlobs> allowed_{};  // per selected blob (prior)
   static constexpr int kMaxTriples = limits::kMaxLisBlobs * (limits::kMaxLisBlobs - 1) * (limits::kMaxLisBlobs - 2) / 6;
-  struct Triple {
-    std::uint8_t i, j, k;  // selected-blob indices, i < j < k
-    float key;             // visiting order, smallest first
-  };
   std::array<Triple, kMaxTriples> triples_{};
-  int num_triples_ = 0;
+  std::array<bool, kMaxTriples> near_done_{};  // the triple's near item is done
+  // The work list (OrderItems): a blob triple over one depth range, in visiting order.
+  struct Item {
+    std::uint16_t t;  // triples_ index
+    bool near;
+    int group;        // same-camera near, full, cross-camera near, full
+    float key;        // order within the group
+  };
+  std::array<Item, 2 * kMaxTriples> items_{};
+  int num_items_ = 0;
   P3pRayTriple triple_;
   std::array<BodyPose, limits::kMaxP3pSolutions> solutions_{};
   int num_cand_ = 0;

@@ -33,7 +33,7 @@
 //    1-sigma counting the map's error: map_error_px beside the solve's sigma_px);
 //    otherwise the frame is lost with a reason.
 //
-// Memory: one object (about 2.2 MB, mostly lost-in-space) holds every buffer; construct it at
+// Memory: one object (about 3.4 MB, mostly lost-in-space) holds every buffer; construct it at
 // start (static or reserved), Reset() it with the rig, then Track() never allocates.
 // (It also keeps the previous frame set's blobs: ~50 kB.)
 #pragma once

@@ -191,17 +191,22 @@ std::vector<RunResult> RunMatrix(const std::vector<RunSpec>& runs, const NavMatr
 std::string FormatTraceCsv(const std::vector<RunSpec>& runs, const std::vector<std::vector<FrameRecord>>& traces) {
   std::string out =
       "preset,count,facing,seed,frame,in_view,blobs,status,reason,source,beacons,position_error_mm,"
-      "attitude_error_deg,position_sigma_mm,rms_px,wrong_ids,step_ms\n";
+      "attitude_error_deg,position_sigma_mm,rms_px,wrong_ids,step_ms,in_view_per_camera,lis,acquisition_poses\n";
   char line[512];
   for (std::size_t i = 0; i < runs.size() && i < traces.size(); ++i) {
     const RunSpec& r = runs[i];
     for (std::size_t k = 0; k < traces[i].size(); ++k) {
       const FrameRecord& f = traces[i][k];
-      std::snprintf(line, sizeof line, "%s,%d,%s,%llu,%zu,%d,%d,%s,%s,%s,%d,%.3f,%.4f,%.3f,%.3f,%d,%.3f\n", r.preset.c_str(),
+      std::string per_camera;
+      for (std::size_t c = 0; c < f.in_view_per_camera.size(); ++c)
+        per_camera += (c == 0 ? "" : "+") + std::to_string(f.in_view_per_camera[c]);
+      std::snprintf(line, sizeof line, "%s,%d,%s,%llu,%zu,%d,%d,%s,%s,%s,%d,%.3f,%.4f,%.3f,%.3f,%d,%.3f,%s,%s,%d\n",
+                    r.preset.c_str(),
                     r.map_beacons, r.map_has_facing ? (r.facing ? "yes" : "no") : "none",
                     static_cast<unsigned long long>(r.seed), k, f.in_view, f.num_blobs, fw::ToString(f.status),
                     fw::ToString(f.reason), fw::ToString(f.source), f.num_beacons, f.position_error_m * 1e3,
-                    RadToDeg(f.attitude_error_rad), f.position_sigma_m * 1e3, f.rms_px, f.wrong_ids, f.step_s * 1e3);
+                    RadToDeg(f.attitude_error_rad), f.position_sigma_m * 1e3, f.rms_px, f.wrong_ids, f.step_s * 1e3,
+                    per_camera.c_str(), f.lis_run ? fw::ToString(f.lis_status) : "-", f.acquisition_poses);
       out += line;
     }
   }

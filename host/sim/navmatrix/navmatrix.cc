@@ -131,6 +131,13 @@ RunResult RunNavigation(const Scenario& s, const NavMatrixOptions& o, std::vecto
     const std::chrono::duration<double> step = std::chrono::steady_clock::now() - start;
     frames.push_back(RecordFrame(b.NumVisible(), run->out, f.pose, step.count()));
     frames.back().num_blobs = static_cast<int>(b.blobs.size());
+    for (int k = 0; k < run->rig.num_cameras && k < limits::kMaxCameras; ++k)
+      frames.back().in_view_per_camera[static_cast<std::size_t>(k)] =
+          static_cast<int>(b.visible[static_cast<std::size_t>(k)].size());
+    const fw::TrackResult& tr = run->navigator.last_track();
+    frames.back().lis_run = tr.lis_run;
+    frames.back().lis_status = tr.lis_status;
+    frames.back().acquisition_poses = tr.acquisition_poses;
     if (run->out.status != fw::NavStatus::kLost)
       for (int i = 0; i < run->out.num_matches; ++i) {
         const fw::Match& m = run->out.matches[static_cast<std::size_t>(i)];

@@ -58,6 +58,11 @@ struct FrameRecord {
   double attitude_error_rad = 0.0;
   double position_sigma_m = 0.0;
   double step_s = 0.0;  // CPU (wall) time of Navigator::Step
+  // Diagnostics: beacons seen per camera (truth), and the tracker's lost-in-space outcome.
+  std::array<int, limits::kMaxCameras> in_view_per_camera{};
+  bool lis_run = false;
+  fw::LisStatus lis_status = fw::LisStatus::kBadInput;
+  int acquisition_poses = 0;  // poses followed (acquiring)
 };
 
 // Whether a published pose is wrong (see NavMatrixOptions).
