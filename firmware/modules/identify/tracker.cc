@@ -69,6 +69,9 @@ bool TrackOptions::IsValid(const char** why) const {
   else if (max_missing < 0) bad = "max_missing";
   else if (max_ambiguous_tried < 0 || max_ambiguous_tried > limits::kMaxAmbiguousMatches) bad = "max_ambiguous_tried";
   else if (!positive(ambiguity_chi2)) bad = "ambiguity_chi2";
+  else if (!(ambiguity_max_spread_m >= 0.0) || !(ambiguity_max_spread_rad >= 0.0) ||
+           !std::isfinite(ambiguity_max_spread_m) || !std::isfinite(ambiguity_max_spread_rad))
+    bad = "ambiguity_max_spread";
   else if (!(ambiguity_innovation_factor >= 1.0) || !std::isfinite(ambiguity_innovation_factor)) bad = "ambiguity_innovation_factor";
   else if (!positive(max_rms_px)) bad = "max_rms_px";
   else if (!positive(max_coast_s)) bad = "max_coast_s";
@@ -314,6 +317,16 @@ bool Tracker::TrackFrom(const BodyPose& predicted, double max_m, double max_rad,
   return true;
 }
 
+// Whether a and b lie within gate_sigmas of b's 1-sigma (centroid noise and the map's
+// error), or 1 mm / 1 mrad when that is larger, of each other.
+bool Tracker::SamePoseWithin(const TrackResult& a, const TrackResult& b, const TrackOptions& o) const {
+  const double total = std::hypot(1.0, o.MapToCentroidRatio());
+  const bool cov = b.solve.has_covariance;
+  const double tol_m = std::max(1e-3, cov ? o.gate_sigmas * total * PositionSigma(b.solve.covariance) : 0.0);
+  const double tol_rad = std::max(1e-3, cov ? o.gate_sigmas * total * AttitudeSigma(b.solve.covariance) : 0.0);
+  return (a.pose.r_w_wb - b.pose.r_w_wb).norm() <= tol_m && LogSO3(b.pose.C_w_b.transpose() * a.pose.C_w_b).norm() <= tol_rad;
+}
+
 // A pose from re-identification took each beacon's nearest blob within a tight gate; a
 // reflection beside a beacon may have been taken instead, bending the pose (seen: a confirmed
 // seven-beacon fix 23 mm off, its residuals 0.14 px). The pose goes through tracking's trials
@@ -322,6 +335,13 @@ bool Tracker::TrackFrom(const BodyPose& predicted, double max_m, double max_rad,
 bool Tracker::Unambiguous(const TrackOptions& o, TrackResult* r) {
   bool refuted = false;
   if (TrackFrom(r->pose, o.twin_m, o.twin_rad, o.hold_gate_px, o, &trial_result_, &refuted)) {
+    // The trials verify the pose; they must not move it elsewhere: with the wide gate a
+    // beacon's nearest blob may be a reflection while its true blob fails the trial (seen: an
+    // acquired pose 5 mm off replaced by a trial on a reflection, 56 mm off, published as fix).
+    if (!SamePoseWithin(trial_result_, *r, o)) {
+      ambiguity_refused_ = true;
+      return false;
+    }
     r->pose = trial_result_.pose;
     r->matches = trial_result_.matches;
     r->solve = trial_result_.solve;
@@ -354,19 +374,59 @@ bool Tracker::ChooseAmbiguous(std::uint32_t choice, int n) {
 // dropped by the solve's outlier rejection) or, with as many, a chi-square (residuals over the
 // centroid noise and the map's error) above best's by ambiguity_chi2 (a wrong blob among
 // four or more that the pose bent to fit); among three, every trial fits exactly.
-bool Tracker::AgreeWith(const TrackResult& best, int num_trials, const TrackOptions& o) const {
+// The largest distance of such a trial from best is kept (ambiguity_spread_m_ / _rad_).
+bool Tracker::AgreeWith(const TrackResult& best, int num_trials, const TrackOptions& o) {
   const double total = std::hypot(1.0, o.MapToCentroidRatio());
   const double var_px2 = o.solve.sigma_px * o.solve.sigma_px + o.map_error_px * o.map_error_px;
   const bool cov = best.solve.has_covariance;
   const double tol_m = std::max(1e-3, cov ? o.gate_sigmas * total * PositionSigma(best.solve.covariance) : 0.0);
   const double tol_rad = std::max(1e-3, cov ? o.gate_sigmas * total * AttitudeSigma(best.solve.covariance) : 0.0);
+  ambiguity_spread_m_ = ambiguity_spread_rad_ = 0.0;
   for (int i = 0; i < num_trials; ++i) {
     const BodyPose& q = trial_poses_[static_cast<std::size_t>(i)];
     if (trial_beacons_[static_cast<std::size_t>(i)] < best.matches.num_beacons) continue;
     if (2.0 * (trial_cost_[static_cast<std::size_t>(i)] - best.solve.cost) > o.ambiguity_chi2 * var_px2) continue;
-    if ((q.r_w_wb - best.pose.r_w_wb).norm() > tol_m || LogSO3(best.pose.C_w_b.transpose() * q.C_w_b).norm() > tol_rad)
-      return false;
+    ambiguity_spread_m_ = std::max(ambiguity_spread_m_, (q.r_w_wb - best.pose.r_w_wb).norm());
+    ambiguity_spread_rad_ = std::max(ambiguity_spread_rad_, LogSO3(best.pose.C_w_b.transpose() * q.C_w_b).norm());
   }
+  return ambiguity_spread_m_ <= tol_m && ambiguity_spread_rad_ <= tol_rad;
+}
+
+// Tracking's trials disagreed (a reflection beside a beacon that fits as well as the beacon),
+// but all of them lie near the prediction: the pose is known to within their spread, so the
+// best trial is published degraded (reason kAmbiguous) with that spread added to its
+// covariance, so that its 1-sigma covers whichever trial is true; while the spread stays within
+// ambiguity_max_spread_m / _rad. The motion model is not fed from it: the next frame set is
+// predicted from the last accepted pose (coasting), whose bounds grow with the gap.
+bool Tracker::PublishAmbiguous(const TrackOptions& o, TrackResult* r) {
+  if (!(ambiguity_spread_m_ <= o.ambiguity_max_spread_m) || !(ambiguity_spread_rad_ <= o.ambiguity_max_spread_rad) ||
+      !r->solve.has_covariance)
+    return false;
+  // Its identities are those not in doubt: the beacons tried with two blobs are left out.
+  int kept = 0;
+  r->matches.beacons.Reset();
+  for (int i = 0; i < r->matches.num_matches; ++i) {
+    const Match& m = r->matches.matches[static_cast<std::size_t>(i)];
+    bool doubtful = false;
+    for (int k = 0; k < ambiguous_.num && !doubtful; ++k)
+      doubtful = ambiguous_.items[static_cast<std::size_t>(k)].beacon == m.beacon &&
+                 ambiguous_.items[static_cast<std::size_t>(k)].camera == m.camera;
+    if (doubtful) continue;
+    r->matches.matches[static_cast<std::size_t>(kept++)] = m;
+    r->matches.beacons.Set(m.beacon);
+  }
+  r->matches.num_matches = kept;
+  r->matches.num_beacons = r->matches.beacons.Count();
+  for (int d = 0; d < 3; ++d) {
+    r->solve.covariance(d, d) += ambiguity_spread_m_ * ambiguity_spread_m_;
+    r->solve.covariance(d + 3, d + 3) += ambiguity_spread_rad_ * ambiguity_spread_rad_;
+  }
+  r->status = TrackStatus::kDegraded;
+  r->reason = TrackReason::kAmbiguous;
+  r->source = TrackSource::kTracked;
+  ++counters_.ambiguous_published;
+  ++counters_.by_status[static_cast<std::size_t>(r->status)];
+  ++counters_.by_reason[static_cast<std::size_t>(r->reason)];
   return true;
 }
 
@@ -786,6 +846,7 @@ TrackStatus Tracker::TrackOnce(const BlobObs* blobs, int num_blobs, std::uint64_
           ++counters_.by_reason[static_cast<std::size_t>(r->reason)];
           return r->status;
         }
+        if (ambiguity_refused_ && PublishAmbiguous(o, r)) return r->status;
       }
     }
     if (refuted) {

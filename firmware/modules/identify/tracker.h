@@ -65,7 +65,9 @@ enum class TrackReason : unsigned char {
   kTooFewBlobs,      // fewer than 3 blobs and nothing to track
   kTooFewBeacons,    // tracking matched fewer than 3 beacons and re-identification failed
   kAcquiring,        // several poses explain the blobs; following them over frames
-  kAmbiguous,        // several poses explain the blobs and the list is incomplete
+  kAmbiguous,        // several poses explain the blobs and the list is incomplete; also
+                     // kDegraded: a reflection beside a beacon leaves poses within
+                     // ambiguity_max_spread_m of each other (covariance grown to cover them)
   kBudgetExhausted,  // lost-in-space ran out of hypotheses
   kNoHypothesis,     // no pose explains the blobs
   kBadInput,         // invalid options, rig not set, bad blob list
@@ -105,6 +107,13 @@ struct TrackOptions {
   // prediction over the allowed one) still competes: the truth itself may lie just beyond the
   // motion bounds (seen after a 1 s coast: the truth 1.2 times out, a reflection's pose inside).
   double ambiguity_innovation_factor = 3.0;
+  // When the trials disagree but every one that explains the blobs as well lies within these of
+  // the best (a reflection a few pixels beside a beacon moves the pose by millimetres), the best
+  // is published degraded (reason kAmbiguous) with the spread added to its covariance, rather
+  // than nothing; not fed to the motion model. Errors of a centimetre and a third of a degree
+  // still let a flyer hold its course until the reflection parts from the beacon. 0: never.
+  double ambiguity_max_spread_m = 0.01;
+  double ambiguity_max_spread_rad = 0.005;
   double max_coast_s = 2.0;          // tracking goes on this long without an accepted frame
   double max_seed_s = 5.0;           // and the last pose seeds re-acquisition this long
   // Degraded when:
@@ -219,6 +228,7 @@ struct TrackCounters {
   std::uint32_t tracked = 0, lost_in_space_fixes = 0, acquired = 0;
   std::uint32_t ambiguous_tried = 0;    // tracked frame sets with a beacon tried with two blobs
   std::uint32_t ambiguous_refused = 0;  // ... whose consistent trials disagreed: not tracked
+  std::uint32_t ambiguous_published = 0;  // ... of which published degraded (within the spread)
   std::uint32_t lis_runs = 0, track_refuted = 0, innovation_refused = 0;
   std::uint32_t previous_refused = 0;  // an acquired pose that does not explain the previous frame set
   std::uint32_t chain_restarts = 0;    // an unseeded acquisition's survivor outscored: restarted
@@ -261,8 +271,10 @@ class Tracker {
   bool SolveTracked(const BodyPose& predicted, double max_m, double max_rad, const TrackOptions& o, TrackResult* r,
                     bool* refuted, double* innovation);
   bool ChooseAmbiguous(std::uint32_t choice, int n);
-  bool AgreeWith(const TrackResult& best, int num_trials, const TrackOptions& o) const;
+  bool AgreeWith(const TrackResult& best, int num_trials, const TrackOptions& o);
+  bool PublishAmbiguous(const TrackOptions& o, TrackResult* r);
   bool Unambiguous(const TrackOptions& o, TrackResult* r);
+  bool SamePoseWithin(const TrackResult& a, const TrackResult& b, const TrackOptions& o) const;
   bool SolveAt(const BodyPose& start, const TwinRegion& twin, const TrackOptions& o, TrackResult* r);
   bool NearbyTwin(const TwinRegion& region, const TrackOptions& o, const TrackResult* r);
   void PrepareChain(std::uint64_t t_ns, const TrackOptions& o);
@@ -296,6 +308,7 @@ class Tracker {
   MatchSet base_;
   AmbiguityList ambiguous_;
   bool ambiguity_refused_ = false;  // this frame set's trials disagreed
+  double ambiguity_spread_m_ = 0.0, ambiguity_spread_rad_ = 0.0;  // by this much (AgreeWith)
   TrackResult trial_, trial_result_;
   static constexpr int kMaxTrials = 1 << limits::kMaxAmbiguousMatches;
   std::array<BodyPose, kMaxTrials> trial_poses_{};

@@ -80,7 +80,11 @@ void Step(const Rig& rig, const Scene& s, std::uint64_t t_ns, const TrackOptions
                        << (IdentitiesRight(s, g_result.matches) ? "right" : "WRONG") << ", error "
                        << e.head<3>().norm() << " m, Mahalanobis^2 " << mahalanobis_sq;
     run->wrong += !right;
-    EXPECT_GE(g_result.matches.num_beacons, 3);
+    // (A pose published degraded for a reflection beside a beacon names only the identities
+    // not in doubt: maybe fewer than three.)
+    if (g_result.reason != TrackReason::kAmbiguous) {
+      EXPECT_GE(g_result.matches.num_beacons, 3);
+    }
     if (run->first_fix < 0) run->first_fix = run->frames;
     run->tracked += g_result.source == TrackSource::kTracked;
     run->lis += g_result.source == TrackSource::kLostInSpace;
@@ -235,14 +239,17 @@ TEST(TrackerTest, ReflectionsBesideBeaconsKeepTheTrack) {
               "%d of %d (left out)\n", tried.posed, tried.eligible, left_out.posed, left_out.eligible);
   EXPECT_EQ(tried.wrong, 0);
   EXPECT_EQ(left_out.wrong, 0);
-  // (Measured: 77 of 88 tried, 31 of 47 left out; with the fast trials' 160 frame sets 32 of
-  // 40 and 21 of 32. The rest are frame sets where a trial with the reflection fits as well as
-  // the truth: three beacons, or a fourth that the pose bends to within the chi-square margin.)
+  // (Measured: 93 of 97 tried, 31 of 47 left out; 77 of 88 before a disagreement of the trials
+  // within ambiguity_max_spread_m was published degraded. The rest are frame sets where a
+  // trial with the reflection fits as well as the truth farther off. Every published pose,
+  // degraded ones included, lies within its covariance: Step checks it.)
   ASSERT_GT(tried.eligible, frames / 8);
   EXPECT_GE(tried.posed * 100, tried.eligible * 75);
   EXPECT_LT(left_out.posed * 100, left_out.eligible * 72);  // the trials are what keeps it
   EXPECT_GT(tried.posed * left_out.eligible, left_out.posed * tried.eligible);
   EXPECT_GT(g_tracker.counters().ambiguous_tried, 0U);
+  EXPECT_GT(g_tracker.counters().ambiguous_published, 0U);
+  EXPECT_LE(g_tracker.counters().ambiguous_published, g_tracker.counters().ambiguous_refused);
 }
 
 // The body is "kidnapped": after tracking, its attitude jumps by 120 deg. The tracker must not
