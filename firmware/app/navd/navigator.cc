@@ -14,7 +14,8 @@ NavReason ToNavReason(TrackReason r) {
     case TrackReason::kAmbiguous: return NavReason::kAmbiguous;
     case TrackReason::kBudgetExhausted:
     case TrackReason::kNoHypothesis: return NavReason::kNoHypothesis;
-    case TrackReason::kBadInput: return NavReason::kSolveFailed;
+    case TrackReason::kBadInput:
+    case TrackReason::kCount: return NavReason::kSolveFailed;
   }
   return NavReason::kSolveFailed;
 }

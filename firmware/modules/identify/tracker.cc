@@ -25,6 +25,7 @@ const char* ToString(TrackStatus s) {
     case TrackStatus::kFix: return "fix";
     case TrackStatus::kDegraded: return "degraded";
     case TrackStatus::kLost: return "lost";
+    case TrackStatus::kCount: break;
   }
   return "unknown track status";
 }
@@ -42,6 +43,7 @@ const char* ToString(TrackReason r) {
     case TrackReason::kBudgetExhausted: return "hypothesis budget exhausted";
     case TrackReason::kNoHypothesis: return "no pose explains the blobs";
     case TrackReason::kBadInput: return "bad input";
+    case TrackReason::kCount: break;
   }
   return "unknown track reason";
 }
@@ -425,8 +427,7 @@ bool Tracker::PublishAmbiguous(const TrackOptions& o, TrackResult* r) {
   r->reason = TrackReason::kAmbiguous;
   r->source = TrackSource::kTracked;
   ++counters_.ambiguous_published;
-  ++counters_.by_status[static_cast<std::size_t>(r->status)];
-  ++counters_.by_reason[static_cast<std::size_t>(r->reason)];
+  CountOutcome(*r);
   return true;
 }
 
@@ -715,14 +716,18 @@ void Tracker::Accept(std::uint64_t t_ns, const TrackOptions& o, TrackResult* r) 
   }
 }
 
+void Tracker::CountOutcome(const TrackResult& r) {
+  ++counters_.by_status[static_cast<std::size_t>(r.status)];
+  ++counters_.by_reason[static_cast<std::size_t>(r.reason)];
+}
+
 TrackStatus Tracker::Lost(TrackReason why, TrackResult* r) {
   r->status = TrackStatus::kLost;
   r->reason = why;
   r->source = TrackSource::kNone;
   r->matches.num_matches = 0;
   r->matches.num_beacons = 0;
-  ++counters_.by_status[static_cast<std::size_t>(r->status)];
-  ++counters_.by_reason[static_cast<std::size_t>(r->reason)];
+  CountOutcome(*r);
   return r->status;
 }
 
@@ -842,8 +847,7 @@ TrackStatus Tracker::TrackOnce(const BlobObs* blobs, int num_blobs, std::uint64_
         if (TrackFrom(predicted, max_m, max_rad, gate, o, r, &refuted)) {
           r->source = TrackSource::kTracked;
           Accept(t_ns, o, r);
-          ++counters_.by_status[static_cast<std::size_t>(r->status)];
-          ++counters_.by_reason[static_cast<std::size_t>(r->reason)];
+          CountOutcome(*r);
           return r->status;
         }
         if (ambiguity_refused_ && PublishAmbiguous(o, r)) return r->status;
@@ -914,8 +918,7 @@ TrackStatus Tracker::TrackOnce(const BlobObs* blobs, int num_blobs, std::uint64_
       if (!Unambiguous(o, r)) return Lost(TrackReason::kAmbiguous, r);
       r->source = TrackSource::kLostInSpace;
       Accept(t_ns, o, r);
-      ++counters_.by_status[static_cast<std::size_t>(r->status)];
-      ++counters_.by_reason[static_cast<std::size_t>(r->reason)];
+      CountOutcome(*r);
       return r->status;
     }
     return Lost(TrackReason::kNoHypothesis, r);
@@ -926,8 +929,7 @@ TrackStatus Tracker::TrackOnce(const BlobObs* blobs, int num_blobs, std::uint64_
       if (!Unambiguous(o, r)) return Lost(TrackReason::kAmbiguous, r);
       r->source = TrackSource::kAcquired;
       Accept(t_ns, o, r);
-      ++counters_.by_status[static_cast<std::size_t>(r->status)];
-      ++counters_.by_reason[static_cast<std::size_t>(r->reason)];
+      CountOutcome(*r);
       return r->status;
     }
     if (chain_n_ > 0) why = TrackReason::kAcquiring;

@@ -51,8 +51,8 @@
 
 namespace mfns::fw {
 
-enum class TrackStatus : unsigned char { kFix = 0, kDegraded, kLost };
-inline constexpr int kNumTrackStatus = 3;
+enum class TrackStatus : unsigned char { kFix = 0, kDegraded, kLost, kCount };
+inline constexpr int kNumTrackStatus = static_cast<int>(TrackStatus::kCount);
 const char* ToString(TrackStatus s);
 
 enum class TrackReason : unsigned char {
@@ -71,8 +71,9 @@ enum class TrackReason : unsigned char {
   kBudgetExhausted,  // lost-in-space ran out of hypotheses
   kNoHypothesis,     // no pose explains the blobs
   kBadInput,         // invalid options, rig not set, bad blob list
+  kCount,
 };
-inline constexpr int kNumTrackReason = 11;
+inline constexpr int kNumTrackReason = static_cast<int>(TrackReason::kCount);
 const char* ToString(TrackReason r);
 
 enum class TrackSource : unsigned char {
@@ -223,8 +224,8 @@ struct TrackResult {
 // A counter per outcome, for health reporting.
 struct TrackCounters {
   std::uint32_t frames = 0;
-  std::array<std::uint32_t, kNumTrackStatus> by_status{};
-  std::array<std::uint32_t, kNumTrackReason> by_reason{};
+  std::array<std::uint32_t, kNumTrackStatus> by_status{};  // indexed by TrackStatus
+  std::array<std::uint32_t, kNumTrackReason> by_reason{};  // indexed by TrackReason
   std::uint32_t tracked = 0, lost_in_space_fixes = 0, acquired = 0;
   std::uint32_t ambiguous_tried = 0;    // tracked frame sets with a beacon tried with two blobs
   std::uint32_t ambiguous_refused = 0;  // ... whose consistent trials disagreed: not tracked
@@ -287,6 +288,7 @@ class Tracker {
                         TrackResult* result);
   void Accept(std::uint64_t t_ns, const TrackOptions& o, TrackResult* r);
   TrackStatus Lost(TrackReason why, TrackResult* r);
+  void CountOutcome(const TrackResult& r);  // by status and reason
   LisStatus RunLis(const BlobObs* blobs, int num_blobs, const LisPrior* prior, const TrackOptions& o);
   double HypothesisUnits() const;  // budget units of one hypothesis in this map
   int HypothesesLeft() const;  // of this frame set's budget (lis_budget_per_frame), >= 1
