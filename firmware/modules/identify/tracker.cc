@@ -319,13 +319,18 @@ bool Tracker::TrackFrom(const BodyPose& predicted, double max_m, double max_rad,
   return true;
 }
 
-// Whether a and b lie within gate_sigmas of b's 1-sigma (centroid noise and the map's
-// error), or 1 mm / 1 mrad when that is larger, of each other.
-bool Tracker::SamePoseWithin(const TrackResult& a, const TrackResult& b, const TrackOptions& o) const {
+// How far another pose may lie from b and be the same: gate_sigmas of b's 1-sigma (centroid
+// noise and the map's error), or 1 mm / 1 mrad when that is larger.
+void Tracker::SameTolerance(const TrackResult& b, const TrackOptions& o, double* tol_m, double* tol_rad) const {
   const double total = std::hypot(1.0, o.MapToCentroidRatio());
   const bool cov = b.solve.has_covariance;
-  const double tol_m = std::max(1e-3, cov ? o.gate_sigmas * total * PositionSigma(b.solve.covariance) : 0.0);
-  const double tol_rad = std::max(1e-3, cov ? o.gate_sigmas * total * AttitudeSigma(b.solve.covariance) : 0.0);
+  *tol_m = std::max(1e-3, cov ? o.gate_sigmas * total * PositionSigma(b.solve.covariance) : 0.0);
+  *tol_rad = std::max(1e-3, cov ? o.gate_sigmas * total * AttitudeSigma(b.solve.covariance) : 0.0);
+}
+
+bool Tracker::SamePoseWithin(const TrackResult& a, const TrackResult& b, const TrackOptions& o) const {
+  double tol_m = 0.0, tol_rad = 0.0;
+  SameTolerance(b, o, &tol_m, &tol_rad);
   return (a.pose.r_w_wb - b.pose.r_w_wb).norm() <= tol_m && LogSO3(b.pose.C_w_b.transpose() * a.pose.C_w_b).norm() <= tol_rad;
 }
 
@@ -378,11 +383,9 @@ bool Tracker::ChooseAmbiguous(std::uint32_t choice, int n) {
 // four or more that the pose bent to fit); among three, every trial fits exactly.
 // The largest distance of such a trial from best is kept (ambiguity_spread_m_ / _rad_).
 bool Tracker::AgreeWith(const TrackResult& best, int num_trials, const TrackOptions& o) {
-  const double total = std::hypot(1.0, o.MapToCentroidRatio());
   const double var_px2 = o.solve.sigma_px * o.solve.sigma_px + o.map_error_px * o.map_error_px;
-  const bool cov = best.solve.has_covariance;
-  const double tol_m = std::max(1e-3, cov ? o.gate_sigmas * total * PositionSigma(best.solve.covariance) : 0.0);
-  const double tol_rad = std::max(1e-3, cov ? o.gate_sigmas * total * AttitudeSigma(best.solve.covariance) : 0.0);
+  double tol_m = 0.0, tol_rad = 0.0;
+  SameTolerance(best, o, &tol_m, &tol_rad);
   ambiguity_spread_m_ = ambiguity_spread_rad_ = 0.0;
   for (int i = 0; i < num_trials; ++i) {
     const BodyPose& q = trial_poses_[static_cast<std::size_t>(i)];

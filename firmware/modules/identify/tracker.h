@@ -275,6 +275,7 @@ class Tracker {
   bool AgreeWith(const TrackResult& best, int num_trials, const TrackOptions& o);
   bool PublishAmbiguous(const TrackOptions& o, TrackResult* r);
   bool Unambiguous(const TrackOptions& o, TrackResult* r);
+  void SameTolerance(const TrackResult& b, const TrackOptions& o, double* tol_m, double* tol_rad) const;
   bool SamePoseWithin(const TrackResult& a, const TrackResult& b, const TrackOptions& o) const;
   bool SolveAt(const BodyPose& start, const TwinRegion& twin, const TrackOptions& o, TrackResult* r);
   bool NearbyTwin(const TwinRegion& region, const TrackOptions& o, const TrackResult* r);
