@@ -319,14 +319,18 @@ TEST(LostInSpaceTest, PriorKeepsOnlyNearbyPoses) {
 // A station module (4.2 m cylinder, 6 m long) with 64 or 256 wall beacons facing inward, random
 // 6-DOF poses anywhere inside, 2 spurious blobs per camera: never wrong, and a fix from this
 // one frame set alone in a good share of the frame sets with >= 4 beacons (the acquisition
-// over several frame sets is the tracker's; measured 8000 solves: 63 % at 64 beacons, 28 % at
-// 256). A search that always answered "ambiguous" fails here.
+// over several frame sets is the tracker's). Measured with 8000 solves: 50 % at 64 beacons and
+// 26 % at 256 (40 poses on the host; 63 % and 28 % before same-camera triples were searched
+// first, which reaches the truth sooner over several frame sets: docs/acquisition.md); with the
+// fast trials' 24 poses the share varies more between the host and aarch64, whose rounding
+// (fused multiply-adds) changes which poses see enough beacons. A search that always answered
+// "ambiguous" fails here.
 TEST(LostInSpaceTest, StationModuleFixesAnywhereFromNoPrior) {
   struct Case {
     int beacons;
     double min_fix_rate;
   };
-  for (const Case c : {Case{64, 0.45}, Case{256, 0.15}}) {
+  for (const Case c : {Case{64, 0.3}, Case{256, 0.15}}) {
     std::mt19937_64 rng(700 + static_cast<std::uint64_t>(c.beacons));
     static Rig rig;
     rig = testing::RandomCylinderRig(c.beacons, true, &rng);
@@ -335,7 +339,7 @@ TEST(LostInSpaceTest, StationModuleFixesAnywhereFromNoPrior) {
     o.max_hypotheses = 8000;
     Tally t;
     int eligible4 = 0, fixes4 = 0;
-    for (int trial = 0; trial < testing::Trials(40, 12); ++trial) {
+    for (int trial = 0; trial < testing::Trials(40, 24); ++trial) {
       testing::Observe(rig, testing::RandomCylinderPose(&rng), 0.1, &rng, &g_scene);
       if (g_scene.NumVisibleBeacons() < 4) continue;
       testing::AddSpurious(rig, 6, &rng, &g_scene);
