@@ -655,14 +655,7 @@ LisStatus LostInSpace::Decide(bool budget_out, const LisOptions& o, LisResult* r
   if (s != SolveStatus::kOk || res.solve.rms_px > o.max_rms_px) return res.status = LisStatus::kNoHypothesis;
   res.pose = res.solve.pose;
   // Keep only the identities the solver kept as inliers.
-  int n = 0;
-  for (int i = 0; i < res.matches.num_matches; ++i)
-    if (res.solve.inlier[static_cast<std::size_t>(i)])
-      res.matches.matches[static_cast<std::size_t>(n++)] = res.matches.matches[static_cast<std::size_t>(i)];
-  res.matches.num_matches = n;
-  res.matches.beacons.Reset();
-  for (int i = 0; i < n; ++i) res.matches.beacons.Set(res.matches.matches[static_cast<std::size_t>(i)].beacon);
-  res.matches.num_beacons = res.matches.beacons.Count();
+  res.matches.Retain([&](int i, const Match&) { return res.solve.inlier[static_cast<std::size_t>(i)]; });
   if (res.matches.num_beacons < o.min_beacons) return res.status = LisStatus::kNoHypothesis;
   return res.status = LisStatus::kFix;
 }

@@ -59,6 +59,21 @@ struct MatchList {
       if (matches[static_cast<std::size_t>(i)].blob == blob) return matches[static_cast<std::size_t>(i)].beacon;
     return -1;
   }
+  // Keeps the matches for which keep(index, match) is true, in order, and recounts the
+  // beacons (num_predicted, num_missing and sum_sq_px stay as they were).
+  template <class Keep>
+  void Retain(Keep keep) {
+    int n = 0;
+    beacons.Reset();
+    for (int i = 0; i < num_matches; ++i) {
+      if (!keep(i, matches[static_cast<std::size_t>(i)])) continue;
+      matches[static_cast<std::size_t>(n)] = matches[static_cast<std::size_t>(i)];
+      beacons.Set(matches[static_cast<std::size_t>(n)].beacon);
+      ++n;
+    }
+    num_matches = n;
+    num_beacons = beacons.Count();
+  }
   // Copies another list, truncated to this capacity (the statistics are kept as they were).
   template <int kOther>
   void CopyFrom(const MatchList<kOther>& o) {

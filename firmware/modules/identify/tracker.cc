@@ -205,16 +205,7 @@ bool Tracker::SolveAt(const BodyPose& start, const TwinRegion& twin, const Track
     if (stable) break;
   }
   // The identities the last solve used, inliers only.
-  int n = 0;
-  r->matches.beacons.Reset();
-  for (int i = 0; i < r->matches.num_matches; ++i) {
-    if (!r->solve.inlier[static_cast<std::size_t>(i)]) continue;
-    r->matches.matches[static_cast<std::size_t>(n)] = r->matches.matches[static_cast<std::size_t>(i)];
-    r->matches.beacons.Set(r->matches.matches[static_cast<std::size_t>(n)].beacon);
-    ++n;
-  }
-  r->matches.num_matches = n;
-  r->matches.num_beacons = r->matches.beacons.Count();
+  r->matches.Retain([&](int i, const Match&) { return r->solve.inlier[static_cast<std::size_t>(i)]; });
   r->pose = r->solve.pose;
   return r->matches.num_beacons >= 3 && r->matches.num_missing <= o.max_missing && r->solve.rms_px <= o.max_rms_px &&
          !NearbyTwin(twin, o, r);
@@ -408,20 +399,13 @@ bool Tracker::PublishAmbiguous(const TrackOptions& o, TrackResult* r) {
       !r->solve.has_covariance)
     return false;
   // Its identities are those not in doubt: the beacons tried with two blobs are left out.
-  int kept = 0;
-  r->matches.beacons.Reset();
-  for (int i = 0; i < r->matches.num_matches; ++i) {
-    const Match& m = r->matches.matches[static_cast<std::size_t>(i)];
-    bool doubtful = false;
-    for (int k = 0; k < ambiguous_.num && !doubtful; ++k)
-      doubtful = ambiguous_.items[static_cast<std::size_t>(k)].beacon == m.beacon &&
-                 ambiguous_.items[static_cast<std::size_t>(k)].camera == m.camera;
-    if (doubtful) continue;
-    r->matches.matches[static_cast<std::size_t>(kept++)] = m;
-    r->matches.beacons.Set(m.beacon);
-  }
-  r->matches.num_matches = kept;
-  r->matches.num_beacons = r->matches.beacons.Count();
+  r->matches.Retain([&](int, const Match& m) {
+    for (int k = 0; k < ambiguous_.num; ++k)
+      if (ambiguous_.items[static_cast<std::size_t>(k)].beacon == m.beacon &&
+          ambiguous_.items[static_cast<std::size_t>(k)].camera == m.camera)
+        return false;
+    return true;
+  });
   for (int d = 0; d < 3; ++d) {
     r->solve.covariance(d, d) += ambiguity_spread_m_ * ambiguity_spread_m_;
     r->solve.covariance(d + 3, d + 3) += ambiguity_spread_rad_ * ambiguity_spread_rad_;
