@@ -41,6 +41,9 @@ struct Rig {
   // (world frame) and its beam half-angle (rad, in (0, pi]). Beacon m is visible from a point
   // p_w only when the angle between p_w - P_m and its normal is at most the half-angle (an LED
   // on a wall is not seen from behind it). Without facing data every direction is allowed.
+  // A half-angle of pi (180 deg) means the beam is unknown: the beacon may be seen from
+  // anywhere, but its absence refutes nothing (firmware/modules/identify/match.h); a map
+  // without facing gets its facing inferred by the navigator (common/rig/infer_facing.h).
   bool has_facing = false;
   std::array<Eigen::Vector3d, limits::kMaxBeacons> beacon_normal_w{};
   std::array<double, limits::kMaxBeacons> beacon_half_angle{};

@@ -26,7 +26,10 @@ bool Navigator::Init(const Rig& rig, const NavigatorOptions& options, const char
     if (why != nullptr) *why = "the rig is invalid or has fewer than 3 beacons";
     return false;
   }
-  if (!tracker_.Reset(rig)) {
+  rig_ = rig;
+  facing_ = InferFacingResult{};
+  if (options.infer_facing && !rig_.has_facing) InferFacing(options.facing, &rig_, &facing_);
+  if (!tracker_.Reset(rig_)) {
     if (why != nullptr) *why = "the tracker cannot use this rig";
     return false;
   }

@@ -8,6 +8,7 @@
 
 #include <cstdint>
 
+#include "common/rig/infer_facing.h"
 #include "common/rig/rig.h"
 #include "firmware/modules/identify/tracker.h"
 #include "firmware/modules/publish/pose_message.h"
@@ -20,7 +21,15 @@ struct NavigatorOptions {
   // Scale the track's pixel gates at every Init by the rig's focal length (PixelGateScale), so
   // that they keep their angular size on other cameras.
   bool scale_gates_to_rig = true;
-  bool IsValid(const char** why = nullptr) const { return track.IsValid(why); }
+  // A rig without facing data gets its beacons' facing from the map's geometry (InferFacing:
+  // an LED on a wall shines into the module), so that a beacon seen at a grazing angle, which
+  // its LED does not light, is neither predicted nor missed. False: every beacon is predicted
+  // from every direction (beacons not on walls).
+  bool infer_facing = true;
+  InferFacingOptions facing;
+  bool IsValid(const char** why = nullptr) const {
+    return track.IsValid(why) && (!infer_facing || facing.IsValid(why));
+  }
 };
 
 // covariance: of the pose, for the image noise sigma_px plus the beacon map's error
@@ -44,7 +53,7 @@ NavReason ToNavReason(TrackReason r);
 
 class Navigator {
  public:
-  // Keeps a reference to rig (alive and unchanged until the next Init). False on bad options or
+  // Copies rig (with inferred facing, NavigatorOptions::infer_facing). False on bad options or
   // rig; *why names the problem.
   bool Init(const Rig& rig, const NavigatorOptions& options, const char** why = nullptr);
   // One frame set's blobs (sample time t_ns). delivered: bit k set when camera k delivered a
@@ -62,9 +71,14 @@ class Navigator {
   const TrackCounters& counters() const { return tracker_.counters(); }
   // The tracker's outcome of the last Step (diagnostics: lost-in-space status, followed poses).
   const TrackResult& last_track() const { return result_; }
+  // The rig in use, and how many beacons got an inferred facing at Init (none when it had some).
+  const Rig& rig() const { return rig_; }
+  const InferFacingResult& inferred_facing() const { return facing_; }
 
  private:
   NavigatorOptions options_;
+  Rig rig_;  // the caller's rig, with inferred facing when it had none (NavigatorOptions)
+  InferFacingResult facing_;
   Tracker tracker_;
   TrackResult result_;
   bool pending_pose_ = false;

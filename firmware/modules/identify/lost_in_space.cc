@@ -285,7 +285,7 @@ void LostInSpace::Score(const BodyPose& pose, const LisOptions& o, LisResult* re
   ++result->poses_scored;
   // In a large map a three-beacon pose is never a fix and its exact twins are too many to
   // follow: a pose that explains no fourth blob is not worth the full reprojection.
-  if (rig_->num_beacons >= o.fourth_blob_min_beacons &&
+  if (prior_ == nullptr && rig_->num_beacons >= o.fourth_blob_min_beacons &&
       !ExplainsAFourth(pose, cur_i_, cur_j_, cur_k_, fourth_cos_sq_))
     return;
   matcher_.MatchPose(pose, o.hypothesis_match, &match_scratch_);

@@ -92,7 +92,9 @@ struct LisOptions {
   double pair_angle_tolerance_rad = 0.01;  // slack of the co-visibility table's angle ranges
   // Maps with at least this many beacons score a P3P pose only when some fourth selected blob
   // sees a beacon within fourth_blob_max_rad of its ray (its list of three-beacon poses could
-  // never be complete, nor a three-beacon pose a fix).
+  // never be complete, nor a three-beacon pose a fix). Not under a prior: near a followed pose
+  // the three-beacon poses are few, and with three beacons in view they are all there is
+  // (without it, a track in a large map was never re-identified with three beacons in view).
   int fourth_blob_min_beacons = 32;
   // Each blob triple is also searched with beacons paired as if within this depth of the
   // cameras, a cheaper work item visited earlier (<= 0: no such items; see SetRange).

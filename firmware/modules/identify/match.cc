@@ -4,6 +4,7 @@
 #include <cmath>
 
 #include "common/camera/camera.h"
+#include "common/rotation/rotation.h"
 
 namespace mfns::fw {
 
@@ -20,7 +21,10 @@ void BeaconMatcher::CacheFacing(double margin_rad) const {
   if (margin_rad == facing_margin_ || rig_ == nullptr) return;
   for (int m = 0; m < rig_->num_beacons; ++m) {
     cos_wide_[static_cast<std::size_t>(m)] = FacingCosine(*rig_, m, margin_rad);
-    cos_narrow_[static_cast<std::size_t>(m)] = FacingCosine(*rig_, m, -margin_rad);
+    // A beam of pi (facing unknown, InferFacing) may light any direction, or none: such a
+    // beacon is predicted from everywhere and its absence refutes nothing.
+    const bool unknown = rig_->beacon_half_angle[static_cast<std::size_t>(m)] >= kPi;
+    cos_narrow_[static_cast<std::size_t>(m)] = unknown ? 2.0 : FacingCosine(*rig_, m, -margin_rad);
   }
   facing_margin_ = margin_rad;
 }

@@ -8,6 +8,8 @@
 // by the gate. It is predicted "well inside" when its image is at least miss_margin_px inside
 // the image and faces the camera by facing_margin_rad inside its beam (an LED seen at the rim of
 // its beam is dim and may go undetected); such a beacon with no blob matched counts as missing.
+// A beacon whose beam is unknown (half-angle pi, common/rig/infer_facing.h) never counts as
+// missing: an LED at an unknown angle may be out of its beam.
 //
 // Matching: each predicted beacon takes its nearest blob of that camera within gate_px;
 // conflicts are resolved greedily by distance so that every blob and every (camera, beacon)
