@@ -9,6 +9,7 @@
 #include <spawn.h>
 #include <signal.h>
 #include <sys/prctl.h>
+#include <sys/stat.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -22,6 +23,7 @@
 #include <vector>
 
 #include "common/blob/param_blob.h"
+#include "firmware/lib/testing/returns_without_blocking.h"
 #include "firmware/modules/params/reload_signal.h"
 #include "firmware/modules/params/testing/fork_child.h"
 #include "firmware/modules/params/testing/test_blobs.h"
@@ -439,6 +441,35 @@ TEST_F(ParamctlTest, TheBinaryInstallsFromStdinAndExitsWithTheDocumentedCodes) {
   r = RunBinary({"--help"}, {});
   EXPECT_EQ(r.code, 0);
   EXPECT_THAT(r.out, StartsWith("usage: mfns-paramctl"));
+}
+
+// Issue 14: a FIFO named like a slot hung show and verify; a FIFO given as the blob hung
+// install. Each returns at once: show reports the slot and shows the active blob, verify fails
+// naming it, install refuses the FIFO with one line naming it.
+TEST_F(ParamctlTest, AFifoNamedLikeASlotOrGivenAsTheBlobNeverBlocks) {
+  ASSERT_EQ(Install(Blob(1)).code, 0);
+  const std::string fifo_slot = store_ + "/slot-b.bin";
+  ASSERT_EQ(::mkfifo(fifo_slot.c_str(), 0644), 0);
+  Result show, verify, install;
+  ASSERT_TRUE(testing::ReturnsWithoutBlocking([&] { show = Paramctl({"show", "--store", store_}); }, {fifo_slot}))
+      << "show blocked";
+  EXPECT_EQ(show.code, 0) << show.err;
+  EXPECT_EQ(Field(show.out, "generation"), "1");
+  EXPECT_THAT(Field(show.out, "other"), HasSubstr("not a regular file"));
+  ASSERT_TRUE(testing::ReturnsWithoutBlocking([&] { verify = Paramctl({"verify", "--store", store_}); }, {fifo_slot}))
+      << "verify blocked";
+  EXPECT_EQ(verify.code, 1);
+  EXPECT_EQ(Lines(verify.err), 1) << verify.err;
+  EXPECT_THAT(verify.err, HasSubstr("slot-b.bin is not a regular file"));
+
+  const std::string fifo_blob = dir_ / "blob.fifo";
+  ASSERT_EQ(::mkfifo(fifo_blob.c_str(), 0644), 0);
+  ASSERT_TRUE(testing::ReturnsWithoutBlocking([&] { install = Install(fifo_blob); }, {fifo_blob}))
+      << "install blocked";
+  EXPECT_EQ(install.code, 1);
+  EXPECT_EQ(Lines(install.err), 1) << install.err;
+  EXPECT_THAT(install.err, HasSubstr(fifo_blob + ": not a regular file"));
+  EXPECT_EQ(ActiveGeneration(), "1");
 }
 
 }  // namespace
