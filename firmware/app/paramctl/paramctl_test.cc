@@ -20,6 +20,7 @@
 #include <filesystem>
 #include <sstream>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include "common/blob/param_blob.h"
@@ -34,6 +35,7 @@ namespace mfns::fw {
 namespace {
 
 using ::testing::HasSubstr;
+using ::testing::Not;
 using ::testing::StartsWith;
 using testing::MakeBlob;
 using testing::ReadBytes;
@@ -470,6 +472,37 @@ TEST_F(ParamctlTest, AFifoNamedLikeASlotOrGivenAsTheBlobNeverBlocks) {
   EXPECT_EQ(Lines(install.err), 1) << install.err;
   EXPECT_THAT(install.err, HasSubstr(fifo_blob + ": not a regular file"));
   EXPECT_EQ(ActiveGeneration(), "1");
+}
+
+// Issue 14: mfns-paramctl processes installing into one store at once (the issue saw an empty
+// store after 49 concurrent mfns-flash runs) take turns on the store's lock: each exits 0 or
+// refuses a generation that is no longer newer, the newest is active, and verify finds both
+// slots valid (the generation it replaced is kept).
+TEST_F(ParamctlTest, ConcurrentInstallProcessesTakeTurnsOnTheStore) {
+  ASSERT_EQ(Install(Blob(1)).code, 0);
+  constexpr int kProcesses = 8;
+  std::vector<std::string> blobs;
+  for (int i = 0; i < kProcesses; ++i) blobs.push_back(Blob(static_cast<std::uint64_t>(2 + (i * 3) % kProcesses)));
+  std::vector<Result> results(kProcesses);
+  std::vector<std::thread> threads;
+  for (int i = 0; i < kProcesses; ++i) {
+    threads.emplace_back([&, i] {
+      results[static_cast<std::size_t>(i)] =
+          RunBinary({"install", "--store", store_, "--no-signal", blobs[static_cast<std::size_t>(i)]}, {});
+    });
+  }
+  for (auto& t : threads) t.join();
+  for (const Result& r : results) {
+    if (r.code != 0) {
+      EXPECT_EQ(r.code, 1);
+      EXPECT_THAT(r.err, HasSubstr("is not newer than the active generation")) << r.err;
+    }
+  }
+  EXPECT_EQ(ActiveGeneration(), std::to_string(1 + kProcesses));
+  const Result verify = Paramctl({"verify", "--store", store_});
+  EXPECT_EQ(verify.code, 0) << verify.err;
+  EXPECT_EQ(Lines(verify.out), 3) << verify.out;  // both slots, then "ok: ..."
+  EXPECT_THAT(verify.out, Not(HasSubstr("missing"))) << verify.out;
 }
 
 }  // namespace
