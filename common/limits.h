@@ -13,6 +13,9 @@ namespace mfns::limits {
 // Rig and world.
 inline constexpr int kMaxCameras = 4;
 inline constexpr int kMaxBeacons = 256;
+// The fewest beacons a rig must have for mfns-navd to navigate with it (a pose needs 3); the
+// calibration tool refuses to make a blob with fewer.
+inline constexpr int kMinNavBeacons = 3;
 inline constexpr int kMaxCameraNameChars = 7;   // "x", "y", "z", ... plus NUL in 8 bytes
 inline constexpr int kMaxRigIdChars = 31;       // plus NUL in 32 bytes
 

@@ -25,6 +25,11 @@ namespace {
 
 void MakeBlob(const std::string& rig_path, const std::string& out_path, std::uint64_t generation) {
   const Rig rig = ReadRigYaml(rig_path);
+  // A blob mfns-navd cannot navigate with would only fail on the flyer, after the flash.
+  if (rig.num_beacons < limits::kMinNavBeacons) {
+    throw UserError(rig_path + ": beacons_mm: " + std::to_string(rig.num_beacons) + " beacons; mfns-navd needs at least " +
+                    std::to_string(limits::kMinNavBeacons) + " to navigate, no blob written");
+  }
   std::vector<std::uint8_t> bytes(limits::kMaxBlobBytes);
   std::size_t written = 0;
   const BlobStatus s = EncodeParamBlob(rig, generation, bytes, &written);

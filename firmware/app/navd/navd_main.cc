@@ -85,7 +85,9 @@ int Run(int argc, char** argv) {
   }
   const SourceStatus ss = source->Start();
   if (ss != SourceStatus::kOk) {
-    std::fprintf(stderr, "mfns-navd: frame source did not start: %s\n", ToString(ss));
+    const char* problem = opt.source == SourceKind::kReplay ? static_cast<ReplaySource*>(source.get())->problem() : "";
+    std::fprintf(stderr, "mfns-navd: frame source did not start: %s%s%s\n", ToString(ss), problem[0] != '\0' ? ": " : "",
+                 problem);
     if (opt.source == SourceKind::kReplay) return 1;
     // V4L2: the cameras that started keep streaming; the loop retries the others.
   }
@@ -116,11 +118,6 @@ int Run(int argc, char** argv) {
       return 1;
     }
   }
-  if (opt.log[0] != '\0' && log.Open(opt.log.data()) != PublishStatus::kOk) {
-    std::fprintf(stderr, "mfns-navd: cannot write the log %s.partial\n", opt.log.data());
-    return 1;
-  }
-
   NavLoopConfig config;
   config.timeout_ms = opt.timeout_ms;
   config.deadline_ms = opt.deadline_ms;
@@ -138,6 +135,11 @@ int Run(int argc, char** argv) {
     std::fprintf(stderr, "mfns-navd: %s\n", reason != nullptr ? reason : "bad configuration");
     return 1;
   }
+  // The log last of all the start: a start that fails leaves the previous log alone.
+  if (opt.log[0] != '\0' && log.Open(opt.log.data()) != PublishStatus::kOk) {
+    std::fprintf(stderr, "mfns-navd: cannot write the log %s: %s\n", log.partial_path(), std::strerror(log.first_error()));
+    return 1;
+  }
   std::fprintf(stderr, "mfns-navd: rig %s, parameters generation %llu, %d cameras, %d beacons\n", rig.rig_id.data(),
                static_cast<unsigned long long>(info.generation), rig.num_cameras, rig.num_beacons);
 
@@ -148,6 +150,10 @@ int Run(int argc, char** argv) {
   struct sigaction sh {};
   sh.sa_handler = OnReload;
   sigaction(SIGHUP, &sh, nullptr);
+  // A file-size limit (ulimit -f) must be a write error the log reports, not a kill.
+  struct sigaction si {};
+  si.sa_handler = SIG_IGN;
+  sigaction(SIGXFSZ, &si, nullptr);
   // mfns-paramctl signals this pid after an install or rollback (the store is also watched).
   if (opt.pid_file[0] != '\0' && !WritePidFile(opt.pid_file.data()))
     std::fprintf(stderr, "mfns-navd: warning: cannot write the pid file %s (reload still follows the store)\n",
@@ -167,6 +173,7 @@ int Run(int argc, char** argv) {
 
   // ---- Start is over: from here on, no heap. ----
   const int per_second = opt.health_every;
+  bool log_warned = false;
   for (std::int64_t n = 0; !g_stop && (opt.frames == 0 || n < opt.frames); ++n) {
     if (g_reload || loader.Changed()) {
       // Between frame sets: decode the newest valid parameters beside the ones in use.
@@ -190,6 +197,11 @@ int Run(int argc, char** argv) {
       }
     }
     if (loop->Step() == StepStatus::kEndOfStream) break;
+    if (log.failed() && !log_warned) {  // once: navigation goes on without the log
+      log_warned = true;
+      std::fprintf(stderr, "mfns-navd: warning: log %s: %s; rows are no longer logged, %s will not be replaced\n",
+                   log.partial_path(), std::strerror(log.first_error()), opt.log.data());
+    }
     notifier.Watchdog(MonotonicNs());
     const LoopCounters& c = loop->counters();
     if (!opt.quiet && c.frame_sets % static_cast<std::uint64_t>(per_second) == 0)
@@ -208,7 +220,10 @@ int Run(int argc, char** argv) {
                static_cast<unsigned long long>(c.deadline_slips), static_cast<double>(c.worst_frame_set_ns) * 1e-6);
   if (opt.pid_file[0] != '\0') RemovePidFile(opt.pid_file.data());
   if (log.is_open() && log.Close() != PublishStatus::kOk) {
-    std::fprintf(stderr, "mfns-navd: could not finish the log %s\n", opt.log.data());
+    std::fprintf(stderr, "mfns-navd: log %s not written: %s after %llu rows, %llu failed or dropped writes; what was written is in %s\n",
+                 opt.log.data(), std::strerror(log.first_error()),
+                 static_cast<unsigned long long>(log.counters().log_rows),
+                 static_cast<unsigned long long>(log.counters().log_errors), log.partial_path());
     return 1;
   }
   return 0;

@@ -22,7 +22,7 @@ NavReason ToNavReason(TrackReason r) {
 
 bool Navigator::Init(const Rig& rig, const NavigatorOptions& options, const char** why) {
   if (!options.IsValid(why)) return false;
-  if (ValidateRig(rig) != RigStatus::kOk || rig.num_beacons < 3) {
+  if (ValidateRig(rig) != RigStatus::kOk || rig.num_beacons < limits::kMinNavBeacons) {
     if (why != nullptr) *why = "the rig is invalid or has fewer than 3 beacons";
     return false;
   }

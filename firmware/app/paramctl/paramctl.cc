@@ -123,9 +123,12 @@ bool Parse(int argc, char** argv, Options* o, std::FILE* err) {
 // Reads the blob into g_blob; returns its size, or -1 after a one-line error.
 long ReadBlob(const char* path, int stdin_fd, std::FILE* err) {  // NOLINT(runtime/int)
   const bool from_stdin = std::strcmp(path, "-") == 0;
-  const int fd = from_stdin ? stdin_fd : ::open(path, O_RDONLY | O_CLOEXEC);
+  // A named blob must be a regular file: a FIFO would block the install (stdin is "-").
+  bool not_regular = false;
+  const int fd = from_stdin ? stdin_fd : OpenRegularForRead(DefaultStoreIo(), path, &not_regular);
   if (fd < 0) {
-    std::fprintf(err, "%s: cannot read blob %s: %s\n", kTool, path, std::strerror(errno));
+    std::fprintf(err, "%s: cannot read blob %s: %s\n", kTool, path,
+                 not_regular ? "not a regular file (use - for stdin)" : std::strerror(errno));
     return -1;
   }
   const ssize_t got = ReadAll(DefaultStoreIo(), fd, g_blob.data(), g_blob.size());
@@ -226,6 +229,10 @@ int Install(const Options& o, int stdin_fd, std::FILE* out, std::FILE* err) {
       std::fprintf(err, "%s: install failed: %s: %s; %s\n", kTool, ToString(rep.io.step), std::strerror(rep.io.error),
                    ActiveSuffix(rep.after, active, sizeof active));
       return 1;
+    case StoreStatus::kBusy:
+      std::fprintf(err, "%s: install failed: %s (%s); %s\n", kTool, ToString(s), o.store,
+                   ActiveSuffix(rep.after, active, sizeof active));
+      return 1;
     case StoreStatus::kBadPath:
     case StoreStatus::kNoValidBlob:
     case StoreStatus::kNoRollbackTarget:
@@ -254,6 +261,7 @@ void PrintSlotLine(std::FILE* out, const char* key, int slot, const SlotReport& 
       break;
     case SlotState::kMissing:
     case SlotState::kTooLarge:
+    case SlotState::kNotRegular:
       break;
   }
   std::fputc('\n', out);
@@ -320,6 +328,10 @@ int Verify(const Options& o, std::FILE* out, std::FILE* err) {
     const SlotReport& r = snap.slots[static_cast<std::size_t>(i)];
     if (r.state == SlotState::kUnreadable) {
       std::fprintf(err, "%s: verify: %s unreadable: %s\n", kTool, SlotFileName(i), std::strerror(r.error));
+      return 1;
+    }
+    if (r.state == SlotState::kNotRegular) {  // in a slot's place: a store someone damaged
+      std::fprintf(err, "%s: verify: %s/%s is not a regular file (skipped)\n", kTool, o.store, SlotFileName(i));
       return 1;
     }
     // The newest install is corrupt: the flyer runs an older calibration than intended.

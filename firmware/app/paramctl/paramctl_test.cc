@@ -9,6 +9,7 @@
 #include <spawn.h>
 #include <signal.h>
 #include <sys/prctl.h>
+#include <sys/stat.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -19,9 +20,11 @@
 #include <filesystem>
 #include <sstream>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include "common/blob/param_blob.h"
+#include "firmware/lib/testing/returns_without_blocking.h"
 #include "firmware/modules/params/reload_signal.h"
 #include "firmware/modules/params/testing/fork_child.h"
 #include "firmware/modules/params/testing/test_blobs.h"
@@ -32,6 +35,7 @@ namespace mfns::fw {
 namespace {
 
 using ::testing::HasSubstr;
+using ::testing::Not;
 using ::testing::StartsWith;
 using testing::MakeBlob;
 using testing::ReadBytes;
@@ -439,6 +443,66 @@ TEST_F(ParamctlTest, TheBinaryInstallsFromStdinAndExitsWithTheDocumentedCodes) {
   r = RunBinary({"--help"}, {});
   EXPECT_EQ(r.code, 0);
   EXPECT_THAT(r.out, StartsWith("usage: mfns-paramctl"));
+}
+
+// Issue 14: a FIFO named like a slot hung show and verify; a FIFO given as the blob hung
+// install. Each returns at once: show reports the slot and shows the active blob, verify fails
+// naming it, install refuses the FIFO with one line naming it.
+TEST_F(ParamctlTest, AFifoNamedLikeASlotOrGivenAsTheBlobNeverBlocks) {
+  ASSERT_EQ(Install(Blob(1)).code, 0);
+  const std::string fifo_slot = store_ + "/slot-b.bin";
+  ASSERT_EQ(::mkfifo(fifo_slot.c_str(), 0644), 0);
+  Result show, verify, install;
+  ASSERT_TRUE(testing::ReturnsWithoutBlocking([&] { show = Paramctl({"show", "--store", store_}); }, {fifo_slot}))
+      << "show blocked";
+  EXPECT_EQ(show.code, 0) << show.err;
+  EXPECT_EQ(Field(show.out, "generation"), "1");
+  EXPECT_THAT(Field(show.out, "other"), HasSubstr("not a regular file"));
+  ASSERT_TRUE(testing::ReturnsWithoutBlocking([&] { verify = Paramctl({"verify", "--store", store_}); }, {fifo_slot}))
+      << "verify blocked";
+  EXPECT_EQ(verify.code, 1);
+  EXPECT_EQ(Lines(verify.err), 1) << verify.err;
+  EXPECT_THAT(verify.err, HasSubstr("slot-b.bin is not a regular file"));
+
+  const std::string fifo_blob = dir_ / "blob.fifo";
+  ASSERT_EQ(::mkfifo(fifo_blob.c_str(), 0644), 0);
+  ASSERT_TRUE(testing::ReturnsWithoutBlocking([&] { install = Install(fifo_blob); }, {fifo_blob}))
+      << "install blocked";
+  EXPECT_EQ(install.code, 1);
+  EXPECT_EQ(Lines(install.err), 1) << install.err;
+  EXPECT_THAT(install.err, HasSubstr(fifo_blob + ": not a regular file"));
+  EXPECT_EQ(ActiveGeneration(), "1");
+}
+
+// Issue 14: mfns-paramctl processes installing into one store at once (the issue saw an empty
+// store after 49 concurrent mfns-flash runs) take turns on the store's lock: each exits 0 or
+// refuses a generation that is no longer newer, the newest is active, and verify finds both
+// slots valid (the generation it replaced is kept).
+TEST_F(ParamctlTest, ConcurrentInstallProcessesTakeTurnsOnTheStore) {
+  ASSERT_EQ(Install(Blob(1)).code, 0);
+  constexpr int kProcesses = 8;
+  std::vector<std::string> blobs;
+  for (int i = 0; i < kProcesses; ++i) blobs.push_back(Blob(static_cast<std::uint64_t>(2 + (i * 3) % kProcesses)));
+  std::vector<Result> results(kProcesses);
+  std::vector<std::thread> threads;
+  for (int i = 0; i < kProcesses; ++i) {
+    threads.emplace_back([&, i] {
+      results[static_cast<std::size_t>(i)] =
+          RunBinary({"install", "--store", store_, "--no-signal", blobs[static_cast<std::size_t>(i)]}, {});
+    });
+  }
+  for (auto& t : threads) t.join();
+  for (const Result& r : results) {
+    if (r.code != 0) {
+      EXPECT_EQ(r.code, 1);
+      EXPECT_THAT(r.err, HasSubstr("is not newer than the active generation")) << r.err;
+    }
+  }
+  EXPECT_EQ(ActiveGeneration(), std::to_string(1 + kProcesses));
+  const Result verify = Paramctl({"verify", "--store", store_});
+  EXPECT_EQ(verify.code, 0) << verify.err;
+  EXPECT_EQ(Lines(verify.out), 3) << verify.out;  // both slots, then "ok: ..."
+  EXPECT_THAT(verify.out, Not(HasSubstr("missing"))) << verify.out;
 }
 
 }  // namespace

@@ -70,7 +70,8 @@ PgmStatus ReadExact(int fd, std::uint8_t* buf, std::size_t n, off_t offset) {
 // Owns a read-only descriptor; errno is left as open(2) set it.
 class Fd {
  public:
-  explicit Fd(const char* path) : fd_(::open(path, O_RDONLY | O_CLOEXEC)) {}
+  // O_NONBLOCK: a FIFO named like a frame must not hang the open (fstat then refuses it).
+  explicit Fd(const char* path) : fd_(::open(path, O_RDONLY | O_NONBLOCK | O_CLOEXEC)) {}
   ~Fd() {
     if (fd_ >= 0) ::close(fd_);
   }
@@ -86,7 +87,8 @@ class Fd {
 PgmStatus OpenAndParse(const Fd& fd, PgmHeader* header) {
   if (fd.get() < 0) return errno == ENOENT ? PgmStatus::kNotFound : PgmStatus::kReadFailed;
   struct stat st {};
-  if (::fstat(fd.get(), &st) != 0 || !S_ISREG(st.st_mode)) return PgmStatus::kReadFailed;
+  if (::fstat(fd.get(), &st) != 0) return PgmStatus::kReadFailed;
+  if (!S_ISREG(st.st_mode)) return PgmStatus::kNotRegular;
   const std::size_t file_bytes = static_cast<std::size_t>(st.st_size);
   std::array<std::uint8_t, limits::kMaxPgmHeaderBytes> head{};
   const std::size_t n = file_bytes < head.size() ? file_bytes : head.size();
@@ -113,6 +115,7 @@ const char* ToString(PgmStatus s) {
     case PgmStatus::kBadMaxval: return "maxval not 255 or 65535";
     case PgmStatus::kTruncated: return "truncated";
     case PgmStatus::kTooLarge: return "image larger than the buffer";
+    case PgmStatus::kNotRegular: return "not a regular file";
   }
   return "unknown";
 }

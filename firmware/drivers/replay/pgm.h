@@ -17,13 +17,14 @@ namespace mfns::fw {
 enum class PgmStatus : unsigned char {
   kOk = 0,
   kNotFound,    // no such file
-  kReadFailed,  // cannot open (other than missing), not a regular file, or read error
+  kReadFailed,  // cannot open (other than missing), or read error
   kBadMagic,    // not "P5" (e.g. ASCII "P2", or not a PGM at all)
   kBadHeader,   // missing or malformed token, no whitespace after a token, header too long
   kBadSize,     // width or height outside [1, kMaxImageWidth/Height]
   kBadMaxval,   // maxval other than 255 or 65535
   kTruncated,   // the file ends before the header or the raster does
   kTooLarge,    // the raster does not fit the caller's buffer
+  kNotRegular,  // a FIFO, device or directory: refused without blocking or reading
 };
 const char* ToString(PgmStatus s);
 

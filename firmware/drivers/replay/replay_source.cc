@@ -7,6 +7,7 @@
 
 #include <cerrno>
 #include <cmath>
+#include <cstdio>
 #include <cstring>
 #include <string_view>
 
@@ -149,7 +150,7 @@ SourceStatus ReplaySource::ReadTruth() {
     return SourceStatus::kBadConfig;
   }
   t_ns_.assign(static_cast<std::size_t>(num_frames_), kNoTime);
-  const int fd = ::open(path.data(), O_RDONLY | O_CLOEXEC);
+  const int fd = ::open(path.data(), O_RDONLY | O_NONBLOCK | O_CLOEXEC);  // a FIFO must not hang Start
   if (fd < 0) {
     if (errno != ENOENT || !(config_.frame_rate_hz > 0.0) || !std::isfinite(config_.frame_rate_hz)) {
       return SourceStatus::kBadConfig;
@@ -165,6 +166,7 @@ SourceStatus ReplaySource::ReadTruth() {
   std::vector<char> text;
   struct stat st {};
   bool ok = ::fstat(fd, &st) == 0 && S_ISREG(st.st_mode);
+  if (!ok) SetProblem(path.data(), "not a regular file");
   if (ok) {
     text.resize(static_cast<std::size_t>(st.st_size));
     std::size_t done = 0;
@@ -177,6 +179,7 @@ SourceStatus ReplaySource::ReadTruth() {
     ok = done == text.size();
   }
   ::close(fd);
+  if (!ok && problem_[0] == '\0') SetProblem(path.data(), "read failed");
   if (!ok) return SourceStatus::kBadConfig;
 
   std::string_view rest(text.data(), text.size());
@@ -212,11 +215,19 @@ SourceStatus ReplaySource::ReadTruth() {
   return SourceStatus::kOk;
 }
 
+void ReplaySource::SetProblem(const char* path, const char* why) {
+  std::snprintf(problem_.data(), problem_.size(), "%s: %s", path, why);
+}
+
 SourceStatus ReplaySource::SizeBuffer(int k, int first_frame) {
   Camera& cam = cams_[static_cast<unsigned>(k)];
   SetFrameName(&cam, first_frame);
   PgmHeader h;
-  if (ReadPgmHeader(cam.path.data(), &h) != PgmStatus::kOk) return SourceStatus::kBadFrame;
+  const PgmStatus ps = ReadPgmHeader(cam.path.data(), &h);
+  if (ps != PgmStatus::kOk) {
+    SetProblem(cam.path.data(), ToString(ps));
+    return SourceStatus::kBadFrame;
+  }
   const int want_w = config_.width[static_cast<unsigned>(k)];
   const int want_h = config_.height[static_cast<unsigned>(k)];
   if ((want_w != 0 && h.width != want_w) || (want_h != 0 && h.height != want_h)) {
@@ -232,6 +243,7 @@ SourceStatus ReplaySource::SizeBuffer(int k, int first_frame) {
 
 SourceStatus ReplaySource::Start() {
   Stop();
+  problem_[0] = '\0';
   ResetCounters();
   has_truth_ = false;
   num_frames_ = 0;
@@ -276,6 +288,7 @@ SourceStatus ReplaySource::Acquire(int camera, int /*timeout_ms*/, FrameView* ou
   if (ps != PgmStatus::kOk || h.width != cam.width || h.height != cam.height ||
       h.format != cam.format) {
     ++c.bad_files;
+    SetProblem(cam.path.data(), ps != PgmStatus::kOk ? ToString(ps) : "size or format differs from the first frame's");
     return SourceStatus::kBadFrame;
   }
   const std::uint64_t t = t_ns_[static_cast<std::size_t>(frame)];

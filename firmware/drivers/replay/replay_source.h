@@ -61,6 +61,9 @@ class ReplaySource final : public FrameSource {
 
   int num_frames() const { return num_frames_; }  // after Start
   bool timestamps_from_truth() const { return has_truth_; }
+  // The file of the last failure of Start or Acquire and why ("<path>: not a regular file"),
+  // "" when none: callers name it in their one-line errors.
+  const char* problem() const { return problem_.data(); }
 
  private:
   struct Camera {
@@ -78,6 +81,7 @@ class ReplaySource final : public FrameSource {
   SourceStatus ReadTruth();
   SourceStatus SizeBuffer(int k, int first_frame);
   void SetFrameName(Camera* cam, int frame) const;
+  void SetProblem(const char* path, const char* why);
 
   ReplayConfig config_;
   bool started_ = false;
@@ -85,6 +89,7 @@ class ReplaySource final : public FrameSource {
   int num_frames_ = 0;
   std::vector<std::uint64_t> t_ns_;  // per frame; kNoTime when truth.csv has no row
   std::array<Camera, limits::kMaxCameras> cams_{};
+  std::array<char, limits::kMaxPathChars + 64> problem_{};
 };
 
 }  // namespace mfns::fw

@@ -3,6 +3,7 @@
 #include "firmware/drivers/replay/replay_source.h"
 
 #include <gtest/gtest.h>
+#include <sys/stat.h>
 
 #include <string>
 #include <vector>
@@ -11,6 +12,7 @@
 #include "firmware/drivers/replay/test_files.h"
 #include "firmware/lib/testing/alloc_counter.h"
 #include "firmware/lib/testing/print_status.h"
+#include "firmware/lib/testing/returns_without_blocking.h"
 
 namespace mfns::fw {
 namespace {
@@ -342,6 +344,65 @@ TEST_F(ReplayTest, NoHeapAfterStart) {
   EXPECT_EQ(testing::AllocationCount(), before);
   EXPECT_EQ(ok, 3 * kFrames - 2);
   EXPECT_EQ(other, 2);
+}
+
+// Issue 14: a FIFO named like a frame (or like truth.csv) hung the replay in open(2): navd's
+// start, or its frame loop mid-flight. Now a FIFO frame is a bad frame at once and the loop
+// goes on; at Start it is refused at once.
+TEST_F(ReplayTest, AFifoNamedLikeAFrameOrTheTruthNeverBlocks) {
+  WriteSequence(4);
+  const std::string mid = FramePath(dir_.path(), "x", 2);
+  std::filesystem::remove(mid);
+  ASSERT_EQ(::mkfifo(mid.c_str(), 0644), 0);
+  ReplaySource src(Config());
+  ASSERT_EQ(src.Start(), SourceStatus::kOk);
+  std::vector<SourceStatus> got;
+  ASSERT_TRUE(testing::ReturnsWithoutBlocking(
+      [&] {
+        for (int f = 0; f < 4; ++f) {
+          FrameView v;
+          got.push_back(src.Acquire(0, 50, &v));
+          src.Release(0);
+        }
+      },
+      {mid}))
+      << "Acquire blocked on a FIFO frame";
+  EXPECT_EQ(got, (std::vector<SourceStatus>{SourceStatus::kOk, SourceStatus::kOk, SourceStatus::kBadFrame,
+                                             SourceStatus::kOk}));
+  EXPECT_EQ(src.counters(0).bad_files, 1U);
+  EXPECT_EQ(std::string(src.problem()), mid + ": not a regular file");
+
+  const std::string first = FramePath(dir_.path(), "z", 0);
+  std::filesystem::remove(first);
+  ASSERT_EQ(::mkfifo(first.c_str(), 0644), 0);
+  SourceStatus start = SourceStatus::kOk;
+  std::string problem;
+  ASSERT_TRUE(testing::ReturnsWithoutBlocking(
+      [&] {
+        ReplaySource s(Config());
+        start = s.Start();
+        problem = s.problem();
+      },
+      {first}))
+      << "Start blocked on a FIFO as a camera's first frame";
+  EXPECT_EQ(start, SourceStatus::kBadFrame);
+  EXPECT_EQ(problem, first + ": not a regular file");  // navd prints it
+  std::filesystem::remove(first);
+  WriteFile(first, Pgm(kW, kH, Seed(2, 0)));
+
+  const std::string truth = dir_.path() + "/truth.csv";
+  std::filesystem::remove(truth);
+  ASSERT_EQ(::mkfifo(truth.c_str(), 0644), 0);
+  ASSERT_TRUE(testing::ReturnsWithoutBlocking(
+      [&] {
+        ReplaySource s(Config());
+        start = s.Start();
+        problem = s.problem();
+      },
+      {truth}))
+      << "Start blocked on a FIFO as truth.csv";
+  EXPECT_EQ(start, SourceStatus::kBadConfig);
+  EXPECT_EQ(problem, truth + ": not a regular file");
 }
 
 }  // namespace

@@ -26,7 +26,7 @@ StoreStatus ParamLoader::Open(const char* path, const char* expected_rig_id, Rig
   // no blob (the decoder compares whole strings).
   if (has_expected_) std::strncpy(expected_.data(), expected_rig_id, expected_.size() - 1);
 
-  const int fd = io_->Open(path_.data(), O_RDONLY | O_DIRECTORY | O_CLOEXEC, 0);
+  const int fd = io_->Open(path_.data(), O_RDONLY | O_DIRECTORY | O_NONBLOCK | O_CLOEXEC, 0);
   if (fd >= 0) {
     io_->Close(fd);
     is_store_ = true;
@@ -68,8 +68,13 @@ StoreStatus ParamLoader::Reload(Rig* rig, BlobInfo* info) {
 StoreStatus ParamLoader::LoadFile(Rig* rig, BlobInfo* info) {
   snapshot_ = StoreSnapshot{};
   SlotReport& r = snapshot_.slots[0];
-  const int fd = io_->Open(path_.data(), O_RDONLY | O_CLOEXEC, 0);
+  bool not_regular = false;
+  const int fd = OpenRegularForRead(io_, path_.data(), &not_regular);  // never blocks on a FIFO
   if (fd < 0) {
+    if (not_regular) {
+      r.state = SlotState::kNotRegular;
+      return StoreStatus::kNoValidBlob;
+    }
     last_errno_ = errno;
     if (errno == ENOENT) return StoreStatus::kNotFound;
     r.state = SlotState::kUnreadable;
@@ -137,6 +142,9 @@ void ParamLoader::Describe(char* buf, std::size_t n) const {
       return;
     case SlotState::kUnreadable:
       std::snprintf(buf, n, "%s: unreadable: %s", path_.data(), std::strerror(r.error));
+      return;
+    case SlotState::kNotRegular:
+      std::snprintf(buf, n, "%s: not a regular file", path_.data());
       return;
     case SlotState::kMissing:
     case SlotState::kTooLarge:

@@ -7,6 +7,7 @@
 #include <signal.h>
 #include <poll.h>
 #include <sys/prctl.h>
+#include <sys/stat.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -18,6 +19,7 @@
 #include <string>
 
 #include "firmware/lib/testing/alloc_counter.h"
+#include "firmware/lib/testing/returns_without_blocking.h"
 #include "firmware/modules/params/reload_signal.h"
 #include "firmware/modules/params/store_watcher.h"
 #include "firmware/modules/params/testing/fork_child.h"
@@ -289,6 +291,33 @@ TEST(ReloadSignal, SignalsOnlyARunningProcessWithTheExpectedName) {
   std::set<std::string> names;
   for (int i = 0; i <= static_cast<int>(SignalStatus::kKillFailed); ++i) names.insert(ToString(static_cast<SignalStatus>(i)));
   EXPECT_EQ(names.size(), 6u);
+}
+
+// Issue 14: a FIFO as --params, or named like a slot, hung navd's start and its reload
+// mid-flight (frame processing stopped). Refused (the file) or skipped (a slot), at once.
+TEST(ParamLoader, AFifoAsTheBlobFileOrASlotIsRefusedWithoutBlocking) {
+  TempDir dir;
+  const std::string fifo = dir / "cal.bin";
+  ASSERT_EQ(::mkfifo(fifo.c_str(), 0644), 0);
+  ParamLoader loader;
+  Rig rig;
+  BlobInfo info;
+  StoreStatus s = StoreStatus::kOk;
+  ASSERT_TRUE(testing::ReturnsWithoutBlocking([&] { s = loader.Open(fifo.c_str(), nullptr, &rig, &info); }, {fifo}))
+      << "Open blocked on a FIFO";
+  EXPECT_NE(s, StoreStatus::kOk);
+  EXPECT_THAT(Why(loader), HasSubstr(fifo + ": not a regular file"));
+
+  // A store whose other slot becomes a FIFO while navd runs: the reload keeps slot a.
+  TempDir store_dir;
+  WriteBytes(store_dir / "slot-a.bin", MakeBlob(1));
+  ASSERT_EQ(loader.Open(store_dir.path().c_str(), nullptr, &rig, &info), StoreStatus::kOk);
+  ASSERT_EQ(::mkfifo((store_dir / "slot-b.bin").c_str(), 0644), 0);
+  ASSERT_TRUE(testing::ReturnsWithoutBlocking([&] { s = loader.Reload(&rig, &info); }, {store_dir / "slot-b.bin"}))
+      << "Reload blocked on a FIFO slot";
+  EXPECT_EQ(s, StoreStatus::kOk);
+  EXPECT_EQ(info.generation, 1u);
+  EXPECT_THAT(Why(loader), HasSubstr("slot-b.bin: not a regular file"));
 }
 
 }  // namespace

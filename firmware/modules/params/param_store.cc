@@ -1,6 +1,9 @@
 #include "firmware/modules/params/param_store.h"
 
 #include <fcntl.h>
+#include <sys/file.h>
+#include <time.h>
+#include <unistd.h>
 
 #include <cerrno>
 #include <cstdio>
@@ -51,6 +54,7 @@ const char* ToString(StoreStatus s) {
     case StoreStatus::kStaleGeneration: return "generation not newer than the active one";
     case StoreStatus::kVerifyFailed: return "read-back verification failed";
     case StoreStatus::kNoRollbackTarget: return "the other slot holds no valid blob";
+    case StoreStatus::kBusy: return "another install or rollback holds the store lock";
   }
   return "unknown store status";
 }
@@ -62,6 +66,7 @@ const char* ToString(SlotState s) {
     case SlotState::kInvalid: return "invalid";
     case SlotState::kTooLarge: return "too large";
     case SlotState::kUnreadable: return "unreadable";
+    case SlotState::kNotRegular: return "not a regular file, skipped";
   }
   return "unknown slot state";
 }
@@ -80,6 +85,7 @@ const char* ToString(StoreStep s) {
     case StoreStep::kFsyncDirectory: return "fsync directory";
     case StoreStep::kReadBack: return "read back slot";
     case StoreStep::kSetAside: return "rename slot aside";
+    case StoreStep::kLock: return "lock store directory";
   }
   return "unknown step";
 }
@@ -111,6 +117,7 @@ void DescribeSnapshot(const StoreSnapshot& snap, char* buf, std::size_t n) {
         break;
       case SlotState::kMissing:
       case SlotState::kTooLarge:
+      case SlotState::kNotRegular:
         w = std::snprintf(buf + used, n - used, "%s%s: %s", sep, kSlotNames[i], ToString(r.state));
         break;
     }
@@ -139,6 +146,54 @@ StoreStatus ParamStore::SetDirectory(const char* dir) {
 bool ParamStore::MakePath(PathBuffer* out, int slot, const char* suffix) const {
   const int w = std::snprintf(out->data(), out->size(), "%s/%s%s", dir_.data(), kSlotNames[slot], suffix);
   return w > 0 && static_cast<std::size_t>(w) < out->size();
+}
+
+// slot-X.bin.PID.tmp: unique per process, so even a writer that ignores the lock cannot
+// truncate or rename another's temp file.
+bool ParamStore::MakeTempPath(PathBuffer* out, int slot) const {
+  const int w = std::snprintf(out->data(), out->size(), "%s/%s.%ld%s", dir_.data(), kSlotNames[slot],
+                              static_cast<long>(::getpid()), kTempSuffix);  // NOLINT(runtime/int)
+  return w > 0 && static_cast<std::size_t>(w) < out->size();
+}
+
+// The writers' lock: flock on the store directory itself (no lock file to create or leave).
+// Polled every millisecond rather than blocking, so the wait is bounded (kBusy after
+// lock_timeout_ms_); the kernel drops the lock when its holder dies.
+StoreStatus ParamStore::Lock(int* fd, StoreError* err) {
+  *fd = io_->Open(dir_.data(), O_RDONLY | O_DIRECTORY | O_CLOEXEC, 0);
+  if (*fd < 0) {
+    const bool missing = errno == ENOENT || errno == ENOTDIR;
+    SetError(err, StoreStep::kOpenDirectory);
+    return missing ? StoreStatus::kNotFound : StoreStatus::kIoError;
+  }
+  for (int waited = 0; waited <= lock_timeout_ms_; ++waited) {
+    if (io_->Flock(*fd, LOCK_EX | LOCK_NB) == 0) return StoreStatus::kOk;
+    if (errno != EWOULDBLOCK && errno != EINTR) break;
+    ++counters_.lock_waits;
+    const timespec one_ms{0, 1'000'000};
+    ::nanosleep(&one_ms, nullptr);
+  }
+  const bool busy = errno == EWOULDBLOCK || errno == EINTR;
+  if (busy) errno = EWOULDBLOCK;
+  SetError(err, StoreStep::kLock);
+  const int saved = errno;
+  io_->Close(*fd);
+  errno = saved;
+  *fd = -1;
+  return busy ? StoreStatus::kBusy : StoreStatus::kIoError;
+}
+
+void ParamStore::Unlock(int fd) {
+  if (fd >= 0) io_->Close(fd);  // closing the descriptor releases the flock
+}
+
+// Whether path is (still) the file id names.
+bool ParamStore::IsFile(const PathBuffer& path, const FileId& id) {
+  struct stat st {};
+  const int fd = OpenRegularForRead(io_, path.data(), nullptr, &st);
+  if (fd < 0) return false;
+  io_->Close(fd);
+  return st.st_dev == id.dev && st.st_ino == id.ino;
 }
 
 std::span<const std::uint8_t> ParamStore::slot_bytes(int slot) const {
@@ -195,8 +250,14 @@ void ParamStore::ReadSlot(int slot, const char* expected_rig_id, SlotReport* r) 
     r->error = ENAMETOOLONG;
     return;
   }
-  const int fd = io_->Open(path.data(), O_RDONLY | O_CLOEXEC, 0);
+  bool not_regular = false;
+  const int fd = OpenRegularForRead(io_, path.data(), &not_regular);
   if (fd < 0) {
+    if (not_regular) {  // a FIFO would block the read, a device never end it: skip, say so
+      r->state = SlotState::kNotRegular;
+      ++counters_.not_regular_slots;
+      return;
+    }
     if (errno == ENOENT) return;  // kMissing
     r->state = SlotState::kUnreadable;
     r->error = errno;
@@ -261,14 +322,17 @@ StoreStatus ParamStore::Load(const char* expected_rig_id, Rig* rig, BlobInfo* in
   return b == BlobStatus::kOk ? StoreStatus::kOk : Count(StoreStatus::kNoValidBlob);
 }
 
-bool ParamStore::WriteTemp(const PathBuffer& tmp, std::span<const std::uint8_t> blob, StoreError* err) {
+bool ParamStore::WriteTemp(const PathBuffer& tmp, std::span<const std::uint8_t> blob, FileId* id, StoreError* err) {
   const int fd = io_->Open(tmp.data(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, kFileMode);
   if (fd < 0) {
     SetError(err, StoreStep::kOpenTemp);
     return false;
   }
   StoreStep failed = StoreStep::kNone;
-  if (!WriteAll(io_, fd, blob)) {
+  struct stat st {};
+  if (io_->Fstat(fd, &st) != 0) {  // the inode this install writes: its undo removes only that
+    failed = StoreStep::kOpenTemp;
+  } else if (!WriteAll(io_, fd, blob)) {
     failed = StoreStep::kWriteTemp;
   } else if (io_->Fsync(fd) != 0) {
     failed = StoreStep::kFsyncTemp;
@@ -278,6 +342,8 @@ bool ParamStore::WriteTemp(const PathBuffer& tmp, std::span<const std::uint8_t> 
     io_->Close(fd);
     return false;
   }
+  id->dev = st.st_dev;
+  id->ino = st.st_ino;
   if (io_->Close(fd) != 0) {  // e.g. a deferred write error on a network file system
     SetError(err, StoreStep::kCloseTemp);
     return false;
@@ -301,11 +367,12 @@ bool ParamStore::ReadBackMatches(int slot, std::span<const std::uint8_t> blob, S
 }
 
 // After a failure past the rename: remove the new slot so the old blob stays the newest valid
-// one. Best effort; if this fails too the slot holds the complete new blob (it was fsynced
-// before the rename), which is also a valid outcome.
-void ParamStore::UndoInstall(int slot) {
+// one, but only while it is still the file this install wrote (never another writer's slot).
+// Best effort; if this fails too the slot holds the complete new blob (it was fsynced before
+// the rename), which is also a valid outcome.
+void ParamStore::UndoInstall(int slot, const FileId& written) {
   PathBuffer path{};
-  if (!MakePath(&path, slot, "") || io_->Unlink(path.data()) != 0 ||
+  if (!MakePath(&path, slot, "") || !IsFile(path, written) || io_->Unlink(path.data()) != 0 ||
       FsyncDirectory(dir_.data(), nullptr) != StoreStatus::kOk) {
     ++counters_.cleanup_failures;
   }
@@ -327,7 +394,20 @@ StoreStatus ParamStore::Install(std::span<const std::uint8_t> blob, const Instal
     Scan(nullptr, &rep->after);
     return Count(StoreStatus::kCorruptBlob);
   }
+  // From the scan that judges the store to the last rename: one writer at a time.
+  int lock_fd = -1;
+  const StoreStatus locked = Lock(&lock_fd, &rep->io);
+  if (locked != StoreStatus::kOk) {
+    if (locked != StoreStatus::kNotFound) Scan(nullptr, &rep->after);
+    return Count(locked);
+  }
+  const StoreStatus s = LockedInstall(blob, options, rep);
+  Unlock(lock_fd);
+  return s;
+}
 
+StoreStatus ParamStore::LockedInstall(std::span<const std::uint8_t> blob, const InstallOptions& options,
+                                      InstallReport* rep) {
   StoreSnapshot before;
   const StoreStatus scanned = Scan(nullptr, &before);
   rep->after = before;
@@ -359,10 +439,11 @@ StoreStatus ParamStore::Install(std::span<const std::uint8_t> blob, const Instal
   const int target = before.active < 0 ? 0 : 1 - before.active;
   rep->slot = target;
   PathBuffer tmp{}, slot_path{};
-  if (!MakePath(&tmp, target, kTempSuffix) || !MakePath(&slot_path, target, "")) return Count(StoreStatus::kBadPath);
+  if (!MakeTempPath(&tmp, target) || !MakePath(&slot_path, target, "")) return Count(StoreStatus::kBadPath);
 
   // 1. Temp file: write, fsync, close. A failure here leaves both slots as they were.
-  if (!WriteTemp(tmp, blob, &rep->io)) {
+  FileId written;
+  if (!WriteTemp(tmp, blob, &written, &rep->io)) {
     if (io_->Unlink(tmp.data()) != 0 && errno != ENOENT) ++counters_.cleanup_failures;
     Scan(nullptr, &rep->after);
     return Count(StoreStatus::kIoError);
@@ -375,13 +456,13 @@ StoreStatus ParamStore::Install(std::span<const std::uint8_t> blob, const Instal
     return Count(StoreStatus::kIoError);
   }
   if (FsyncDirectory(dir_.data(), &rep->io) != StoreStatus::kOk) {
-    UndoInstall(target);
+    UndoInstall(target, written);
     Scan(nullptr, &rep->after);
     return Count(StoreStatus::kIoError);
   }
   // 3. Read back and verify: same bytes, full decode.
   if (!ReadBackMatches(target, blob, &rep->io)) {
-    UndoInstall(target);
+    UndoInstall(target, written);
     Scan(nullptr, &rep->after);
     return Count(rep->io.step == StoreStep::kReadBack ? StoreStatus::kIoError : StoreStatus::kVerifyFailed);
   }
@@ -393,14 +474,14 @@ StoreStatus ParamStore::Install(std::span<const std::uint8_t> blob, const Instal
     }
     if (io_->Rename(old_path.data(), aside.data()) != 0) {
       SetError(&rep->io, StoreStep::kSetAside);
-      UndoInstall(target);
+      UndoInstall(target, written);
       Scan(nullptr, &rep->after);
       return Count(StoreStatus::kIoError);
     }
     if (FsyncDirectory(dir_.data(), &rep->io) != StoreStatus::kOk) {
       // Put the old slot back (then the old blob is active again) and drop ours.
       if (io_->Rename(aside.data(), old_path.data()) != 0) ++counters_.cleanup_failures;
-      UndoInstall(target);
+      UndoInstall(target, written);
       Scan(nullptr, &rep->after);
       return Count(StoreStatus::kIoError);
     }
@@ -416,6 +497,19 @@ StoreStatus ParamStore::Rollback(RollbackReport* report) {
   RollbackReport local;
   RollbackReport* rep = report != nullptr ? report : &local;
   *rep = RollbackReport{};
+  if (dir_[0] == '\0') return Count(StoreStatus::kBadPath);
+  int lock_fd = -1;
+  const StoreStatus locked = Lock(&lock_fd, &rep->io);
+  if (locked != StoreStatus::kOk) {
+    if (locked != StoreStatus::kNotFound) Scan(nullptr, &rep->after);
+    return Count(locked);
+  }
+  const StoreStatus s = LockedRollback(rep);
+  Unlock(lock_fd);
+  return s;
+}
+
+StoreStatus ParamStore::LockedRollback(RollbackReport* rep) {
   const StoreStatus scanned = Scan(nullptr, &rep->before);
   rep->after = rep->before;
   if (scanned != StoreStatus::kOk) {

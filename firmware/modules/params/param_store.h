@@ -5,7 +5,12 @@
 //  - Active slot = the valid slot with the newest generation (ties: slot a). "Valid" means the
 //    whole blob decodes (CRCs, sections, ValidateRig) and, when the caller names one, carries
 //    the expected rig id. The same rule picks the blob at start and on every reload.
-//  - Install writes the new blob to the other slot: slot-X.bin.tmp, write, fsync, close,
+//  - Every writer (Install, Rollback; any process: mfns-paramctl, mfns-flash) holds an exclusive
+//    flock on the store directory from its first scan to its last rename, so concurrent writers
+//    take turns: each one judges the store as the one before it left it, and a failed install's
+//    undo can only remove the slot this install wrote (it also checks the inode). Readers
+//    (Scan, Load, navd) take no lock: every change they can see is one atomic rename.
+//  - Install writes the new blob to the other slot: slot-X.bin.PID.tmp, write, fsync, close,
 //    rename to slot-X.bin, fsync of the directory, then reads slot-X.bin back and checks it
 //    (same bytes, full decode). The active slot is never written, so a power cut at any point
 //    leaves the old blob or the new one active, never nothing and never a mix.
@@ -18,8 +23,9 @@
 //
 // No heap and no exceptions: the store holds two slot buffers of limits::kMaxBlobBytes + 1
 // bytes and one scratch Rig (about 40 KB in all); every loop is bounded. Every syscall goes
-// through StoreIo (store_io.h). Not thread-safe; one writer at a time per directory (the
-// flyer has one operator: mfns-paramctl).
+// through StoreIo (store_io.h). One ParamStore per thread; any number of ParamStores and
+// processes on one directory (the lock). A slot that is not a regular file (a FIFO, a device)
+// is never opened blocking nor read: it is reported kNotRegular and skipped.
 #pragma once
 
 #include <array>
@@ -51,9 +57,10 @@ enum class StoreStatus : unsigned char {
   kStaleGeneration,   // install: generation <= the active blob's
   kVerifyFailed,      // install: the slot read back differs or does not decode
   kNoRollbackTarget,  // rollback: the other slot holds no valid blob
+  kBusy,              // install/rollback: another writer held the store lock past the timeout
 };
 const char* ToString(StoreStatus s);
-inline constexpr int kNumStoreStatuses = static_cast<int>(StoreStatus::kNoRollbackTarget) + 1;
+inline constexpr int kNumStoreStatuses = static_cast<int>(StoreStatus::kBusy) + 1;
 
 enum class SlotState : unsigned char {
   kMissing = 0,  // no such file
@@ -61,6 +68,7 @@ enum class SlotState : unsigned char {
   kInvalid,      // present but does not decode: blob_status says why
   kTooLarge,     // more than limits::kMaxBlobBytes
   kUnreadable,   // open or read failed: error holds errno
+  kNotRegular,   // not a regular file (a FIFO, a device, a directory): skipped, never read
 };
 const char* ToString(SlotState s);
 
@@ -78,6 +86,7 @@ enum class StoreStep : unsigned char {
   kFsyncDirectory,
   kReadBack,
   kSetAside,  // renaming a slot to slot-?.bin.rolled-back
+  kLock,      // flock of the store directory
 };
 const char* ToString(StoreStep s);
 
@@ -133,6 +142,8 @@ struct StoreCounters {
   std::array<std::uint64_t, kNumStoreStatuses> by_status{};      // results of every call
   std::array<std::uint64_t, kNumBlobStatuses> invalid_slots{};   // per BlobStatus seen on scans
   std::uint64_t unreadable_slots = 0;
+  std::uint64_t not_regular_slots = 0;  // slots skipped on scans: not a regular file
+  std::uint64_t lock_waits = 0;         // lock attempts that found another writer holding it
   std::uint64_t cleanup_failures = 0;  // undo after a failure itself failed (store still safe)
 };
 
@@ -167,6 +178,10 @@ class ParamStore {
   StoreStatus Install(std::span<const std::uint8_t> blob, const InstallOptions& options,
                       InstallReport* report);
 
+  // How long Install and Rollback wait for another writer's lock before kBusy (polled every
+  // millisecond: a bounded wait, and a writer killed mid-way frees the lock with its fd).
+  void set_lock_timeout_ms(int ms) { lock_timeout_ms_ = ms < 0 ? 0 : ms; }
+
   // Makes the other valid slot active by renaming the active one aside to slot-?.bin.rolled-back.
   // kNoValidBlob when nothing is active, kNoRollbackTarget when the other slot is not valid.
   StoreStatus Rollback(RollbackReport* report);
@@ -180,12 +195,22 @@ class ParamStore {
 
  private:
   using PathBuffer = std::array<char, limits::kMaxPathChars + 32>;
+  struct FileId {
+    dev_t dev = 0;
+    ino_t ino = 0;
+  };
   bool MakePath(PathBuffer* out, int slot, const char* suffix) const;
+  bool MakeTempPath(PathBuffer* out, int slot) const;
+  StoreStatus Lock(int* fd, StoreError* err);
+  void Unlock(int fd);
+  bool IsFile(const PathBuffer& path, const FileId& id);
   void ReadSlot(int slot, const char* expected_rig_id, SlotReport* r);
   StoreStatus FsyncDirectory(const char* path, StoreError* err);
-  bool WriteTemp(const PathBuffer& tmp, std::span<const std::uint8_t> blob, StoreError* err);
+  bool WriteTemp(const PathBuffer& tmp, std::span<const std::uint8_t> blob, FileId* id, StoreError* err);
   bool ReadBackMatches(int slot, std::span<const std::uint8_t> blob, StoreError* err);
-  void UndoInstall(int slot);
+  void UndoInstall(int slot, const FileId& written);
+  StoreStatus LockedInstall(std::span<const std::uint8_t> blob, const InstallOptions& options, InstallReport* rep);
+  StoreStatus LockedRollback(RollbackReport* rep);
   StoreStatus Count(StoreStatus s);
 
   StoreIo* io_;
@@ -195,6 +220,7 @@ class ParamStore {
   std::array<std::size_t, kNumSlots> slot_size_{};
   Rig scratch_;
   StoreCounters counters_;
+  int lock_timeout_ms_ = 30000;
 };
 
 // Formats one line saying what each slot holds, e.g.

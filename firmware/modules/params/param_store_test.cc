@@ -6,6 +6,12 @@
 #include <gtest/gtest.h>
 
 #include <fcntl.h>
+#include <unistd.h>
+#include <sys/stat.h>
+
+#include <atomic>
+#include <memory>
+#include <thread>
 
 #include <algorithm>
 #include <cerrno>
@@ -15,6 +21,7 @@
 #include <string>
 
 #include "firmware/lib/testing/alloc_counter.h"
+#include "firmware/lib/testing/returns_without_blocking.h"
 #include "firmware/modules/params/testing/fault_store_io.h"
 #include "firmware/modules/params/testing/test_blobs.h"
 
@@ -323,6 +330,8 @@ class FlipOnReadIo final : public StoreIo {
   int Rename(const char* a, const char* b) override { return real_.Rename(a, b); }
   int Unlink(const char* p) override { return real_.Unlink(p); }
   int Mkdir(const char* p, mode_t m) override { return real_.Mkdir(p, m); }
+  int Fstat(int fd, struct stat* st) override { return real_.Fstat(fd, st); }
+  int Flock(int fd, int op) override { return real_.Flock(fd, op); }
   bool armed_ = false;
 
  private:
@@ -449,9 +458,10 @@ TEST(ParamStore, TheInstallProtocolIsTempWriteFsyncCloseRenameDirectoryFsyncRead
       effects.push_back(l.rfind("write", 0) == 0 ? "write" : l);
     }
   }
-  const std::vector<std::string> expected = {"open slot-b.bin.tmp",  "write",
-                                             "fsync slot-b.bin.tmp", "close slot-b.bin.tmp",
-                                             "rename slot-b.bin.tmp slot-b.bin", "fsync " + base};
+  const std::string tmp = "slot-b.bin." + std::to_string(::getpid()) + ".tmp";  // unique per process
+  const std::vector<std::string> expected = {"open " + tmp,  "write",
+                                             "fsync " + tmp, "close " + tmp,
+                                             "rename " + tmp + " slot-b.bin", "fsync " + base};
   EXPECT_EQ(effects, expected);
   // And the read-back of slot b comes after the directory fsync.
   const auto& log = io.log();
@@ -476,6 +486,89 @@ TEST(ParamStore, ScanLoadAndInstallAllocateNothing) {
   EXPECT_EQ(store.Load(nullptr, &rig, &info, &snap), StoreStatus::kOk);
   EXPECT_EQ(store.Rollback(&rb), StoreStatus::kOk);
   EXPECT_EQ(testing::AllocationCount(), before);
+}
+
+// Issue 14: a FIFO named like a slot hung every scan in open(2). It is skipped and reported;
+// the other slot stays active; the scan returns at once.
+TEST(ParamStore, AFifoNamedLikeASlotIsSkippedAndReportedWithoutBlocking) {
+  TempDir dir;
+  WriteBytes(dir / "slot-a.bin", MakeBlob(1));
+  ASSERT_EQ(::mkfifo((dir / "slot-b.bin").c_str(), 0644), 0);
+  ParamStore store;
+  store.SetDirectory(dir.path().c_str());
+  StoreSnapshot snap;
+  StoreStatus s = StoreStatus::kBadPath;
+  ASSERT_TRUE(testing::ReturnsWithoutBlocking([&] { s = store.Scan(nullptr, &snap); }, {dir / "slot-b.bin"}))
+      << "Scan blocked on the FIFO";
+  EXPECT_EQ(s, StoreStatus::kOk);
+  EXPECT_EQ(snap.active, 0);
+  char why[256];
+  DescribeSnapshot(snap, why, sizeof why);
+  EXPECT_THAT(why, ::testing::HasSubstr("slot-b.bin: not a regular file"));
+}
+
+// Issue 14: concurrent installs shared one temp name, and a failed install's undo deleted
+// slots other writers had made: 49 concurrent mfns-flash runs left an empty store. Writers,
+// each with its own store (its own descriptors, as separate processes have), install distinct
+// generations at once while a reader scans: the store never reads empty, every install either
+// succeeds or is refused as stale, the newest succeeded generation is active, and the other
+// slot still holds the generation it replaced.
+TEST(ParamStore, ConcurrentInstallsTakeTurnsAndNeverLoseTheOldGeneration) {
+  constexpr int kWriters = 12;
+  constexpr int kRounds = 8;
+  std::vector<std::uint64_t> gens;  // 2 .. kWriters + 1, shuffled over the writers
+  std::vector<std::vector<std::uint8_t>> blobs;
+  for (int i = 0; i < kWriters; ++i) {
+    gens.push_back(static_cast<std::uint64_t>(2 + (i * 7) % kWriters));
+    blobs.push_back(MakeBlob(gens.back()));
+  }
+  const auto first = MakeBlob(1);
+  int empty_scans = 0, bad_statuses = 0;
+  for (int round = 0; round < kRounds; ++round) {
+    TempDir dir(testing::FastTempBase());
+    WriteBytes(dir / "slot-a.bin", first);
+    std::atomic<int> ready{0};
+    std::atomic<bool> writing{true};
+    std::vector<StoreStatus> status(kWriters, StoreStatus::kBadPath);
+    std::vector<std::thread> threads;
+    for (int i = 0; i < kWriters; ++i) {
+      threads.emplace_back([&, i] {
+        auto store = std::make_unique<ParamStore>();
+        store->SetDirectory(dir.path().c_str());
+        ++ready;
+        while (ready.load() < kWriters) std::this_thread::yield();
+        status[static_cast<std::size_t>(i)] = store->Install(blobs[static_cast<std::size_t>(i)], {}, nullptr);
+      });
+    }
+    std::thread reader([&] {
+      auto store = std::make_unique<ParamStore>();
+      store->SetDirectory(dir.path().c_str());
+      StoreSnapshot snap;
+      while (writing.load()) empty_scans += store->Scan(nullptr, &snap) != StoreStatus::kOk;
+    });
+    for (auto& t : threads) t.join();
+    writing = false;
+    reader.join();
+    std::uint64_t newest_ok = 1;
+    for (int i = 0; i < kWriters; ++i) {
+      const StoreStatus s = status[static_cast<std::size_t>(i)];
+      if (s == StoreStatus::kOk) newest_ok = std::max(newest_ok, gens[static_cast<std::size_t>(i)]);
+      if (s != StoreStatus::kOk && s != StoreStatus::kStaleGeneration) {
+        if (++bad_statuses <= 5) ADD_FAILURE() << "round " << round << ", writer " << i << ": " << ToString(s);
+      }
+    }
+    ParamStore check;
+    check.SetDirectory(dir.path().c_str());
+    StoreSnapshot snap;
+    ASSERT_EQ(check.Scan(nullptr, &snap), StoreStatus::kOk) << "round " << round << ": the store is empty";
+    EXPECT_EQ(testing::ActiveGeneration(snap), newest_ok) << "round " << round;
+    const SlotReport& other = snap.slots[static_cast<std::size_t>(1 - snap.active)];
+    EXPECT_EQ(other.state, SlotState::kValid) << "round " << round << ": the old generation is gone";
+    EXPECT_LT(other.info.generation, newest_ok) << "round " << round;
+    for (const auto& e : Entries(dir.path())) EXPECT_EQ(e.find(".tmp"), std::string::npos) << e;
+  }
+  EXPECT_EQ(empty_scans, 0) << "scans that found no valid blob while the installs ran";
+  EXPECT_EQ(bad_statuses, 0);
 }
 
 }  // namespace

@@ -1,6 +1,7 @@
 #include "firmware/modules/params/store_io.h"
 
 #include <fcntl.h>
+#include <sys/file.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
@@ -26,6 +27,31 @@ int LinuxStoreIo::Rename(const char* from, const char* to) { return std::rename(
 int LinuxStoreIo::Unlink(const char* path) { return ::unlink(path); }
 
 int LinuxStoreIo::Mkdir(const char* path, mode_t mode) { return ::mkdir(path, mode); }
+
+int LinuxStoreIo::Fstat(int fd, struct stat* st) { return ::fstat(fd, st); }
+
+int LinuxStoreIo::Flock(int fd, int operation) { return ::flock(fd, operation); }
+
+int OpenRegularForRead(StoreIo* io, const char* path, bool* not_regular, struct stat* out) {
+  if (not_regular != nullptr) *not_regular = false;
+  const int fd = io->Open(path, O_RDONLY | O_NONBLOCK | O_CLOEXEC, 0);
+  if (fd < 0) return -1;
+  struct stat local {};
+  struct stat& st = out != nullptr ? *out : local;
+  if (io->Fstat(fd, &st) != 0) {
+    const int saved = errno;
+    io->Close(fd);
+    errno = saved;
+    return -1;
+  }
+  if (!S_ISREG(st.st_mode)) {
+    io->Close(fd);
+    if (not_regular != nullptr) *not_regular = true;
+    errno = EINVAL;
+    return -1;
+  }
+  return fd;
+}
 
 ssize_t ReadAll(StoreIo* io, int fd, std::uint8_t* buf, std::size_t cap) {
   std::size_t got = 0;

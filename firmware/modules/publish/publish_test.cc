@@ -1,6 +1,8 @@
 #include <arpa/inet.h>
 #include <gtest/gtest.h>
 #include <netinet/in.h>
+#include <signal.h>
+#include <sys/resource.h>
 #include <sys/socket.h>
 #include <unistd.h>
 
@@ -186,6 +188,66 @@ TEST(PoseLog, WritesTheDesignCsvAndRenamesOnClose) {
   EXPECT_FALSE(std::filesystem::exists(path + ".partial"));
   EXPECT_EQ(log.Open((tmpl + "/missing/x.csv").c_str()), PublishStatus::kFileError);
   std::filesystem::remove_all(tmpl);
+}
+
+// A temp directory holding a previous, good poses.csv.
+struct LogDir {
+  LogDir() {
+    std::string tmpl = (std::filesystem::temp_directory_path() / "mfns-poselog-XXXXXX").string();
+    EXPECT_NE(::mkdtemp(tmpl.data()), nullptr);
+    dir = tmpl;
+    path = dir + "/poses.csv";
+    std::ofstream(path) << kOld;
+  }
+  ~LogDir() { std::filesystem::remove_all(dir); }
+  std::string Target() const {
+    std::ifstream in(path);
+    std::stringstream ss;
+    ss << in.rdbuf();
+    return ss.str();
+  }
+  static constexpr char kOld[] = "frame,t_ns,status\n0,1,fix\n";  // stands for a previous run's log
+  std::string dir, path;
+};
+
+// A full disk, reproduced with a 2 KiB file-size limit (SIGXFSZ ignored, as mfns-navd does, so
+// the limit is an EFBIG write error): the rows that do not fit fail, and Close must not rename
+// the cut log over the previous one.
+TEST(PoseLog, AFailedWriteNeverReplacesThePreviousLog) {
+  LogDir d;
+  rlimit old_limit{};
+  ASSERT_EQ(::getrlimit(RLIMIT_FSIZE, &old_limit), 0);
+  struct sigaction ignore {}, old_action {};
+  ignore.sa_handler = SIG_IGN;
+  ASSERT_EQ(::sigaction(SIGXFSZ, &ignore, &old_action), 0);
+  rlimit small = old_limit;
+  small.rlim_cur = 2048;
+  ASSERT_EQ(::setrlimit(RLIMIT_FSIZE, &small), 0);
+  PoseLog log;
+  int failed_writes = 0;
+  PublishStatus closed = PublishStatus::kOk;
+  if (log.Open(d.path.c_str()) == PublishStatus::kOk) {
+    std::mt19937_64 rng(5);
+    for (int i = 0; i < 100; ++i) failed_writes += log.Write(SampleRecord(rng)) != PublishStatus::kOk;
+    closed = log.Close();
+  }
+  ::setrlimit(RLIMIT_FSIZE, &old_limit);
+  ::sigaction(SIGXFSZ, &old_action, nullptr);
+  EXPECT_GT(failed_writes, 0);  // 100 rows of ~100 bytes do not fit in 2 KiB
+  EXPECT_GT(log.counters().log_errors, 0u);
+  EXPECT_EQ(closed, PublishStatus::kFileError);
+  EXPECT_EQ(d.Target(), LogDir::kOld);  // the previous log, untouched
+}
+
+// A run whose start fails after the log was opened (the PoseLog is destroyed without Close)
+// must not replace the previous log with a header-only one.
+TEST(PoseLog, DestroyedWithoutCloseLeavesThePreviousLog) {
+  LogDir d;
+  {
+    PoseLog log;
+    ASSERT_EQ(log.Open(d.path.c_str()), PublishStatus::kOk);
+  }
+  EXPECT_EQ(d.Target(), LogDir::kOld);
 }
 
 }  // namespace

@@ -87,49 +87,67 @@ void UdpPublisher::Close() {
   fd_ = -1;
 }
 
-PoseLog::~PoseLog() { Close(); }
+// Not Close: a PoseLog destroyed while open belongs to a run that did not finish (a failed
+// start returns through here), and its log must not replace the previous one.
+PoseLog::~PoseLog() { Abandon(); }
+
+PublishStatus PoseLog::Fail() {
+  if (first_errno_ == 0) first_errno_ = errno != 0 ? errno : EIO;
+  ++counters_.log_errors;
+  return PublishStatus::kFileError;
+}
 
 PublishStatus PoseLog::Open(const char* path) {
-  Close();
+  Abandon();
+  first_errno_ = 0;
   if (path == nullptr || std::strlen(path) >= sizeof(path_)) return PublishStatus::kFileError;
   std::strncpy(path_, path, sizeof(path_) - 1);
   std::snprintf(partial_, sizeof(partial_), "%s.partial", path_);
+  errno = 0;
   file_ = std::fopen(partial_, "w");
-  if (file_ == nullptr) return PublishStatus::kFileError;
+  if (file_ == nullptr) return Fail();
   std::setvbuf(file_, buffer_, _IOFBF, sizeof(buffer_));  // our buffer: no heap in stdio
   if (std::fputs("frame,t_ns,status,x_mm,y_mm,z_mm,roll_deg,pitch_deg,yaw_deg,n_beacons,rms_px,reason\n", file_) < 0) {
-    ++counters_.log_errors;
-    return PublishStatus::kFileError;
+    return Fail();
   }
   return PublishStatus::kOk;
 }
 
 PublishStatus PoseLog::Write(const PoseRecord& r) {
   if (file_ == nullptr) return PublishStatus::kNotOpen;
+  // After a failure the file ends in a cut row: appending would bury it mid-file.
+  if (failed()) return Fail();
   const Eigen::Vector3d p_mm = r.r_w_wb * 1e3;
   EulerAngles e = MatrixToEuler(r.q_w_b.toRotationMatrix().transpose());  // of C_b_w
   if (!r.q_w_b.coeffs().allFinite()) e.phi = e.theta = e.psi = std::numeric_limits<double>::quiet_NaN();  // no pose
+  errno = 0;
   const int n = std::fprintf(file_, "%u,%llu,%s,%.4f,%.4f,%.4f,%.6f,%.6f,%.6f,%u,%.4f,%s\n", r.frame_set,
                              static_cast<unsigned long long>(r.t_capture_ns), ToString(r.status), p_mm.x(), p_mm.y(),
                              p_mm.z(), RadToDeg(e.phi), RadToDeg(e.theta), RadToDeg(e.psi), r.num_beacons,
                              static_cast<double>(r.residual_rms_px), ToString(r.reason));
-  if (n < 0 || std::fflush(file_) != 0) {
-    ++counters_.log_errors;
-    return PublishStatus::kFileError;
-  }
+  if (n < 0 || std::fflush(file_) != 0) return Fail();
   ++counters_.log_rows;
   return PublishStatus::kOk;
 }
 
 PublishStatus PoseLog::Close() {
-  if (file_ == nullptr) return PublishStatus::kOk;
-  bool ok = std::fflush(file_) == 0;
-  ok = (::fsync(fileno(file_)) == 0) && ok;
-  ok = (std::fclose(file_) == 0) && ok;
+  if (file_ == nullptr) return failed() ? PublishStatus::kFileError : PublishStatus::kOk;
+  errno = 0;
+  bool ok = !failed() && std::fflush(file_) == 0 && ::fsync(fileno(file_)) == 0 && std::ferror(file_) == 0;
+  if (!ok) Fail();
+  errno = 0;
+  const bool closed = std::fclose(file_) == 0;  // false: e.g. a deferred write error
   file_ = nullptr;
-  ok = ok && std::rename(partial_, path_) == 0;
-  if (!ok) ++counters_.log_errors;
-  return ok ? PublishStatus::kOk : PublishStatus::kFileError;
+  if (ok && !closed) Fail();
+  if (!ok || !closed) return PublishStatus::kFileError;
+  errno = 0;
+  if (std::rename(partial_, path_) != 0) return Fail();
+  return PublishStatus::kOk;
+}
+
+void PoseLog::Abandon() {
+  if (file_ != nullptr) std::fclose(file_);
+  file_ = nullptr;
 }
 
 }  // namespace mfns::fw

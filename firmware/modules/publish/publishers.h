@@ -54,7 +54,11 @@ class UdpPublisher {
 // The poses CSV (DESIGN.md): frame,t_ns,status,x_mm,y_mm,z_mm,roll_deg,pitch_deg,yaw_deg,
 // n_beacons,rms_px, plus an extension column `reason` (NavReason's text; readers find columns
 // by name, README "Extensions"). Rows go to "<path>.partial" and are flushed per frame set (a crash keeps
-// what was logged); Close renames it to <path>, so <path> only ever holds a finished log.
+// what was logged). Close renames it to <path> only when every write, flush, fsync and the close
+// succeeded, so <path> only ever holds a complete log and a failed run never replaces a good
+// one: after a failure (a full disk: the last row may be cut mid-number) later rows are dropped
+// and counted, and Close leaves <path> untouched and the .partial for inspection. Destroying an
+// open PoseLog without Close (a start that failed) also leaves <path> untouched.
 class PoseLog {
  public:
   PoseLog() = default;
@@ -63,13 +67,24 @@ class PoseLog {
   PoseLog& operator=(const PoseLog&) = delete;
 
   PublishStatus Open(const char* path);
+  // kFileError when this row or an earlier one could not be written (the row is dropped).
   PublishStatus Write(const PoseRecord& r);
+  // Finishes the log: kOk only when <path> now holds every row; kFileError otherwise (nothing
+  // renamed; first_error() says why).
   PublishStatus Close();
+  // Closes the file without renaming it (<path> untouched, the .partial kept).
+  void Abandon();
   bool is_open() const { return file_ != nullptr; }
+  bool failed() const { return first_errno_ != 0; }
+  int first_error() const { return first_errno_; }  // errno of the first failure, 0 when none
+  const char* partial_path() const { return partial_; }
   const PublishCounters& counters() const { return counters_; }
 
  private:
+  PublishStatus Fail();  // records errno and counts the failure
+
   std::FILE* file_ = nullptr;
+  int first_errno_ = 0;
   char path_[limits::kMaxPathChars] = {};
   char partial_[limits::kMaxPathChars + 16] = {};
   char buffer_[8192] = {};

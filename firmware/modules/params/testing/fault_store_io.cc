@@ -97,4 +97,14 @@ int FaultStoreIo::Mkdir(const char* path, mode_t mode) {
   return inner_->Mkdir(path, mode);
 }
 
+int FaultStoreIo::Fstat(int fd, struct stat* st) {
+  if (!Enter("fstat " + FdName(fd))) return -1;
+  return inner_->Fstat(fd, st);
+}
+
+int FaultStoreIo::Flock(int fd, int operation) {
+  if (!Enter("flock " + FdName(fd))) return -1;
+  return inner_->Flock(fd, operation);
+}
+
 }  // namespace mfns::fw::testing

@@ -47,6 +47,8 @@ class FaultStoreIo final : public StoreIo {
   int Rename(const char* from, const char* to) override;
   int Unlink(const char* path) override;
   int Mkdir(const char* path, mode_t mode) override;
+  int Fstat(int fd, struct stat* st) override;
+  int Flock(int fd, int operation) override;
 
  private:
   // Logs the call, runs the hook; false when this call must fail (errno set).

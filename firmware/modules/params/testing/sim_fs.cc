@@ -137,6 +137,28 @@ int SimFs::Mkdir(const char* path, mode_t /*mode*/) {
   return -1;
 }
 
+int SimFs::Fstat(int fd, struct stat* st) {
+  auto it = fds_.find(fd);
+  if (it == fds_.end()) {
+    errno = EBADF;
+    return -1;
+  }
+  *st = {};
+  st->st_dev = 1;
+  st->st_ino = static_cast<ino_t>(it->second.ino + 2);  // the directory is inode 1
+  st->st_mode = it->second.ino < 0 ? (S_IFDIR | 0755) : (S_IFREG | 0644);
+  if (it->second.ino >= 0) st->st_size = static_cast<off_t>(inodes_[static_cast<std::size_t>(it->second.ino)].data.size());
+  return 0;
+}
+
+int SimFs::Flock(int fd, int /*operation*/) {
+  if (fds_.count(fd) == 0) {
+    errno = EBADF;
+    return -1;
+  }
+  return 0;
+}
+
 void SimFs::PowerCut(Crash crash) {
   fds_.clear();
   const bool keep_entries = crash == Crash::kProcessKill || crash == Crash::kKeepEntries;

@@ -37,6 +37,8 @@ class SimFs final : public StoreIo {
   int Rename(const char* from, const char* to) override;
   int Unlink(const char* path) override;
   int Mkdir(const char* path, mode_t mode) override;
+  int Fstat(int fd, struct stat* st) override;  // a regular file, or the directory
+  int Flock(int fd, int operation) override;    // one process: always granted
 
   // The machine loses power (or the process dies): open descriptors vanish, and un-fsynced
   // state is kept or dropped as crash says.
