@@ -288,6 +288,9 @@ void LostInSpace::Score(const BodyPose& pose, const LisOptions& o, LisResult* re
   if (prior_ == nullptr && rig_->num_beacons >= o.fourth_blob_min_beacons &&
       !ExplainsAFourth(pose, cur_i_, cur_j_, cur_k_, fourth_cos_sq_))
     return;
+  // Under a prior no fourth-blob test filters the poses: their full reprojection is work the
+  // budget counts (a frame set's time would otherwise grow with the map; seen: 22 ms).
+  if (prior_ != nullptr) ++result->work;
   matcher_.MatchPose(pose, o.hypothesis_match, &match_scratch_);
   // Too few beacons, or refuted even allowing for the raw pose's error at the margins.
   if (match_scratch_.num_beacons < o.min_beacons || match_scratch_.num_missing > o.max_missing + 1) return;
@@ -451,7 +454,7 @@ void LostInSpace::OrderItems(bool near_pass) {
 // P3P solves in this call (and o.max_hypotheses in the whole search). The cursor names the
 // next hypothesis, so that a paused search resumes exactly where it stopped.
 LostInSpace::SearchEnd LostInSpace::Search(int budget, LisResult* res) {
-  int spent = 0;
+  const int work_before = res->work;
   const int nb = rig_->num_beacons;
   for (; cur_.item < num_items_; ++cur_.item, cur_.a = 0, cur_.b = cur_.c = -1, cur_.ready = false) {
     const Item& item = items_[static_cast<std::size_t>(cur_.item)];
@@ -481,9 +484,9 @@ LostInSpace::SearchEnd LostInSpace::Search(int budget, LisResult* res) {
         if (skip_near && NearPairTried(tr, a, b)) cs = cs.Minus(NearThirds(tr, a, b));
         for (int c = cur_.c < 0 ? cs.First() : cur_.c; c >= 0; c = cs.Next(c + 1)) {
           cur_.c = c;
-          if (res->hypotheses >= options_.max_hypotheses) return SearchEnd::kBudgetOut;
-          if (spent >= budget) return SearchEnd::kPaused;
-          ++spent;
+          if (res->work >= options_.max_hypotheses) return SearchEnd::kBudgetOut;
+          if (res->work - work_before >= budget) return SearchEnd::kPaused;
+          ++res->work;
           ++res->hypotheses;
           TryTriple(a, b, c, res);
           if (res->confirmed) return SearchEnd::kDone;
@@ -561,7 +564,7 @@ LisStatus LostInSpace::Begin(const BlobObs* blobs, int num_blobs, const LisOptio
   res.matches.num_beacons = 0;
   res.best_score = 0.0;
   res.second_score = -std::numeric_limits<double>::infinity();
-  res.hypotheses = res.poses_scored = res.blob_triples = 0;
+  res.hypotheses = res.work = res.poses_scored = res.blob_triples = 0;
   res.false_alarms = 0.0;
   res.search_complete = res.confirmed = false;
   res.complete = false;

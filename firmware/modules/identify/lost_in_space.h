@@ -78,7 +78,7 @@ struct LisOptions {
                                   // (the beacon map's diameter + workspace_margin_m). 64 scan
                                   // steps: half the cost of 128 for a cross-camera triple, and
                                   // the same root misses (2-5 in 20000 random triples to 8 m)
-  int max_hypotheses = limits::kMaxLisHypotheses;  // P3P solves per frame set, 1..limit
+  int max_hypotheses = limits::kMaxLisHypotheses;  // work units per search (LisResult::work), 1..limit
   int max_blobs = limits::kMaxLisBlobs;            // blobs used for triples, 3..limit
   MatchOptions hypothesis_match{15.0, 15.0, false};  // scoring raw P3P poses
   MatchOptions refine_match{4.0, 15.0, false};       // re-matching refined poses
@@ -123,6 +123,8 @@ struct LisResult {
   double best_score = 0.0;        // matches - miss_weight * missing of the best consistent pose
   double second_score = 0.0;      // of the next consistent pose (-inf if none)
   int hypotheses = 0;             // P3P solves spent
+  int work = 0;                   // budget units spent: P3P solves, plus under a prior one per
+                                  // pose fully reprojected (no fourth-blob test there)
   double false_alarms = 0.0;      // FalseAlarms of the confirmed pose (confirmed only)
   int poses_scored = 0;           // P3P solutions scored
   int blob_triples = 0;           // blob triples visited
@@ -176,7 +178,7 @@ class LostInSpace {
   // The same search spread over several calls, so that a frame set's time budget is kept:
   // Begin checks and copies the blobs (the caller's list need not outlive the call) and
   // returns kSearching, or a final status at once (bad input, too few blobs); each Continue
-  // spends at most `budget` P3P solves (o.max_hypotheses in all) and returns kSearching while
+  // spends at most `budget` work units (LisResult::work; o.max_hypotheses in all) and returns kSearching while
   // the search goes on, else the final status and result as Identify. `prior` (optional) must
   // stay alive until then. Identify = Begin + Continue(options.max_hypotheses). Any Identify
   // or Begin abandons a search in progress.

@@ -748,7 +748,7 @@ LisStatus Tracker::RunLis(const BlobObs* blobs, int num_blobs, const LisPrior* p
   LisOptions lo = o.lis;
   lo.max_hypotheses = std::min(HypothesesLeft(), lo.max_hypotheses);
   const LisStatus s = lis_.Identify(blobs, num_blobs, lo, &lis_res_, prior, cameras_);
-  Charge(lis_res_.hypotheses);
+  Charge(lis_res_.work);
   return s;
 }
 
@@ -781,9 +781,9 @@ LisStatus Tracker::ColdSearch(const BlobObs* blobs, int num_blobs, std::uint64_t
     if (s != LisStatus::kSearching) return s;
   }
   *old = cold_t_ns_ != t_ns;
-  const int before = lis_res_.hypotheses;
+  const int before = lis_res_.work;
   const LisStatus s = lis_.Continue(HypothesesLeft(), &lis_res_);
-  Charge(lis_res_.hypotheses - before);
+  Charge(lis_res_.work - before);
   return s;
 }
 
