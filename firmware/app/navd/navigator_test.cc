@@ -254,6 +254,40 @@ TEST(Navigator, ReacquiresAfterGapsWithoutTracking) {
   EXPECT_EQ(r.lis_decidable_fixed, r.lis_decidable);
 }
 
+// A map without facing data gets it inferred at Init when it is a module's walls (here a
+// cylinder's, whose true normals the inference must find), none when it is not (the paper's
+// turntable beacons), and none when the option is off; a map with facing keeps its own.
+TEST(Navigator, InitInfersTheFacingOfAMapOfWalls) {
+  static Navigator nav;
+  std::mt19937_64 rng(31);
+  static Rig truth;
+  truth = testing::RandomCylinderRig(128, true, &rng);
+  static Rig map;
+  map = truth;
+  map.has_facing = false;
+  ASSERT_TRUE(nav.Init(map, NavigatorOptions{}));
+  ASSERT_TRUE(nav.rig().has_facing);
+  EXPECT_EQ(nav.inferred_facing().on_planes + nav.inferred_facing().unknown, 128);
+  EXPECT_GE(nav.inferred_facing().on_planes, 96);
+  int right = 0;
+  for (int m = 0; m < 128; ++m) {
+    const auto sm = static_cast<std::size_t>(m);
+    if (nav.rig().beacon_half_angle[sm] >= kPi) continue;
+    EXPECT_GT(nav.rig().beacon_normal_w[sm].dot(truth.beacon_normal_w[sm]), 0.0) << "beacon " << m;
+    right += nav.rig().beacon_normal_w[sm].dot(truth.beacon_normal_w[sm]) > std::cos(DegToRad(15.0));
+  }
+  EXPECT_GE(right, nav.inferred_facing().on_planes * 9 / 10);
+  NavigatorOptions off;
+  off.infer_facing = false;
+  ASSERT_TRUE(nav.Init(map, off));
+  EXPECT_FALSE(nav.rig().has_facing);
+  ASSERT_TRUE(nav.Init(PaperRig(), NavigatorOptions{}));
+  EXPECT_FALSE(nav.rig().has_facing);
+  ASSERT_TRUE(nav.Init(truth, NavigatorOptions{}));
+  EXPECT_EQ(nav.inferred_facing().on_planes, 0);
+  EXPECT_EQ(nav.rig().beacon_normal_w[7], truth.beacon_normal_w[7]);
+}
+
 TEST(Navigator, LostWithTooFewBlobsAndCameraDownDegrades) {
   static const Rig rig = PaperRig();
   static Navigator nav;
