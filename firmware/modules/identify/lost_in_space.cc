@@ -451,7 +451,7 @@ void LostInSpace::OrderItems(bool near_pass) {
 }
 
 // Visits blob triples and their feasible beacon triples from the cursor on; at most `budget`
-// P3P solves in this call (and o.max_hypotheses in the whole search). The cursor names the
+// work units (LisResult::work) in this call, o.max_hypotheses in the whole search. The cursor names the
 // next hypothesis, so that a paused search resumes exactly where it stopped.
 LostInSpace::SearchEnd LostInSpace::Search(int budget, LisResult* res) {
   const int work_before = res->work;
