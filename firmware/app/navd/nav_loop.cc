@@ -16,6 +16,10 @@ std::uint64_t MonotonicNs() {
   return static_cast<std::uint64_t>(ts.tv_sec) * 1000000000ull + static_cast<std::uint64_t>(ts.tv_nsec);
 }
 
+namespace {
+std::uint32_t Saturate32(std::uint64_t n) { return static_cast<std::uint32_t>(std::min<std::uint64_t>(n, 0xFFFFFFFFu)); }
+}  // namespace
+
 NavLoop::NavLoop(const Rig& rig, FrameSource* source, GpioTrigger* trigger, UdpPublisher* udp, PoseLog* log)
     : rig_(&rig), source_(source), trigger_(trigger), udp_(udp), log_(log) {}
 
@@ -107,6 +111,7 @@ bool NavLoop::AcquireAll(std::uint64_t* t_capture_ns, bool* all_ended, std::uint
     source_->Release(k);
     if (d != DetectStatus::kOk && d != DetectStatus::kBlobLimit) {
       ++counters_.detect_errors;  // no usable blob list: as if the camera had not delivered
+      ++sup.detect_errors;
       continue;
     }
     *delivered_set |= std::uint32_t{1} << k;
@@ -169,27 +174,54 @@ void NavLoop::Publish(const NavOutput& nav, std::uint64_t t_capture_ns, PoseReco
 HealthRecord NavLoop::Health() const {
   HealthRecord h;
   h.sequence = health_sequence_;
-  h.frame_sets = static_cast<std::uint32_t>(counters_.frame_sets);
+  h.frame_sets = Saturate32(counters_.frame_sets);
   h.t_ns = MonotonicNs();
   h.param_generation = config_.param_generation;
-  h.fixes = static_cast<std::uint32_t>(counters_.fixes);
-  h.degraded = static_cast<std::uint32_t>(counters_.degraded);
-  h.lost = static_cast<std::uint32_t>(counters_.lost);
-  h.deadline_slips = static_cast<std::uint32_t>(counters_.deadline_slips);
-  h.worst_frame_set_us = static_cast<std::uint32_t>(std::min<std::uint64_t>(counters_.worst_frame_set_ns / 1000, 0xFFFFFFFFu));
+  h.fixes = Saturate32(counters_.fixes);
+  h.degraded = Saturate32(counters_.degraded);
+  h.lost = Saturate32(counters_.lost);
+  h.deadline_slips = Saturate32(counters_.deadline_slips);
+  h.worst_frame_set_us = Saturate32(counters_.worst_frame_set_ns / 1000);
   h.num_cameras = static_cast<std::uint8_t>(rig_->num_cameras);
   for (int k = 0; k < rig_->num_cameras; ++k) {
     const auto ks = static_cast<std::size_t>(k);
     const SourceCounters& c = source_->counters(k);
     CameraHealth& ch = h.cameras[ks];
     ch.state = supervision_[ks].set_aside ? 1 : 0;
-    ch.frames = static_cast<std::uint32_t>(c.frames);
-    ch.drops = static_cast<std::uint32_t>(c.drops + c.error_buffers + c.short_buffers + c.unknown_clock + c.missing_files);
-    ch.timeouts = static_cast<std::uint32_t>(c.timeouts);
-    ch.errors = static_cast<std::uint32_t>(c.driver_errors);
+    ch.frames = Saturate32(c.frames);
+    ch.drops = Saturate32(c.drops + c.missing_files);
+    ch.timeouts = Saturate32(c.timeouts);
+    ch.errors = Saturate32(c.driver_errors);
+    ch.bad_frames = Saturate32(c.error_buffers + c.short_buffers + c.unknown_clock + c.bad_files);
+    ch.detect_errors = Saturate32(supervision_[ks].detect_errors);
     ch.blobs_last = supervision_[ks].blobs_last;
   }
+  h.clock_faults = Saturate32(counters_.clock_faults);
+  h.log_errors = log_ != nullptr ? Saturate32(log_->counters().log_errors) : 0;
+  h.trigger_errors = Saturate32(counters_.trigger_errors);
   return h;
+}
+
+// A frame set stamped no later than the previous one (a repeated or backward driver clock)
+// cannot be placed in time: its motion since the last pose would read as none, and tracking
+// would refute the true pose (seen: a repeated timestamp lost the track for 23 frame sets).
+// It is counted and stamped one nominal frame period (deadline_ms) after the previous one.
+// After kClockRebaseFaults such frame sets in a row the clock itself went back (a driver
+// restart): its time is taken as it is, and the track is seeded again from the last pose.
+bool NavLoop::CheckClock(std::uint64_t* t_capture_ns) {
+  constexpr int kClockRebaseFaults = 3;
+  const bool fault = last_t_capture_ns_ != 0 && *t_capture_ns <= last_t_capture_ns_;
+  consecutive_clock_faults_ = fault ? consecutive_clock_faults_ + 1 : 0;
+  if (fault) ++counters_.clock_faults;
+  if (fault && consecutive_clock_faults_ >= kClockRebaseFaults) {
+    consecutive_clock_faults_ = 0;
+    BodyPose last;
+    if (navigator_.LastPose(&last)) navigator_.SetInitialPose(last, config_.reload_sigma_m, config_.reload_sigma_rad);
+  } else if (fault) {
+    *t_capture_ns = last_t_capture_ns_ + static_cast<std::uint64_t>(config_.deadline_ms * 1e6);
+  }
+  last_t_capture_ns_ = *t_capture_ns;
+  return fault;
 }
 
 StepStatus NavLoop::Step(PoseRecord* out) {
@@ -209,7 +241,13 @@ StepStatus NavLoop::Step(PoseRecord* out) {
   bool cameras_down = (delivered & all) != all;
   for (int k = 0; k < rig_->num_cameras; ++k) cameras_down = cameras_down || supervision_[static_cast<std::size_t>(k)].set_aside;
   if (any) {
+    const bool clock_fault = CheckClock(&t_capture_ns);
     navigator_.Step(obs_.data(), num_obs_, t_capture_ns, delivered, cameras_down, &nav_);
+    // The pose is sound but its time an estimate: not a fix.
+    if (clock_fault && nav_.status == NavStatus::kFix) {
+      nav_.status = NavStatus::kDegraded;
+      nav_.reason = NavReason::kClockFault;
+    }
   } else {
     nav_.status = NavStatus::kLost;
     nav_.reason = NavReason::kNoFrames;

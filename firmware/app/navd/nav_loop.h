@@ -23,7 +23,8 @@ namespace mfns::fw {
 
 struct NavLoopConfig {
   int timeout_ms = 160;
-  double deadline_ms = 53.8;
+  double deadline_ms = 53.8;  // the frame period: a frame set's deadline, and the time step given to
+                              // a frame set whose timestamp is not after the last (CheckClock)
   double sigma_px = 0.15;
   int camera_timeouts_to_set_aside = 3;
   int camera_retry_every = 19;
@@ -49,6 +50,7 @@ struct CameraSupervision {
   std::uint64_t set_aside_at = 0;  // frame set index
   std::uint64_t set_asides = 0, resets = 0, reset_failures = 0;
   std::uint16_t blobs_last = 0;
+  std::uint64_t detect_errors = 0;  // frames whose detection gave no blob list
 };
 
 struct LoopCounters {
@@ -58,6 +60,7 @@ struct LoopCounters {
   std::uint64_t worst_frame_set_ns = 0;
   std::uint64_t detect_errors = 0;
   std::uint64_t trigger_errors = 0;
+  std::uint64_t clock_faults = 0;  // frame sets stamped no later than the previous one
   std::array<std::uint64_t, static_cast<std::size_t>(NavReason::kCount)> by_reason{};
 };
 
@@ -82,6 +85,7 @@ class NavLoop {
 
  private:
   bool AcquireAll(std::uint64_t* t_capture_ns, bool* all_ended, std::uint32_t* delivered);
+  bool CheckClock(std::uint64_t* t_capture_ns);
   void Publish(const NavOutput& nav, std::uint64_t t_capture_ns, PoseRecord* out);
 
   const Rig* rig_;
@@ -98,6 +102,8 @@ class NavLoop {
   NavOutput nav_;
   std::array<CameraSupervision, limits::kMaxCameras> supervision_{};
   LoopCounters counters_;
+  std::uint64_t last_t_capture_ns_ = 0;  // of the last frame set with a frame (0: none yet)
+  int consecutive_clock_faults_ = 0;
   std::uint32_t pose_sequence_ = 0, health_sequence_ = 0;
   std::array<std::uint8_t, kPoseMessageBytes> pose_bytes_{};
   std::array<std::uint8_t, kHealthMessageBytes> health_bytes_{};

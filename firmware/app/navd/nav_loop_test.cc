@@ -311,6 +311,54 @@ TEST(NavLoop, ALostFrameSetPublishesNaNNotTheLastPose) {
   EXPECT_NE(last.find(",lost,nan,nan,nan,nan,nan,nan,"), std::string::npos) << last;
 }
 
+// Issue 14 defect 8: a frame set stamped no later than the previous one (a repeated or a
+// backward driver timestamp) lost the track for 23 frame sets. Now it is counted (health), its
+// pose degraded with reason "clock fault" and stamped one period on, and the track goes on; a
+// clock that went back for good (three faults in a row) is taken as it is, the track seeded
+// again from the last pose.
+TEST(NavLoop, ARepeatedOrBackwardTimestampKeepsTheTrack) {
+  const Rig rig = SmallRig();
+  SweepRenderer sweep(rig);
+  InProcessSource source(rig.num_cameras);
+  ASSERT_EQ(source.Start(), SourceStatus::kOk);
+  NavLoopConfig c = Config();
+  c.has_initial_pose = true;  // the sweep's start, exactly
+  NavLoop loop(rig, &source, nullptr, nullptr, nullptr);
+  ASSERT_TRUE(loop.Configure(c, nullptr));
+  // Frame set n's stamp: n periods on, except a repeat (20), one step back (30), and from 40
+  // on a clock 10 s behind.
+  const auto stamp = [](int n) -> std::uint64_t {
+    const std::uint64_t t = 20'000'000'000ull + static_cast<std::uint64_t>(n) * kFrameNs;
+    if (n == 20) return t - kFrameNs;
+    if (n == 30) return t - 5 * kFrameNs;
+    return n >= 40 ? t - 10'000'000'000ull : t;
+  };
+  PoseRecord rec;
+  int wrong = 0, sets_3plus = 0, posed_3plus = 0;
+  std::uint64_t last_t = 0;
+  for (int n = 0; n < 70; ++n) {
+    const int visible = sweep.Render(n);
+    for (int k = 0; k < rig.num_cameras; ++k) ASSERT_TRUE(source.Push(k, sweep.View(k, stamp(n), static_cast<std::uint32_t>(n))));
+    ASSERT_EQ(loop.Step(&rec), StepStatus::kOk);
+    wrong += rec.status != NavStatus::kLost && !FixIsRight(rec, sweep.pose());
+    if (n == 20 || n == 30 || n == 40 || n == 41) {
+      EXPECT_EQ(rec.reason, NavReason::kClockFault) << n;
+      EXPECT_NE(rec.status, NavStatus::kFix) << n;
+      EXPECT_EQ(rec.t_capture_ns, last_t + static_cast<std::uint64_t>(c.deadline_ms * 1e6))
+          << n << ": one period after the last";
+    }
+    if (n != 42 && visible >= 3 && n >= 3) {  // (42: the track seeded again, see below)
+      ++sets_3plus;
+      posed_3plus += rec.status != NavStatus::kLost;
+    }
+    last_t = rec.t_capture_ns;
+  }
+  EXPECT_EQ(loop.counters().clock_faults, 5u);  // 20, 30, 40, 41, 42
+  EXPECT_EQ(loop.Health().clock_faults, 5u);
+  EXPECT_EQ(wrong, 0);
+  EXPECT_EQ(posed_3plus, sets_3plus) << "the track is kept through every clock fault";
+}
+
 TEST(NavLoop, EndOfStreamAndNoFrames) {
   const Rig rig = SmallRig();
   InProcessSource source(rig.num_cameras);

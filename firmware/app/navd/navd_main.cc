@@ -38,6 +38,27 @@ std::uint64_t MonotonicNs() {
   return static_cast<std::uint64_t>(ts.tv_sec) * 1'000'000'000ull + static_cast<std::uint64_t>(ts.tv_nsec);
 }
 
+// The faults the health datagram counts, in one line, when there were any (a run that read
+// corrupt frames must not look like one that saw too few beacons).
+void ReportFaults(const HealthRecord& h) {
+  std::uint64_t bad = 0, detect = 0, drops = 0, timeouts = 0, errors = 0;
+  for (int k = 0; k < h.num_cameras; ++k) {
+    const CameraHealth& c = h.cameras[static_cast<std::size_t>(k)];
+    bad += c.bad_frames;
+    detect += c.detect_errors;
+    drops += c.drops;
+    timeouts += c.timeouts;
+    errors += c.errors;
+  }
+  if (bad + detect + drops + timeouts + errors + h.clock_faults + h.log_errors + h.trigger_errors == 0) return;
+  std::fprintf(stderr,
+               "mfns-navd: faults: bad frames %llu, detection errors %llu, dropped %llu, timeouts %llu, driver errors "
+               "%llu, clock faults %u, log errors %u, trigger errors %u\n",
+               static_cast<unsigned long long>(bad), static_cast<unsigned long long>(detect),
+               static_cast<unsigned long long>(drops), static_cast<unsigned long long>(timeouts),
+               static_cast<unsigned long long>(errors), h.clock_faults, h.log_errors, h.trigger_errors);
+}
+
 int Run(int argc, char** argv) {
   static NavdOptions opt;
   char why[512] = {};
@@ -218,6 +239,7 @@ int Run(int argc, char** argv) {
                static_cast<unsigned long long>(c.frame_sets), static_cast<unsigned long long>(c.fixes),
                static_cast<unsigned long long>(c.degraded), static_cast<unsigned long long>(c.lost),
                static_cast<unsigned long long>(c.deadline_slips), static_cast<double>(c.worst_frame_set_ns) * 1e-6);
+  ReportFaults(loop->Health());
   if (opt.pid_file[0] != '\0') RemovePidFile(opt.pid_file.data());
   if (log.is_open() && log.Close() != PublishStatus::kOk) {
     std::fprintf(stderr, "mfns-navd: log %s not written: %s after %llu rows, %llu failed or dropped writes; what was written is in %s\n",

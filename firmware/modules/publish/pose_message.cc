@@ -8,14 +8,15 @@ namespace {
 
 constexpr std::array<std::uint8_t, 4> kMagic = {'M', 'F', 'N', 'P'};
 constexpr std::uint8_t kTypePose = 1, kTypeHealth = 2;
-constexpr std::size_t kCameraHealthBytes = 20;
+constexpr std::size_t kCameraHealthBytes = 28, kCameraHealthV1Bytes = 20;
 static_assert(48 + 3 * 8 + 4 * 8 + 3 * 4 + 4 + 21 * 4 + 4 == kPoseMessageBytes, "pose layout");
-static_assert(56 + limits::kMaxCameras * kCameraHealthBytes + 4 == kHealthMessageBytes, "health layout");
+static_assert(56 + limits::kMaxCameras * kCameraHealthBytes + 3 * 4 + 4 == kHealthMessageBytes, "health layout");
+static_assert(56 + limits::kMaxCameras * kCameraHealthV1Bytes + 4 == kHealthMessageV1Bytes, "health v1 layout");
 static_assert(limits::kMaxCameras == 4, "the wire formats carry exactly 4 camera slots");
 
-void Header(wire::ByteWriter& w, std::uint8_t type, std::size_t size) {
+void Header(wire::ByteWriter& w, std::uint8_t version, std::uint8_t type, std::size_t size) {
   w.Bytes(kMagic);
-  w.U8(kMessageVersion);
+  w.U8(version);
   w.U8(type);
   w.U16(static_cast<std::uint16_t>(size));
 }
@@ -27,12 +28,12 @@ void Seal(std::span<std::uint8_t> out) {
   w.U32(crc);
 }
 
-MessageStatus Check(std::span<const std::uint8_t> in, std::uint8_t type, std::size_t size) {
+MessageStatus Check(std::span<const std::uint8_t> in, std::uint8_t version, std::uint8_t type, std::size_t size) {
   if (in.size() < 8) return MessageStatus::kTruncated;
   for (std::size_t i = 0; i < 4; ++i)
     if (in[i] != kMagic[i]) return MessageStatus::kBadMagic;
-  if (in[4] != kMessageVersion) return MessageStatus::kBadVersion;
   if (in[5] != type) return MessageStatus::kBadType;
+  if (in[4] != version) return MessageStatus::kBadVersion;
   if (wire::LoadLe(in, 6, 2) != size) return MessageStatus::kBadSize;
   if (in.size() < size) return MessageStatus::kTruncated;
   if (in.size() > size) return MessageStatus::kBadSize;
@@ -64,6 +65,7 @@ const char* ToString(NavReason r) {
     case NavReason::kNoFrames: return "no frames";
     case NavReason::kAcquiring: return "acquiring";
     case NavReason::kNoHypothesis: return "no hypothesis";
+    case NavReason::kClockFault: return "clock fault";
     case NavReason::kCount: break;
   }
   return "unknown";
@@ -84,7 +86,7 @@ const char* ToString(MessageStatus s) {
 
 void EncodePose(const PoseRecord& r, std::span<std::uint8_t, kPoseMessageBytes> out) {
   wire::ByteWriter w(out);
-  Header(w, kTypePose, kPoseMessageBytes);
+  Header(w, kPoseMessageVersion, kTypePose, kPoseMessageBytes);
   w.U32(r.sequence);
   w.U32(r.frame_set);
   w.U64(r.t_capture_ns);
@@ -109,7 +111,7 @@ void EncodePose(const PoseRecord& r, std::span<std::uint8_t, kPoseMessageBytes> 
 
 void EncodeHealth(const HealthRecord& r, std::span<std::uint8_t, kHealthMessageBytes> out) {
   wire::ByteWriter w(out);
-  Header(w, kTypeHealth, kHealthMessageBytes);
+  Header(w, kHealthMessageVersion, kTypeHealth, kHealthMessageBytes);
   w.U32(r.sequence);
   w.U32(r.frame_sets);
   w.U64(r.t_ns);
@@ -129,12 +131,17 @@ void EncodeHealth(const HealthRecord& r, std::span<std::uint8_t, kHealthMessageB
     w.U32(c.drops);
     w.U32(c.timeouts);
     w.U32(c.errors);
+    w.U32(c.bad_frames);
+    w.U32(c.detect_errors);
   }
+  w.U32(r.clock_faults);
+  w.U32(r.log_errors);
+  w.U32(r.trigger_errors);
   Seal(out);
 }
 
 MessageStatus DecodePose(std::span<const std::uint8_t> in, PoseRecord* r) {
-  const MessageStatus s = Check(in, kTypePose, kPoseMessageBytes);
+  const MessageStatus s = Check(in, kPoseMessageVersion, kTypePose, kPoseMessageBytes);
   if (s != MessageStatus::kOk) return s;
   wire::ByteReader rd(in.subspan(8));
   r->sequence = rd.U32();
@@ -158,8 +165,11 @@ MessageStatus DecodePose(std::span<const std::uint8_t> in, PoseRecord* r) {
 }
 
 MessageStatus DecodeHealth(std::span<const std::uint8_t> in, HealthRecord* r) {
-  const MessageStatus s = Check(in, kTypeHealth, kHealthMessageBytes);
+  const bool v1 = in.size() >= 5 && in[4] == 1;
+  const MessageStatus s = v1 ? Check(in, 1, kTypeHealth, kHealthMessageV1Bytes)
+                             : Check(in, kHealthMessageVersion, kTypeHealth, kHealthMessageBytes);
   if (s != MessageStatus::kOk) return s;
+  *r = HealthRecord{};
   wire::ByteReader rd(in.subspan(8));
   r->sequence = rd.U32();
   r->frame_sets = rd.U32();
@@ -180,6 +190,14 @@ MessageStatus DecodeHealth(std::span<const std::uint8_t> in, HealthRecord* r) {
     c.drops = rd.U32();
     c.timeouts = rd.U32();
     c.errors = rd.U32();
+    if (v1) continue;
+    c.bad_frames = rd.U32();
+    c.detect_errors = rd.U32();
+  }
+  if (!v1) {
+    r->clock_faults = rd.U32();
+    r->log_errors = rd.U32();
+    r->trigger_errors = rd.U32();
   }
   return MessageStatus::kOk;
 }

@@ -19,14 +19,18 @@
 //               (common/rig/rig.h PoseDelta)
 //   204 u32 CRC-32 (zlib) of bytes 0..203
 //
-//   HealthMessage v1 (type 2, 140 bytes)
-//   0   magic, version, type = 2, u16 size = 140 (as above)
+//   HealthMessage v2 (type 2, 184 bytes)
+//   0   magic, version = 2, type = 2, u16 size = 184 (as above)
 //   8   u32 sequence   12 u32 frame_sets   16 u64 t_ns   24 u64 param_generation
 //   32  u32 fixes   36 u32 degraded   40 u32 lost   44 u32 deadline_slips
 //   48  u32 worst_frame_set_us   52 u8 num_cameras   53 u8[3] zero
-//   56  4 x 20 bytes per camera: u8 state, u8 zero, u16 blobs_last, u32 frames, u32 drops,
-//       u32 timeouts, u32 errors
-//   136 u32 CRC-32 of bytes 0..135
+//   56  4 x 28 bytes per camera: u8 state, u8 zero, u16 blobs_last, u32 frames, u32 drops,
+//       u32 timeouts, u32 errors, u32 bad_frames, u32 detect_errors
+//   168 u32 clock_faults   172 u32 log_errors   176 u32 trigger_errors
+//   180 u32 CRC-32 of bytes 0..179
+//   (HealthMessage v1, 140 bytes: the same up to byte 56, then 4 x 20 bytes per camera without
+//   bad_frames and detect_errors, and the CRC at 136; still decoded, the new fields zero.)
+//   All counters count since start and saturate at 2^32 - 1.
 #pragma once
 
 #include <Eigen/Core>
@@ -55,13 +59,17 @@ enum class NavReason : std::uint8_t {
   kNoFrames,          // no camera delivered a frame (lost)
   kAcquiring,         // several poses explain the blobs; following them over frames (lost)
   kNoHypothesis,      // no pose explains the blobs, or the hypothesis budget ran out (lost)
+  kClockFault,        // the frame set's timestamp was not after the previous one: the pose is
+                      // stamped with the previous time plus one frame period (degraded)
   kCount
 };
 const char* ToString(NavReason r);
 
 inline constexpr std::size_t kPoseMessageBytes = 208;
-inline constexpr std::size_t kHealthMessageBytes = 140;
-inline constexpr std::uint8_t kMessageVersion = 1;
+inline constexpr std::size_t kHealthMessageBytes = 184;
+inline constexpr std::size_t kHealthMessageV1Bytes = 140;
+inline constexpr std::uint8_t kPoseMessageVersion = 1;
+inline constexpr std::uint8_t kHealthMessageVersion = 2;
 
 // One frame set's output. When status is kLost there is no pose: r_w_wb, q_w_b, euler_deg and
 // covariance are NaN (set by the producer, NavLoop::Publish) and residual_rms_px is 0.
@@ -85,7 +93,13 @@ struct PoseRecord {
 
 struct CameraHealth {
   std::uint8_t state = 0;  // 0 ok, 1 set aside (retrying), 2 failed at start
-  std::uint32_t frames = 0, drops = 0, timeouts = 0, errors = 0;
+  std::uint32_t frames = 0;         // frames delivered
+  std::uint32_t drops = 0;          // frames lost: gaps in the driver's sequence, missing files
+  std::uint32_t timeouts = 0;       // no frame within the timeout
+  std::uint32_t errors = 0;         // failed driver calls
+  std::uint32_t bad_frames = 0;     // frames delivered but unusable: error-flagged, short,
+                                    // unreadable or unstamped
+  std::uint32_t detect_errors = 0;  // frames whose blob detection failed (no blob list)
   std::uint16_t blobs_last = 0;
 };
 
@@ -99,6 +113,9 @@ struct HealthRecord {
   std::uint32_t worst_frame_set_us = 0;
   std::uint8_t num_cameras = 0;
   std::array<CameraHealth, limits::kMaxCameras> cameras{};
+  std::uint32_t clock_faults = 0;    // frame sets not later than the previous one (kClockFault)
+  std::uint32_t log_errors = 0;      // pose log rows that failed to write
+  std::uint32_t trigger_errors = 0;  // trigger pulses that failed
 };
 
 enum class MessageStatus : unsigned char { kOk = 0, kTruncated, kBadMagic, kBadVersion, kBadType, kBadSize, kBadCrc };
@@ -108,7 +125,8 @@ const char* ToString(MessageStatus s);
 void EncodePose(const PoseRecord& r, std::span<std::uint8_t, kPoseMessageBytes> out);
 void EncodeHealth(const HealthRecord& r, std::span<std::uint8_t, kHealthMessageBytes> out);
 
-// Decoders for receivers and tests: check magic, version, type, size and CRC.
+// Decoders for receivers and tests: check magic, version, type, size and CRC. DecodeHealth
+// also takes a v1 message (the fields v1 lacks are zero).
 MessageStatus DecodePose(std::span<const std::uint8_t> in, PoseRecord* r);
 MessageStatus DecodeHealth(std::span<const std::uint8_t> in, HealthRecord* r);
 

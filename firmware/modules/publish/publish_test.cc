@@ -16,6 +16,7 @@
 #include "common/wire/byte_io.h"
 #include "firmware/modules/publish/pose_message.h"
 #include "firmware/modules/publish/publishers.h"
+#include "common/blob/param_blob.h"
 
 namespace mfns::fw {
 namespace {
@@ -102,18 +103,91 @@ TEST(HealthMessage, RoundTrip) {
   h.deadline_slips = 3;
   h.worst_frame_set_us = 45678;
   h.num_cameras = 3;
-  h.cameras[1] = {1, 100, 2, 3, 4, 17};
+  CameraHealth& c = h.cameras[1];
+  c.state = 1;
+  c.frames = 100;
+  c.drops = 2;
+  c.timeouts = 3;
+  c.errors = 4;
+  c.bad_frames = 5;
+  c.detect_errors = 6;
+  c.blobs_last = 17;
+  h.clock_faults = 8;
+  h.log_errors = 9;
+  h.trigger_errors = 10;
   std::array<std::uint8_t, kHealthMessageBytes> bytes{};
   EncodeHealth(h, bytes);
+  // The documented layout (pose_message.h): version 2, size 184, camera 1 at 56 + 28.
+  EXPECT_EQ(bytes[4], 2);
+  EXPECT_EQ(wire::LoadLe(bytes, 6, 2), 184u);
+  EXPECT_EQ(wire::LoadLe(bytes, 84 + 2, 2), 17u);
+  EXPECT_EQ(wire::LoadLe(bytes, 84 + 20, 4), 5u);
+  EXPECT_EQ(wire::LoadLe(bytes, 84 + 24, 4), 6u);
+  EXPECT_EQ(wire::LoadLe(bytes, 168, 4), 8u);
+  EXPECT_EQ(wire::LoadLe(bytes, 172, 4), 9u);
+  EXPECT_EQ(wire::LoadLe(bytes, 176, 4), 10u);
   HealthRecord back;
   ASSERT_EQ(DecodeHealth(bytes, &back), MessageStatus::kOk);
   EXPECT_EQ(back.frame_sets, 1234u);
   EXPECT_EQ(back.worst_frame_set_us, 45678u);
   EXPECT_EQ(back.cameras[1].state, 1);
+  EXPECT_EQ(back.cameras[1].frames, 100u);
   EXPECT_EQ(back.cameras[1].drops, 2u);
+  EXPECT_EQ(back.cameras[1].timeouts, 3u);
+  EXPECT_EQ(back.cameras[1].errors, 4u);
+  EXPECT_EQ(back.cameras[1].bad_frames, 5u);
+  EXPECT_EQ(back.cameras[1].detect_errors, 6u);
   EXPECT_EQ(back.cameras[1].blobs_last, 17);
+  EXPECT_EQ(back.clock_faults, 8u);
+  EXPECT_EQ(back.log_errors, 9u);
+  EXPECT_EQ(back.trigger_errors, 10u);
+  for (std::size_t n = 0; n < bytes.size(); ++n)
+    EXPECT_NE(DecodeHealth(std::span<const std::uint8_t>(bytes.data(), n), &back), MessageStatus::kOk) << n;
   bytes[100] ^= 4;
   EXPECT_EQ(DecodeHealth(bytes, &back), MessageStatus::kBadCrc);
+}
+
+// A v1 health message (140 bytes: 20 bytes per camera, no fault totals), as firmware before
+// the v2 layout sends it, still decodes; the fields it lacks read zero.
+TEST(HealthMessage, DecodesVersion1) {
+  std::array<std::uint8_t, kHealthMessageV1Bytes> v1{};
+  wire::ByteWriter w(v1);
+  w.Bytes(std::array<std::uint8_t, 4>{'M', 'F', 'N', 'P'});
+  w.U8(1);
+  w.U8(2);
+  w.U16(140);
+  w.U32(7);       // sequence
+  w.U32(1234);    // frame_sets
+  w.U64(99);      // t_ns
+  w.U64(42);      // param_generation
+  w.U32(1000);    // fixes
+  w.U32(200);     // degraded
+  w.U32(34);      // lost
+  w.U32(3);       // slips
+  w.U32(45678);   // worst
+  w.U8(3);
+  for (int i = 0; i < 3; ++i) w.U8(0);
+  for (int k = 0; k < 4; ++k) {
+    w.U8(k == 1 ? 1 : 0);
+    w.U8(0);
+    w.U16(k == 1 ? 17 : 0);
+    for (std::uint32_t x : {100u, 2u, 3u, 4u}) w.U32(k == 1 ? x : 0u);
+  }
+  const std::uint32_t crc = Crc32(std::span<const std::uint8_t>(v1.data(), 136));
+  wire::ByteWriter tail(std::span<std::uint8_t>(v1.data() + 136, 4));
+  tail.U32(crc);
+  HealthRecord back;
+  back.clock_faults = 77;
+  ASSERT_EQ(DecodeHealth(v1, &back), MessageStatus::kOk);
+  EXPECT_EQ(back.frame_sets, 1234u);
+  EXPECT_EQ(back.worst_frame_set_us, 45678u);
+  EXPECT_EQ(back.cameras[1].frames, 100u);
+  EXPECT_EQ(back.cameras[1].errors, 4u);
+  EXPECT_EQ(back.cameras[1].blobs_last, 17);
+  EXPECT_EQ(back.cameras[1].bad_frames, 0u);
+  EXPECT_EQ(back.clock_faults, 0u);
+  v1[50] ^= 1;
+  EXPECT_EQ(DecodeHealth(v1, &back), MessageStatus::kBadCrc);
 }
 
 TEST(UdpPublisher, DeliversDatagramsOnLoopback) {
