@@ -109,6 +109,10 @@ bool NavLoop::AcquireAll(std::uint64_t* t_capture_ns, bool* all_ended, std::uint
     *t_capture_ns = (*t_capture_ns == 0) ? view.t_capture_ns : std::min(*t_capture_ns, view.t_capture_ns);
     const DetectStatus d = detectors_[ks].Detect(view, &rig_->cameras[ks].intrinsics, &lists_[ks]);
     source_->Release(k);
+    if (d == DetectStatus::kBlankFrame) {
+      ++sup.blank_frames;  // no information (a stuck sensor): as if the camera had not delivered
+      continue;
+    }
     if (d != DetectStatus::kOk && d != DetectStatus::kBlobLimit) {
       ++counters_.detect_errors;  // no usable blob list: as if the camera had not delivered
       ++sup.detect_errors;
@@ -192,7 +196,8 @@ HealthRecord NavLoop::Health() const {
     ch.drops = Saturate32(c.drops + c.missing_files);
     ch.timeouts = Saturate32(c.timeouts);
     ch.errors = Saturate32(c.driver_errors);
-    ch.bad_frames = Saturate32(c.error_buffers + c.short_buffers + c.unknown_clock + c.bad_files);
+    ch.bad_frames = Saturate32(c.error_buffers + c.short_buffers + c.unknown_clock + c.bad_files +
+                               supervision_[ks].blank_frames);
     ch.detect_errors = Saturate32(supervision_[ks].detect_errors);
     ch.blobs_last = supervision_[ks].blobs_last;
   }

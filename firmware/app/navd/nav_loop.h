@@ -51,6 +51,7 @@ struct CameraSupervision {
   std::uint64_t set_asides = 0, resets = 0, reset_failures = 0;
   std::uint16_t blobs_last = 0;
   std::uint64_t detect_errors = 0;  // frames whose detection gave no blob list
+  std::uint64_t blank_frames = 0;   // frames with every pixel alike (DetectStatus::kBlankFrame)
 };
 
 struct LoopCounters {

@@ -216,6 +216,7 @@ const char* ToString(DetectStatus s) {
     case DetectStatus::kCameraMismatch: return "camera size differs from frame size";
     case DetectStatus::kBlobLimit: return "more blobs than max_blobs";
     case DetectStatus::kLabelTableFull: return "label table full";
+    case DetectStatus::kBlankFrame: return "blank frame (every pixel alike)";
   }
   return "unknown";
 }
@@ -271,6 +272,7 @@ DetectCounters& DetectCounters::operator+=(const DetectCounters& o) {
   label_table_full += o.label_table_full;
   open_discarded += o.open_discarded;
   undistort_failures += o.undistort_failures;
+  blank_frames += o.blank_frames;
   return *this;
 }
 
@@ -765,6 +767,20 @@ bool FrameIsValid(const FrameView& f) {
 
 }  // namespace
 
+namespace {
+// Whether every pixel of a 64 x 64 grid over the frame has the same value (a few us).
+bool IsFlat(const FrameView& frame) {
+  constexpr int kGrid = 64;
+  const std::uint16_t first = frame.At(0, 0);
+  for (int gy = 0; gy < kGrid; ++gy) {
+    const int y = static_cast<int>(static_cast<long>(gy) * (frame.height - 1) / (kGrid - 1));
+    for (int gx = 0; gx < kGrid; ++gx)
+      if (frame.At(static_cast<int>(static_cast<long>(gx) * (frame.width - 1) / (kGrid - 1)), y) != first) return false;
+  }
+  return true;
+}
+}  // namespace
+
 DetectStatus BlobDetector::Detect(const FrameView& frame, const CameraIntrinsics* camera,
                                   BlobList* out) {
   out->count = 0;
@@ -793,6 +809,10 @@ DetectStatus BlobDetector::Detect(const FrameView& frame, const CameraIntrinsics
   status = frame.format == PixelFormat::kMono8 ? DetectTyped<Mono8Row>(options_, *ws_, frame, out)
                                                : DetectTyped<Mono16Row>(options_, *ws_, frame, out);
   if (status == DetectStatus::kOk && out->counters.over_blob_limit > 0) status = DetectStatus::kBlobLimit;
+  if (status == DetectStatus::kOk && out->count == 0 && IsFlat(frame)) {
+    status = DetectStatus::kBlankFrame;
+    out->counters.blank_frames = 1;
+  }
 
   std::sort(out->blobs.begin(), out->blobs.begin() + out->count, BrighterFirst);
   for (int i = 0; i < out->count && camera != nullptr; ++i) {

@@ -131,6 +131,7 @@ struct DetectCounters {
   std::uint64_t label_table_full = 0;    // frames cut short because no label was free
   std::uint64_t open_discarded = 0;      // components still open when a frame was cut short
   std::uint64_t undistort_failures = 0;  // Unproject not kOk
+  std::uint64_t blank_frames = 0;        // kBlankFrame
 
   DetectCounters& operator+=(const DetectCounters& o);
 };
@@ -142,6 +143,9 @@ enum class DetectStatus : unsigned char {
   kCameraMismatch,   // the camera's width/height differ from the frame's
   kBlobLimit,        // more blobs passed the gates than max_blobs: the brightest are kept
   kLabelTableFull,   // no free label: rows below were skipped, blobs closed before are kept
+  kBlankFrame,       // no blob, and every sampled pixel has the same value (all zero, all
+                     // saturated, stuck): no sensor gives that (read noise), so the frame
+                     // carries no information and must not say "no beacon here"
 };
 const char* ToString(DetectStatus s);
 

@@ -126,6 +126,8 @@ TEST(DetectOptions, DefaultsValidAndEachBadFieldNamed) {
 TEST(BlobDetector, RejectsBadOptionsFramesAndCameraMismatch) {
   SyntheticImage img(64, 48);
   img.AddBackground(10.0);
+  std::mt19937_64 rng(5);
+  img.AddNoise(1.0, rng);  // (a perfectly flat frame is blank: see BlankFramesAreFlagged)
   FrameBuffer fb = Quantize(img, PixelFormat::kMono8);
   BlobList out;
 
@@ -155,6 +157,35 @@ TEST(BlobDetector, RejectsBadOptionsFramesAndCameraMismatch) {
   EXPECT_EQ(detector.Detect(fb.view, nullptr, &out), DetectStatus::kOk);
   EXPECT_EQ(detector.counters().bad_frames, 5u);
   EXPECT_STREQ(ToString(DetectStatus::kLabelTableFull), "label table full");
+}
+
+// Issue 14 defect 8: an all-zero or all-white frame from one camera (a glitch, a blinding)
+// read as "no beacon in view" and refuted the right track. A frame with no blob and every
+// pixel alike carries no information: kBlankFrame, counted. Not blank: the same frame with one
+// spot, or with read noise.
+TEST(BlobDetector, BlankFramesAreFlagged) {
+  BlobDetector detector;
+  BlobList out;
+  for (const PixelFormat format : {PixelFormat::kMono8, PixelFormat::kMono16})
+    for (const double level : {0.0, 10.0, 1e9}) {  // (1e9: clamped to full scale)
+      SyntheticImage img(96, 64);
+      img.AddBackground(level);
+      const FrameBuffer flat = Quantize(img, format);
+      EXPECT_EQ(detector.Detect(flat.view, nullptr, &out), DetectStatus::kBlankFrame) << level;
+      EXPECT_EQ(out.count, 0);
+      if (level > 255.0) continue;  // (no spot shows on a saturated frame)
+      img.AddSpot(Spot{40.3, 30.7, 1.0, 1.0, 3000.0});
+      const FrameBuffer spot = Quantize(img, format);
+      EXPECT_EQ(detector.Detect(spot.view, nullptr, &out), DetectStatus::kOk) << level;
+      EXPECT_EQ(out.count, 1);
+    }
+  SyntheticImage dark(96, 64);
+  dark.AddBackground(10.0);
+  std::mt19937_64 rng(7);
+  dark.AddNoise(1.5, rng);
+  EXPECT_EQ(detector.Detect(Quantize(dark, PixelFormat::kMono8).view, nullptr, &out), DetectStatus::kOk);
+  EXPECT_EQ(out.count, 0);
+  EXPECT_EQ(detector.counters().blank_frames, 6u);
 }
 
 // Zero noise: centroids within 0.02 px of the true centres for mono8, mono16, padded strides

@@ -98,7 +98,7 @@ struct CameraHealth {
   std::uint32_t timeouts = 0;       // no frame within the timeout
   std::uint32_t errors = 0;         // failed driver calls
   std::uint32_t bad_frames = 0;     // frames delivered but unusable: error-flagged, short,
-                                    // unreadable or unstamped
+                                    // unreadable, unstamped or blank (every pixel alike)
   std::uint32_t detect_errors = 0;  // frames whose blob detection failed (no blob list)
   std::uint16_t blobs_last = 0;
 };
