@@ -9,14 +9,19 @@
 namespace mfns::fw {
 namespace {
 
-double Seconds(std::uint64_t later_ns, std::uint64_t earlier_ns) {
-  return later_ns >= earlier_ns ? static_cast<double>(later_ns - earlier_ns) * 1e-9
-                                : -static_cast<double>(earlier_ns - later_ns) * 1e-9;
-}
-
 // The largest 1-sigma of a [position (m); attitude (rad)] covariance's position and attitude.
 double PositionSigma(const Eigen::Matrix<double, 6, 6>& P) { return std::sqrt(std::max({P(0, 0), P(1, 1), P(2, 2)})); }
 double AttitudeSigma(const Eigen::Matrix<double, 6, 6>& P) { return std::sqrt(std::max({P(3, 3), P(4, 4), P(5, 5)})); }
+
+AcquisitionLimits LimitsOf(const TrackOptions& o) {
+  AcquisitionLimits a;
+  a.motion = MotionLimits{o.max_speed_m_s,  o.max_rate_rad_s, o.max_accel_m_s2, o.max_angular_accel_rad_s2,
+                          o.innovation_m,   o.innovation_rad, o.gate_sigmas,    o.velocity_window_s};
+  a.slack_m = o.chain_slack_m;
+  a.slack_rad = o.chain_slack_rad;
+  a.stale_s = o.chain_stale_s;
+  return a;
+}
 
 }  // namespace
 
@@ -54,136 +59,30 @@ const char* ToString(TrackSource s) {
     case TrackSource::kTracked: return "tracked";
     case TrackSource::kLostInSpace: return "lost-in-space";
     case TrackSource::kAcquired: return "acquired";
+    case TrackSource::kCount: break;
   }
   return "unknown track source";
-}
-
-bool TrackOptions::IsValid(const char** why) const {
-  const char* bad = nullptr;
-  const char* sub = nullptr;
-  auto positive = [](double x) { return x > 0.0 && std::isfinite(x); };
-  if (!lis.IsValid(&sub)) bad = sub;
-  else if (!positive(gate_px)) bad = "gate_px";
-  else if (!positive(hold_gate_px)) bad = "hold_gate_px";
-  else if (!positive(max_gate_px) || max_gate_px < gate_px || max_gate_px < hold_gate_px) bad = "max_gate_px";
-  else if (!positive(refine_gate_px)) bad = "refine_gate_px";
-  else if (!(miss_margin_px >= 0.0) || !std::isfinite(miss_margin_px)) bad = "miss_margin_px";
-  else if (max_missing < 0) bad = "max_missing";
-  else if (max_ambiguous_tried < 0 || max_ambiguous_tried > limits::kMaxAmbiguousMatches) bad = "max_ambiguous_tried";
-  else if (!positive(ambiguity_chi2)) bad = "ambiguity_chi2";
-  else if (!(ambiguity_max_spread_m >= 0.0) || !(ambiguity_max_spread_rad >= 0.0) ||
-           !std::isfinite(ambiguity_max_spread_m) || !std::isfinite(ambiguity_max_spread_rad))
-    bad = "ambiguity_max_spread";
-  else if (!(ambiguity_innovation_factor >= 1.0) || !std::isfinite(ambiguity_innovation_factor)) bad = "ambiguity_innovation_factor";
-  else if (!positive(max_rms_px)) bad = "max_rms_px";
-  else if (!positive(max_coast_s)) bad = "max_coast_s";
-  else if (!positive(velocity_window_s)) bad = "velocity_window_s";
-  else if (!(gate_sigmas >= 0.0) || !std::isfinite(gate_sigmas)) bad = "gate_sigmas";
-  else if (!positive(gate_depth_m)) bad = "gate_depth_m";
-  else if (!positive(max_seed_s)) bad = "max_seed_s";
-  else if (fix_min_beacons < 3) bad = "fix_min_beacons";
-  else if (!positive(degraded_rms_px)) bad = "degraded_rms_px";
-  else if (!positive(fix_rms_sigmas)) bad = "fix_rms_sigmas";
-  else if (!positive(max_position_sigma_m)) bad = "max_position_sigma_m";
-  else if (!positive(max_attitude_sigma_rad)) bad = "max_attitude_sigma_rad";
-  else if (!positive(max_speed_m_s)) bad = "max_speed_m_s";
-  else if (!positive(max_rate_rad_s)) bad = "max_rate_rad_s";
-  else if (!positive(max_accel_m_s2)) bad = "max_accel_m_s2";
-  else if (!positive(max_angular_accel_rad_s2)) bad = "max_angular_accel_rad_s2";
-  else if (!(chain_slack_m >= 0.0) || !(chain_slack_rad >= 0.0)) bad = "chain_slack";
-  else if (min_acquire_frames < 2) bad = "min_acquire_frames";
-  else if (lis_fix_min_beacons < 3) bad = "lis_fix_min_beacons";
-  else if (lis_budget_per_frame < 1) bad = "lis_budget_per_frame";
-  else if (!positive(chain_stale_s)) bad = "chain_stale_s";
-  else if (!(cold_search_s >= 0.0) || !std::isfinite(cold_search_s)) bad = "cold_search_s";
-
-  else if (!positive(twin_m) || !positive(twin_rad)) bad = "twin";
-  else if (!positive(innovation_m) || !positive(innovation_rad)) bad = "innovation";
-  else if (!(map_error_px >= 0.0) || !std::isfinite(map_error_px)) bad = "map_error_px";
-  else if (!solve.IsValid(&sub)) bad = sub;
-  if (why != nullptr) *why = bad != nullptr ? bad : "ok";
-  return bad == nullptr;
-}
-
-void TrackOptions::ScalePixelGates(double factor) {
-  for (double* px : {&gate_px, &hold_gate_px, &max_gate_px, &refine_gate_px, &miss_margin_px,
-                     &lis.hypothesis_match.gate_px, &lis.hypothesis_match.miss_margin_px, &lis.refine_match.gate_px,
-                     &lis.refine_match.miss_margin_px})
-    *px *= factor;
-}
-
-void TrackOptions::AllowForMapError(double map_px) {
-  if (!(map_px > 0.0) || !std::isfinite(map_px)) return;
-  // Gates on a single residual cover 4 sigmas of the map error, RMS bounds 2 (an RMS averages).
-  auto grow = [map_px](double* b, double sigmas) { *b = std::hypot(*b, sigmas * map_px); };
-  for (double* gate : {&refine_gate_px, &solve.outlier_threshold_px, &lis.refine_match.gate_px,
-                       &lis.solve.outlier_threshold_px})
-    if (*gate > 0.0) grow(gate, 4.0);  // (an outlier threshold <= 0 means no rejection: kept)
-  for (double* rms : {&max_rms_px, &lis.max_rms_px, &degraded_rms_px}) grow(rms, 2.0);
-  map_error_px = map_px;
-}
-
-namespace {
-double LargestFocalPx(const Rig& rig) {
-  double px_per_rad = 0.0;
-  for (int k = 0; k < rig.num_cameras; ++k)
-    px_per_rad = std::max({px_per_rad, rig.cameras[static_cast<std::size_t>(k)].intrinsics.alpha_x,
-                           rig.cameras[static_cast<std::size_t>(k)].intrinsics.alpha_y});
-  return px_per_rad;
-}
-}  // namespace
-
-double PixelGateScale(const Rig& rig) {
-  const double f = LargestFocalPx(rig);
-  return f > 0.0 && std::isfinite(f) ? f / kGateReferencePxPerRad : 1.0;
-}
-
-double BeaconMapErrorPx(const Rig& rig, double range_m) {
-  if (!(range_m > 0.0) || !(rig.beacon_sigma > 0.0)) return 0.0;
-  return LargestFocalPx(rig) * rig.beacon_sigma / range_m;
 }
 
 bool Tracker::Reset(const Rig& rig) {
   rig_ = nullptr;
   prev_num_blobs_ = -1;
-  has_pose_ = has_velocity_ = has_seed_ = false;
-  chain_n_ = chain_frames_ = 0;
+  has_pose_ = false;
+  motion_.Forget();
+  acquisition_.Clear();
   counters_ = TrackCounters{};
   if (!lis_.Reset(rig)) return false;
   matcher_.Reset(rig);
   rig_ = &rig;
-  hist_n_ = 0;
-  px_per_rad_ = 0.0;
-  for (int k = 0; k < rig.num_cameras; ++k)
-    px_per_rad_ = std::max({px_per_rad_, rig.cameras[static_cast<std::size_t>(k)].intrinsics.alpha_x,
-                            rig.cameras[static_cast<std::size_t>(k)].intrinsics.alpha_y});
+  noise_ = NoiseModel::OfRig(rig);
   return true;
 }
 
 void Tracker::SetPose(const BodyPose& pose, std::uint64_t t_ns, double sigma_m, double sigma_rad) {
   prev_num_blobs_ = -1;
-  has_pose_ = has_seed_ = true;
-  has_velocity_ = false;
-  last_pose_ = pose;
-  last_t_ns_ = t_ns;
-  last_sigma_m_ = std::isfinite(sigma_m) ? std::max(0.0, sigma_m) : 0.0;
-  last_sigma_rad_ = std::isfinite(sigma_rad) ? std::max(0.0, sigma_rad) : 0.0;
-  last_map_sigma_m_ = last_map_sigma_rad_ = 0.0;
-  // An uncertain pose is no velocity sample: its error over one frame period would read as a
-  // fast motion and send the next prediction astray.
-  hist_n_ = last_sigma_m_ == 0.0 && last_sigma_rad_ == 0.0 ? 1 : 0;
-  hist_[0] = pose;
-  hist_t_ns_[0] = t_ns;
-  chain_n_ = 0;
-}
-
-BodyPose Tracker::Predict(std::uint64_t t_ns) const {
-  if (!has_velocity_) return last_pose_;
-  const double dt = Seconds(t_ns, last_t_ns_);
-  BodyPose p;
-  p.r_w_wb = last_pose_.r_w_wb + v_w_ * dt;
-  p.C_w_b = last_pose_.C_w_b * ExpSO3(omega_b_ * dt);
-  return p;
+  has_pose_ = true;
+  motion_.Start(pose, t_ns, sigma_m, sigma_rad);
+  acquisition_.Clear();
 }
 
 // Solve from `start` with the identities in set_, then re-match with the tight gate and solve
@@ -244,21 +143,43 @@ bool Tracker::NearbyTwin(const TwinRegion& region, const TrackOptions& o, const 
   return false;
 }
 
-// How far the truth may lie from Predict(last + since_s): the acceleration bounds over the
-// elapsed time (with a velocity; the speed bounds for a held pose), gate_sigmas of the last
-// pose's 1-sigma, grown by the velocity's lever (its baseline is that much shorter than the
-// extrapolation), and the innovation slack for what the model leaves out.
-void Tracker::PredictionBounds(double since_s, const TrackOptions& o, double* max_m, double* max_rad) const {
-  const double lead = has_velocity_ ? 1.0 + since_s / velocity_baseline_s_ : 1.0;
-  *max_m = o.innovation_m + o.gate_sigmas * last_sigma_m_ * lead;
-  *max_rad = o.innovation_rad + o.gate_sigmas * last_sigma_rad_ * lead;
-  if (has_velocity_) {
-    *max_m += 0.5 * o.max_accel_m_s2 * since_s * since_s;
-    *max_rad += 0.5 * o.max_angular_accel_rad_s2 * since_s * since_s;
-  } else {
-    *max_m += o.max_speed_m_s * since_s;
-    *max_rad += o.max_rate_rad_s * since_s;
+// Tracking from the motion model's prediction at t_ns (since_s after its last pose). While the
+// gate that covers the prediction's error bounds stays within max_gate_px, a beacon predicted
+// well inside an image with no blob in its gate refutes the prediction (then forgotten);
+// otherwise, while the track holds (has_pose_), the blobs are matched and solved (TrackFrom).
+// True when r holds this frame set's outcome; false: re-identify.
+bool Tracker::TrackPredicted(std::uint64_t t_ns, double since_s, const TrackOptions& o, TrackResult* r) {
+  const BodyPose predicted = motion_.Predict(t_ns);
+  const PoseBounds bounds = motion_.Bounds(since_s, limits_.motion);
+  const double px = noise_.px_per_rad;
+  double gate = (motion_.has_velocity() ? o.gate_px : o.hold_gate_px) +
+                px * ((bounds.max_rad - o.innovation_rad) + (bounds.max_m - o.innovation_m) / o.gate_depth_m);
+  bool refuted = false;
+  if (gate <= o.max_gate_px) {
+    // The map's error moves the last pose by its map-error 1-sigma (a bias the frame sets that
+    // see the same beacons share): a beacon entering the view lands that much off its prediction
+    // (seen: 20 px after three-beacon poses of a 0.4 mm survey). Widened up to max_gate_px.
+    const double map_rad = motion_.last_map_sigma_rad(), map_m = motion_.last_map_sigma_m();
+    gate = std::min(o.max_gate_px, gate + o.gate_sigmas * px * (map_rad + map_m / o.gate_depth_m));
+    // A beacon predicted well inside an image (by more than the gate) with no blob in its
+    // gate refutes the prediction (a kidnapped body, a wrong track).
+    matcher_.MatchPose(predicted, MatchOptions{gate, o.miss_margin_px + gate, false}, &set_);
+    refuted = set_.num_missing > o.max_missing;
+    if (!refuted && has_pose_) {
+      if (TrackFrom(predicted, bounds, gate, o, r, &refuted)) {
+        Publish(TrackSource::kTracked, t_ns, o, r);
+        return true;
+      }
+      if (ambiguity_refused_ && PublishAmbiguous(o, r)) return true;
+    }
   }
+  if (refuted) {
+    ++counters_.track_refuted;
+    has_pose_ = false;  // the prior disagrees with the blobs: forget it
+    motion_.Forget();
+    acquisition_.Clear();
+  }
+  return false;
 }
 
 // Tracking from the prediction. Beacons with one blob in the gate are matched to it; one with
@@ -268,8 +189,8 @@ void Tracker::PredictionBounds(double since_s, const TrackOptions& o, double* ma
 // tight re-match put the right blob back. The best consistent trial (most beacons, then
 // lowest residual) is the tracked pose when every consistent trial agrees with it; otherwise
 // nothing is tracked (never a guess). *refuted: every trial was refuted by the blobs.
-bool Tracker::TrackFrom(const BodyPose& predicted, double max_m, double max_rad, double gate_px,
-                        const TrackOptions& o, TrackResult* r, bool* refuted) {
+bool Tracker::TrackFrom(const BodyPose& predicted, const PoseBounds& bounds, double gate_px, const TrackOptions& o,
+                        TrackResult* r, bool* refuted) {
   *refuted = false;
   matcher_.MatchPose(predicted, MatchOptions{gate_px, o.miss_margin_px, true}, &base_, &ambiguous_);
   const int n = std::min(ambiguous_.num, o.max_ambiguous_tried);
@@ -280,15 +201,13 @@ bool Tracker::TrackFrom(const BodyPose& predicted, double max_m, double max_rad,
     ++tried;
     bool trial_refuted = false;
     double innovation = -1.0;
-    const bool ok = SolveTracked(predicted, max_m, max_rad, o, &trial_, &trial_refuted, &innovation);
+    const bool ok = SolveTracked(predicted, bounds, o, &trial_, &trial_refuted, &innovation);
     refutations += trial_refuted;
     // A trial the innovation test refused by a small factor still competes (the truth itself
     // may lie just beyond the motion bounds: then the one inside them is not the truth).
     if (!ok && !(n > 0 && innovation > 0.0 && innovation <= o.ambiguity_innovation_factor)) continue;
-    trial_poses_[static_cast<std::size_t>(competitors)] = trial_.pose;
-    trial_beacons_[static_cast<std::size_t>(competitors)] = trial_.matches.num_beacons;
-    trial_cost_[static_cast<std::size_t>(competitors)] = trial_.solve.cost;
-    ++competitors;
+    trials_[static_cast<std::size_t>(competitors++)] =
+        Trial{trial_.pose, trial_.matches.num_beacons, trial_.solve.cost};
     if (!ok) continue;
     const int nb = trial_.matches.num_beacons;
     const bool better = consistent == 0 || nb > r->matches.num_beacons ||
@@ -313,7 +232,7 @@ bool Tracker::TrackFrom(const BodyPose& predicted, double max_m, double max_rad,
 // How far another pose may lie from b and be the same: gate_sigmas of b's 1-sigma (centroid
 // noise and the map's error), or 1 mm / 1 mrad when that is larger.
 void Tracker::SameTolerance(const TrackResult& b, const TrackOptions& o, double* tol_m, double* tol_rad) const {
-  const double total = std::hypot(1.0, o.MapToCentroidRatio());
+  const double total = noise_.TotalToCentroid();
   const bool cov = b.solve.has_covariance;
   *tol_m = std::max(1e-3, cov ? o.gate_sigmas * total * PositionSigma(b.solve.covariance) : 0.0);
   *tol_rad = std::max(1e-3, cov ? o.gate_sigmas * total * AttitudeSigma(b.solve.covariance) : 0.0);
@@ -332,7 +251,7 @@ bool Tracker::SamePoseWithin(const TrackResult& a, const TrackResult& b, const T
 // twin_rad: false when they disagree; otherwise *r is the best trial when one is consistent.
 bool Tracker::Unambiguous(const TrackOptions& o, TrackResult* r) {
   bool refuted = false;
-  if (TrackFrom(r->pose, o.twin_m, o.twin_rad, o.hold_gate_px, o, &trial_result_, &refuted)) {
+  if (TrackFrom(r->pose, PoseBounds{o.twin_m, o.twin_rad}, o.hold_gate_px, o, &trial_result_, &refuted)) {
     // The trials verify the pose; they must not move it elsewhere: with the wide gate a
     // beacon's nearest blob may be a reflection while its true blob fails the trial (seen: an
     // acquired pose 5 mm off replaced by a trial on a reflection, 56 mm off, published as fix).
@@ -374,16 +293,16 @@ bool Tracker::ChooseAmbiguous(std::uint32_t choice, int n) {
 // four or more that the pose bent to fit); among three, every trial fits exactly.
 // The largest distance of such a trial from best is kept (ambiguity_spread_m_ / _rad_).
 bool Tracker::AgreeWith(const TrackResult& best, int num_trials, const TrackOptions& o) {
-  const double var_px2 = o.solve.sigma_px * o.solve.sigma_px + o.map_error_px * o.map_error_px;
+  const double var_px2 = noise_.ResidualVariancePx2();
   double tol_m = 0.0, tol_rad = 0.0;
   SameTolerance(best, o, &tol_m, &tol_rad);
   ambiguity_spread_m_ = ambiguity_spread_rad_ = 0.0;
   for (int i = 0; i < num_trials; ++i) {
-    const BodyPose& q = trial_poses_[static_cast<std::size_t>(i)];
-    if (trial_beacons_[static_cast<std::size_t>(i)] < best.matches.num_beacons) continue;
-    if (2.0 * (trial_cost_[static_cast<std::size_t>(i)] - best.solve.cost) > o.ambiguity_chi2 * var_px2) continue;
-    ambiguity_spread_m_ = std::max(ambiguity_spread_m_, (q.r_w_wb - best.pose.r_w_wb).norm());
-    ambiguity_spread_rad_ = std::max(ambiguity_spread_rad_, LogSO3(best.pose.C_w_b.transpose() * q.C_w_b).norm());
+    const Trial& t = trials_[static_cast<std::size_t>(i)];
+    if (t.beacons < best.matches.num_beacons) continue;
+    if (2.0 * (t.cost - best.solve.cost) > o.ambiguity_chi2 * var_px2) continue;
+    ambiguity_spread_m_ = std::max(ambiguity_spread_m_, (t.pose.r_w_wb - best.pose.r_w_wb).norm());
+    ambiguity_spread_rad_ = std::max(ambiguity_spread_rad_, LogSO3(best.pose.C_w_b.transpose() * t.pose.C_w_b).norm());
   }
   return ambiguity_spread_m_ <= tol_m && ambiguity_spread_rad_ <= tol_rad;
 }
@@ -421,11 +340,11 @@ bool Tracker::PublishAmbiguous(const TrackOptions& o, TrackResult* r) {
 // One trial: solve from the prediction with the identities in set_, then the innovation test.
 // *innovation: the solved pose's distance from the prediction over the allowed one (the larger
 // of position and attitude; > 1: refused), -1 when it did not solve.
-bool Tracker::SolveTracked(const BodyPose& predicted, double max_m, double max_rad, const TrackOptions& o,
-                           TrackResult* r, bool* refuted, double* innovation) {
+bool Tracker::SolveTracked(const BodyPose& predicted, const PoseBounds& bounds, const TrackOptions& o, TrackResult* r,
+                           bool* refuted, double* innovation) {
   *refuted = false;
   *innovation = -1.0;
-  const TwinRegion region{&predicted, max_m, max_rad};
+  const TwinRegion region{&predicted, bounds.max_m, bounds.max_rad};
   if (!SolveAt(predicted, region, o, r)) {
     *refuted = r->matches.num_missing > o.max_missing || r->solve.rms_px > o.max_rms_px;
     return false;
@@ -433,10 +352,10 @@ bool Tracker::SolveTracked(const BodyPose& predicted, double max_m, double max_r
   // Innovation test: the solved pose must be where the motion model allows. Three matches
   // fit any pose exactly, so one wrong match (a spurious blob in a beacon's gate) shows only
   // here, as a jump. (Not a refutation of the prior: a wrong match proves nothing about it.)
-  double allow_m = max_m, allow_rad = max_rad;
-  if (o.map_error_px > 0.0 && r->solve.has_covariance) {
+  double allow_m = bounds.max_m, allow_rad = bounds.max_rad;
+  if (noise_.map_error_px > 0.0 && r->solve.has_covariance) {
     // The solved pose's own error for the map's error (its covariance is for sigma_px).
-    const double scale = std::hypot(1.0, o.MapToCentroidRatio());
+    const double scale = noise_.TotalToCentroid();
     allow_m += o.gate_sigmas * scale * PositionSigma(r->solve.covariance);
     allow_rad += o.gate_sigmas * scale * AttitudeSigma(r->solve.covariance);
   }
@@ -449,106 +368,37 @@ bool Tracker::SolveTracked(const BodyPose& predicted, double max_m, double max_r
   return true;
 }
 
-// Readies the followed poses for frame t_ns: drops them all when one has gone unconfirmed too
-// long, seeds them with the pose predicted from the last accepted one, and sets each one's
-// motion bounds since its last confirmation.
-void Tracker::PrepareChain(std::uint64_t t_ns, const TrackOptions& o) {
-  for (int i = 0; i < chain_n_; ++i)
-    if (Seconds(t_ns, chain_t_[static_cast<std::size_t>(i)]) > o.chain_stale_s) chain_n_ = 0;
-  bool seeded = false;
-  if (chain_n_ == 0 && has_seed_ && Seconds(t_ns, last_t_ns_) <= o.max_seed_s) {
-    // The true pose is within the prediction's error bounds (PredictionBounds).
-    chain_n_ = 1;
-    chain_[0] = Predict(t_ns);
-    chain_t_[0] = last_t_ns_;
-    chain_frames_ = 1;
-    seeded = chain_seeded_ = true;
-  }
-  prior_max_m_ = prior_max_rad_ = 0.0;
-  for (int i = 0; i < chain_n_; ++i) {
-    const auto si = static_cast<std::size_t>(i);
-    const double dt = std::max(0.0, Seconds(t_ns, chain_t_[si]));
-    if (seeded) {
-      PredictionBounds(dt, o, &chain_max_m_[si], &chain_max_rad_[si]);
-      chain_max_m_[si] += o.chain_slack_m;
-      chain_max_rad_[si] += o.chain_slack_rad;
-    } else {
-      chain_max_m_[si] = o.max_speed_m_s * dt + o.chain_slack_m;
-      chain_max_rad_[si] = o.max_rate_rad_s * dt + o.chain_slack_rad;
-    }
-    prior_max_m_ = std::max(prior_max_m_, chain_max_m_[si]);
-    prior_max_rad_ = std::max(prior_max_rad_, chain_max_rad_[si]);
-  }
-}
 
+// Readies the followed poses for frame t_ns (Acquisition::Prepare; the last accepted pose seeds
+// them within max_seed_s) and makes them lost-in-space's prior: false when there are none.
 bool Tracker::ChainPrior(std::uint64_t t_ns, const TrackOptions& o, LisPrior* prior) {
-  PrepareChain(t_ns, o);
-  if (chain_n_ == 0) return false;
-  prior->poses = chain_.data();
-  prior->num_poses = chain_n_;
-  prior->max_m = prior_max_m_;
-  prior->max_rad = prior_max_rad_;
-  return true;
+  const bool may_seed = motion_.known() && Seconds(t_ns, motion_.last_t_ns()) <= o.max_seed_s;
+  acquisition_.Prepare(t_ns, limits_, may_seed ? &motion_ : nullptr);
+  return acquisition_.Prior(prior);
 }
 
 // Follows the poses kept so far with lost-in-space's (complete) consistent poses of this frame
-// set: every consistent pose within the motion bounds of a kept one is kept, the others are
-// dropped. The true pose is in every complete list when three true beacons are in view; with
-// fewer, spurious blobs can still make three blobs, and the truth may drop out: hence
-// min_acquire_frames for chains not seeded by an accepted pose.
+// set (Acquisition::Follow). The true pose is in every complete list when three true beacons are
+// in view; with fewer, spurious blobs can still make three blobs, and the truth may drop out:
+// hence min_acquire_frames for chains not seeded by an accepted pose. True: the one pose left
+// is accepted, solved in *r.
 bool Tracker::Acquire(std::uint64_t t_ns, const TrackOptions& o, TrackResult* r) {
   const LisResult& l = lis_res_;
   if (!l.complete) {
-    r->acquisition_poses = chain_n_;
+    r->acquisition_poses = acquisition_.size();
     return false;  // no information this frame: the followed poses coast
   }
-  if (chain_n_ == 0) {
-    chain_n_ = l.num_consistent;
-    for (int i = 0; i < chain_n_; ++i) {
-      chain_[static_cast<std::size_t>(i)] = l.consistent_poses[static_cast<std::size_t>(i)];
-      chain_t_[static_cast<std::size_t>(i)] = t_ns;
-    }
-    chain_frames_ = 1;
-    chain_seeded_ = false;
-    r->acquisition_poses = chain_n_;
+  if (acquisition_.empty()) {
+    acquisition_.Start(l, t_ns);
+    r->acquisition_poses = acquisition_.size();
     return false;
   }
-  // Every consistent pose within the bounds of a followed one is followed on (any of them may
-  // be the truth); a followed pose with none is dropped.
-  int n = 0, confirmed = 0;
-  for (int i = 0; i < l.num_consistent && n < limits::kMaxLisCandidates; ++i) {
-    const BodyPose& p = l.consistent_poses[static_cast<std::size_t>(i)];
-    bool near = false;
-    for (int j = 0; j < chain_n_; ++j) {
-      const auto sj = static_cast<std::size_t>(j);
-      const BodyPose& q = chain_[sj];
-      if ((p.r_w_wb - q.r_w_wb).norm() <= chain_max_m_[sj] && LogSO3(q.C_w_b.transpose() * p.C_w_b).norm() <= chain_max_rad_[sj]) {
-        near = true;
-        break;
-      }
-    }
-    if (!near) continue;
-    chain_next_[static_cast<std::size_t>(n)] = p;
-    chain_next_t_[static_cast<std::size_t>(n)] = t_ns;
-    ++n;
-    ++confirmed;
-  }
-  if (n == 0) {
-    // Nothing consistent near the followed poses: none was the truth, or this frame set has
-    // fewer than 3 true beacons (e.g. 2 and a reflection). Start over at the next frame set:
-    // from the prediction again while the last accepted pose may seed it (a refuted prediction
-    // is forgotten by Track, from its missing beacons), else without a prior.
-    chain_n_ = 0;
-    r->acquisition_poses = 0;
-    return false;
-  }
-  chain_n_ = n;
-  for (int i = 0; i < n; ++i) {
-    chain_[static_cast<std::size_t>(i)] = chain_next_[static_cast<std::size_t>(i)];
-    chain_t_[static_cast<std::size_t>(i)] = chain_next_t_[static_cast<std::size_t>(i)];
-  }
-  ++chain_frames_;
-  r->acquisition_poses = chain_n_;
+  // Emptied when nothing is consistent near the followed poses: none was the truth, or this
+  // frame set has fewer than 3 true beacons (e.g. 2 and a reflection). It starts over at the
+  // next frame set: from the prediction again while the last accepted pose may seed it (a
+  // refuted prediction is forgotten by Track, from its missing beacons), else without a prior.
+  acquisition_.Follow(l, t_ns);
+  r->acquisition_poses = acquisition_.size();
   // The last pose must be confirmed by this frame set. A chain seeded by an accepted pose
   // holds the truth when the frame sets had three true beacons; one started from
   // lost-in-space alone may not (its first frame set may have had fewer), so it must outlive
@@ -556,27 +406,29 @@ bool Tracker::Acquire(std::uint64_t t_ns, const TrackOptions& o, TrackResult* r)
   // that the pose leaves unexplained, now or in the previous frame set): two true beacons
   // and a reflection fit an exact pose, which may be the one left in wide bounds (seen after
   // a 2 s gap: 0.2 rad off).
-  if (chain_n_ != 1 || confirmed != 1 || chain_frames_ < 2) return false;
+  if (acquisition_.size() != 1 || acquisition_.frames() < 2) return false;
+  const BodyPose survivor = acquisition_.pose(0);
   // Carried back to the previous frame set, a pose resting on a reflection predicts its
   // beacon where that frame set has no blob (a reflection does not move with the body).
   int unexplained_prev = 0;
-  if (!ExplainsPrevious(chain_[0], t_ns, o, &unexplained_prev)) {
+  if (!ExplainsPrevious(survivor, t_ns, o, &unexplained_prev)) {
     ++counters_.previous_refused;
     return false;
   }
-  matcher_.MatchPose(chain_[0], o.lis.refine_match, &set_);
+  matcher_.MatchPose(survivor, o.lis.refine_match, &set_);
   const bool reflections = indexed_blobs_ > set_.num_matches || unexplained_prev > 0;
   // (A seeded chain counts its seed as the first frame.)
-  const int needed = chain_seeded_ ? 1 + (reflections ? o.min_acquire_frames : 1) : o.min_acquire_frames;
-  if (chain_frames_ < needed) return false;
-  if (!chain_seeded_ && !SurvivorIsBest(t_ns, o)) return false;
+  const bool seeded = acquisition_.seeded();
+  const int needed = seeded ? 1 + (reflections ? o.min_acquire_frames : 1) : o.min_acquire_frames;
+  if (acquisition_.frames() < needed) return false;
+  if (!seeded && !SurvivorIsBest(t_ns, o)) return false;
   // One pose left: its identities, solved.
   // Lost-in-space listed every consistent pose within the bounds, so a second P3P root there
   // would be a second survivor; unseeded, a root within twin_m / twin_rad is refused.
-  const TwinRegion twin = chain_seeded_ ? TwinRegion{nullptr, o.lis.same_pose_m, o.lis.same_pose_rad}
-                                        : TwinRegion{nullptr, o.twin_m, o.twin_rad};
-  if (set_.num_beacons < 3 || !SolveAt(chain_[0], twin, o, r)) return false;
-  chain_n_ = 0;
+  const TwinRegion twin = seeded ? TwinRegion{nullptr, o.lis.same_pose_m, o.lis.same_pose_rad}
+                                 : TwinRegion{nullptr, o.twin_m, o.twin_rad};
+  if (set_.num_beacons < 3 || !SolveAt(survivor, twin, o, r)) return false;
+  acquisition_.Clear();
   return true;
 }
 
@@ -590,21 +442,17 @@ bool Tracker::SurvivorIsBest(std::uint64_t t_ns, const TrackOptions& o) {
   RunLis(blobs_, num_blobs_, nullptr, o);
   const LisResult& l = lis_res_;
   if (!l.complete) return false;  // cannot tell now: keep following
+  const BodyPose& s = acquisition_.pose(0);
   double survivor = -1e300, others = -1e300;
   for (int i = 0; i < l.num_consistent; ++i) {
     const BodyPose& p = l.consistent_poses[static_cast<std::size_t>(i)];
-    const bool same = (p.r_w_wb - chain_[0].r_w_wb).norm() <= o.lis.same_pose_m &&
-                      LogSO3(chain_[0].C_w_b.transpose() * p.C_w_b).norm() <= o.lis.same_pose_rad;
+    const bool same = (p.r_w_wb - s.r_w_wb).norm() <= o.lis.same_pose_m &&
+                      LogSO3(s.C_w_b.transpose() * p.C_w_b).norm() <= o.lis.same_pose_rad;
     double& score = same ? survivor : others;
     score = std::max(score, l.consistent_scores[static_cast<std::size_t>(i)]);
   }
   if (survivor >= others) return true;
-  chain_n_ = std::min(l.num_consistent, limits::kMaxLisCandidates);
-  for (int i = 0; i < chain_n_; ++i) {
-    chain_[static_cast<std::size_t>(i)] = l.consistent_poses[static_cast<std::size_t>(i)];
-    chain_t_[static_cast<std::size_t>(i)] = t_ns;
-  }
-  chain_frames_ = 1;
+  acquisition_.Start(l, t_ns);
   ++counters_.chain_restarts;
   return false;
 }
@@ -617,16 +465,9 @@ bool Tracker::ExplainsPrevious(const BodyPose& pose, std::uint64_t t_ns, const T
   if (!(dt > 0.0) || dt > o.velocity_window_s) return true;
   // Back along the velocity estimate; its error is what the accelerations may have changed
   // since the last accepted pose (or the speed bounds without a velocity).
-  BodyPose back = pose;
-  double dv_m = o.max_speed_m_s, dv_rad = o.max_rate_rad_s;
-  if (has_velocity_) {
-    back.r_w_wb = pose.r_w_wb - v_w_ * dt;
-    back.C_w_b = pose.C_w_b * ExpSO3(-omega_b_ * dt);
-    const double since = std::max(0.0, Seconds(t_ns, last_t_ns_));
-    dv_m = o.max_accel_m_s2 * since + o.gate_sigmas * last_sigma_m_ / velocity_baseline_s_;
-    dv_rad = o.max_angular_accel_rad_s2 * since + o.gate_sigmas * last_sigma_rad_ / velocity_baseline_s_;
-  }
-  const double gate = o.gate_px + px_per_rad_ * (dv_rad * dt + dv_m * dt / o.gate_depth_m);
+  double dv_m = 0.0, dv_rad = 0.0;
+  const BodyPose back = motion_.CarryBack(pose, t_ns, dt, limits_.motion, &dv_m, &dv_rad);
+  const double gate = o.gate_px + noise_.px_per_rad * (dv_rad * dt + dv_m * dt / o.gate_depth_m);
   const int indexed = matcher_.SetBlobs(prev_blobs_.data(), prev_num_blobs_, prev_cameras_);
   // (A true beacon predicted just inside may really have been just outside: a refusal, never
   // a wrong fix; the next frame set decides.)
@@ -644,50 +485,21 @@ void Tracker::KeepBlobs(std::uint64_t t_ns) {
   prev_cameras_ = cameras_;
 }
 
+// The pose in *r is accepted: it feeds the motion model, ends the acquisition, and is judged
+// fix or degraded.
 void Tracker::Accept(std::uint64_t t_ns, const TrackOptions& o, TrackResult* r) {
-  // Velocity from the oldest pose of the history within velocity_window_s (a longer baseline
-  // averages the noise of single poses), else the newest (e.g. across a gap bridged by the
-  // prediction). A history the new pose does not continue is forgotten.
-  if (!has_seed_) hist_n_ = 0;
-  int from = -1;
-  for (int i = 0; i < hist_n_; ++i) {
-    const double age = Seconds(t_ns, hist_t_ns_[static_cast<std::size_t>(i)]);
-    if (age > 0.0 && (from < 0 || age <= o.velocity_window_s)) from = i;
-  }
-  has_velocity_ = false;
-  if (from >= 0) {
-    const double age = Seconds(t_ns, hist_t_ns_[static_cast<std::size_t>(from)]);
-    const BodyPose& old = hist_[static_cast<std::size_t>(from)];
-    v_w_ = (r->pose.r_w_wb - old.r_w_wb) / age;
-    omega_b_ = LogSO3(old.C_w_b.transpose() * r->pose.C_w_b) / age;
-    velocity_baseline_s_ = age;
-    has_velocity_ = true;
-  }
-  // History: newest first, bounded.
-  hist_n_ = std::min(hist_n_ + 1, limits::kMaxTrackHistory);
-  for (int i = hist_n_ - 1; i > 0; --i) {
-    hist_[static_cast<std::size_t>(i)] = hist_[static_cast<std::size_t>(i - 1)];
-    hist_t_ns_[static_cast<std::size_t>(i)] = hist_t_ns_[static_cast<std::size_t>(i - 1)];
-  }
-  hist_[0] = r->pose;
-  hist_t_ns_[0] = t_ns;
-  has_pose_ = has_seed_ = true;
-  last_pose_ = r->pose;
-  last_t_ns_ = t_ns;
-  last_sigma_m_ = r->solve.has_covariance ? PositionSigma(r->solve.covariance) : 0.0;
-  last_sigma_rad_ = r->solve.has_covariance ? AttitudeSigma(r->solve.covariance) : 0.0;
-  const double map_scale = o.MapToCentroidRatio();
-  last_map_sigma_m_ = map_scale * last_sigma_m_;
-  last_map_sigma_rad_ = map_scale * last_sigma_rad_;
-  chain_n_ = 0;
+  const double sigma_m = r->solve.has_covariance ? PositionSigma(r->solve.covariance) : 0.0;
+  const double sigma_rad = r->solve.has_covariance ? AttitudeSigma(r->solve.covariance) : 0.0;
+  motion_.Add(r->pose, t_ns, sigma_m, sigma_rad, noise_.MapToCentroidRatio(), limits_.motion);
+  has_pose_ = true;
+  acquisition_.Clear();
   // Fix or degraded, judged on the pose's whole 1-sigma: centroid noise and the map's error
   // (the covariance Navigator publishes), so that a fix never carries a 1-sigma above the bounds.
-  const double total = std::hypot(1.0, map_scale);
-  const double sigma_r = total * last_sigma_m_, sigma_a = total * last_sigma_rad_;
+  const double total = noise_.TotalToCentroid();
+  const double sigma_r = total * sigma_m, sigma_a = total * sigma_rad;
   r->status = TrackStatus::kDegraded;
   if (r->matches.num_beacons < o.fix_min_beacons) r->reason = TrackReason::kFewBeacons;
-  else if (r->solve.rms_px > o.degraded_rms_px ||
-           r->solve.rms_px > o.fix_rms_sigmas * std::hypot(o.solve.sigma_px, o.map_error_px))
+  else if (r->solve.rms_px > o.degraded_rms_px || r->solve.rms_px > o.fix_rms_sigmas * noise_.ResidualSigmaPx())
     r->reason = TrackReason::kLargeResidual;
   else if (!r->solve.has_covariance || sigma_r > o.max_position_sigma_m || sigma_a > o.max_attitude_sigma_rad)
     r->reason = TrackReason::kLargeCovariance;
@@ -699,8 +511,16 @@ void Tracker::Accept(std::uint64_t t_ns, const TrackOptions& o, TrackResult* r) 
     case TrackSource::kTracked: ++counters_.tracked; break;
     case TrackSource::kLostInSpace: ++counters_.lost_in_space_fixes; break;
     case TrackSource::kAcquired: ++counters_.acquired; break;
-    case TrackSource::kNone: break;
+    case TrackSource::kNone:
+    case TrackSource::kCount: break;
   }
+}
+
+TrackStatus Tracker::Publish(TrackSource source, std::uint64_t t_ns, const TrackOptions& o, TrackResult* r) {
+  r->source = source;
+  Accept(t_ns, o, r);
+  CountOutcome(*r);
+  return r->status;
 }
 
 void Tracker::CountOutcome(const TrackResult& r) {
@@ -722,12 +542,16 @@ TrackStatus Tracker::Track(const BlobObs* blobs, int num_blobs, std::uint64_t t_
                            TrackResult* r, std::uint32_t cameras) {
   cameras_ = cameras;
   ambiguity_refused_ = false;
+  // The noise model's image noise and the motion bounds are those of this call's options.
+  noise_ = noise_.WithImageNoise(o.solve.sigma_px, o.map_error_px);
+  limits_ = LimitsOf(o);
   // One budget for the frame set, also when a finished cold search seeds it again (TrackOnce).
   lis_budget_left_ = o.lis_budget_per_frame;
   const TrackStatus s = TrackOnce(blobs, num_blobs, t_ns, o, r);
   if (r->reason != TrackReason::kBadInput) KeepBlobs(t_ns);
   return s;
 }
+
 
 // Lost-in-space within what is left of this frame set's budget (TrackOptions::
 // lis_budget_per_frame, over every search of the frame set): the frame deadline holds whatever
@@ -809,54 +633,31 @@ TrackStatus Tracker::TrackOnce(const BlobObs* blobs, int num_blobs, std::uint64_
   // 1. Tracking from the last pose: while the gate covers the prediction's error bounds, match
   // nearest blobs; beyond (a long gap, or no velocity yet), the prediction only seeds
   // re-identification (2), which lists every pose consistent with the blobs within the bounds.
-  const double since = has_seed_ ? std::max(0.0, Seconds(t_ns, last_t_ns_)) : 0.0;
-  if (has_seed_ && since > o.max_seed_s) has_seed_ = has_pose_ = has_velocity_ = false;
-  if (has_pose_ && since > o.max_coast_s) has_pose_ = false;
-  TrackReason why = TrackReason::kTooFewBeacons;
-  if (has_seed_) {
-    const BodyPose predicted = Predict(t_ns);
-    double max_m = 0.0, max_rad = 0.0;
-    PredictionBounds(since, o, &max_m, &max_rad);
-    double gate = (has_velocity_ ? o.gate_px : o.hold_gate_px) +
-                  px_per_rad_ * ((max_rad - o.innovation_rad) + (max_m - o.innovation_m) / o.gate_depth_m);
-    bool refuted = false;
-    if (gate <= o.max_gate_px) {
-      // The map's error moves the last pose by last_map_sigma_* (a bias the frame sets that see
-      // the same beacons share): a beacon entering the view lands that much off its prediction
-      // (seen: 20 px after three-beacon poses of a 0.4 mm survey). Widened up to max_gate_px.
-      gate = std::min(o.max_gate_px, gate + o.gate_sigmas * px_per_rad_ *
-                                                (last_map_sigma_rad_ + last_map_sigma_m_ / o.gate_depth_m));
-      // A beacon predicted well inside an image (by more than the gate) with no blob in its
-      // gate refutes the prediction (a kidnapped body, a wrong track).
-      matcher_.MatchPose(predicted, MatchOptions{gate, o.miss_margin_px + gate, false}, &set_);
-      refuted = set_.num_missing > o.max_missing;
-      if (!refuted && has_pose_) {
-        if (TrackFrom(predicted, max_m, max_rad, gate, o, r, &refuted)) {
-          r->source = TrackSource::kTracked;
-          Accept(t_ns, o, r);
-          CountOutcome(*r);
-          return r->status;
-        }
-        if (ambiguity_refused_ && PublishAmbiguous(o, r)) return r->status;
-      }
-    }
-    if (refuted) {
-      ++counters_.track_refuted;
-      has_pose_ = has_velocity_ = has_seed_ = false;  // the prior disagrees with the blobs: forget it
-      chain_n_ = 0;
-    }
+  const double since = motion_.known() ? std::max(0.0, Seconds(t_ns, motion_.last_t_ns())) : 0.0;
+  if (motion_.known() && since > o.max_seed_s) {
+    motion_.Forget();
+    has_pose_ = false;
   }
-  // 2. Re-identification. Not when tracking found two poses near the prediction that explain
-  // the blobs equally well (a reflection beside a beacon): lost-in-space would face the same
-  // choice, with no motion model to weigh it (seen: confirmed fixes 23 mm off).
+  if (has_pose_ && since > o.max_coast_s) has_pose_ = false;
+  if (motion_.known() && TrackPredicted(t_ns, since, o, r)) return r->status;
+  return Reidentify(blobs, num_blobs, t_ns, o, r);
+}
+
+// 2. Re-identification by lost-in-space: near the followed (or predicted) poses when there are
+// any, else a search of its own (in large maps spread over frame sets: ColdSearch).
+TrackStatus Tracker::Reidentify(const BlobObs* blobs, int num_blobs, std::uint64_t t_ns, const TrackOptions& o,
+                                TrackResult* r) {
+  // Not when tracking found two poses near the prediction that explain the blobs equally well
+  // (a reflection beside a beacon): lost-in-space would face the same choice, with no motion
+  // model to weigh it (seen: confirmed fixes 23 mm off).
   if (ambiguity_refused_) return Lost(TrackReason::kAmbiguous, r);
-  if (num_blobs < 3) return Lost(has_seed_ ? TrackReason::kTooFewBeacons : TrackReason::kTooFewBlobs, r);
+  if (num_blobs < 3) return Lost(motion_.known() ? TrackReason::kTooFewBeacons : TrackReason::kTooFewBlobs, r);
   r->lis_run = true;
   ++counters_.lis_runs;
   // While poses are being followed (or a recent pose can seed them), lost-in-space only looks
   // near them: cheaper, and complete far more often when spurious blobs multiply the poses.
   LisPrior prior;
-  bool use_prior = ChainPrior(t_ns, o, &prior);
+  const bool use_prior = ChainPrior(t_ns, o, &prior);
   if (!use_prior && rig_->num_beacons >= o.lis.fourth_blob_min_beacons) {
     // Nothing to follow, and a map too large for complete lists of three-beacon poses (the
     // acquisition's chain): the search may span frame sets (ColdSearch).
@@ -875,16 +676,23 @@ TrackStatus Tracker::TrackOnce(const BlobObs* blobs, int num_blobs, std::uint64_
   } else {
     r->lis_status = RunLis(blobs, num_blobs, use_prior ? &prior : nullptr, o);
   }
+  return SettleLis(t_ns, use_prior, o, r);
+}
+
+// What lost-in-space's outcome (r->lis_status, lis_res_) of a search with or without the prior
+// makes of this frame set: a fix that stands on its own, the acquisition's next step, or lost.
+TrackStatus Tracker::SettleLis(std::uint64_t t_ns, bool use_prior, const TrackOptions& o, TrackResult* r) {
   if (use_prior && r->lis_status == LisStatus::kNoHypothesis && lis_res_.complete) {
     // Nothing consistent near the followed (or predicted) poses: fewer than three true beacons
     // in this frame set, or a motion beyond the bounds. A pose lost-in-space settles on its
     // own (typically >= 5 beacons in view) is a fix all the same, and replaces the prior.
-    chain_n_ = 0;
+    acquisition_.Clear();
     ++counters_.lis_runs;
-    if (RunLis(blobs, num_blobs, nullptr, o) != LisStatus::kFix ||
+    if (RunLis(blobs_, num_blobs_, nullptr, o) != LisStatus::kFix ||
         lis_res_.matches.num_beacons < o.lis_fix_min_beacons)
-      return Lost(has_seed_ ? TrackReason::kTooFewBeacons : TrackReason::kNoHypothesis, r);
-    has_pose_ = has_velocity_ = has_seed_ = false;
+      return Lost(motion_.known() ? TrackReason::kTooFewBeacons : TrackReason::kNoHypothesis, r);
+    has_pose_ = false;
+    motion_.Forget();
     use_prior = false;
     r->lis_status = LisStatus::kFix;
   }
@@ -901,28 +709,21 @@ TrackStatus Tracker::TrackOnce(const BlobObs* blobs, int num_blobs, std::uint64_
     r->lis_status = LisStatus::kAmbiguous;
   if (r->lis_status == LisStatus::kFix && !use_prior) {
     set_ = lis_res_.matches;
-    if (SolveAt(lis_res_.pose, TwinRegion{nullptr, o.twin_m, o.twin_rad}, o, r)) {
-      if (!Unambiguous(o, r)) return Lost(TrackReason::kAmbiguous, r);
-      r->source = TrackSource::kLostInSpace;
-      Accept(t_ns, o, r);
-      CountOutcome(*r);
-      return r->status;
-    }
-    return Lost(TrackReason::kNoHypothesis, r);
+    if (!SolveAt(lis_res_.pose, TwinRegion{nullptr, o.twin_m, o.twin_rad}, o, r))
+      return Lost(TrackReason::kNoHypothesis, r);
+    if (!Unambiguous(o, r)) return Lost(TrackReason::kAmbiguous, r);
+    return Publish(TrackSource::kLostInSpace, t_ns, o, r);
   }
   if (r->lis_status == LisStatus::kFix || r->lis_status == LisStatus::kAmbiguous ||
       r->lis_status == LisStatus::kNoHypothesis) {
     if (Acquire(t_ns, o, r)) {
       if (!Unambiguous(o, r)) return Lost(TrackReason::kAmbiguous, r);
-      r->source = TrackSource::kAcquired;
-      Accept(t_ns, o, r);
-      CountOutcome(*r);
-      return r->status;
+      return Publish(TrackSource::kAcquired, t_ns, o, r);
     }
-    if (chain_n_ > 0) why = TrackReason::kAcquiring;
-    else if (r->lis_status == LisStatus::kNoHypothesis) why = has_seed_ ? TrackReason::kTooFewBeacons : TrackReason::kNoHypothesis;
-    else why = TrackReason::kAmbiguous;
-    return Lost(why, r);
+    if (!acquisition_.empty()) return Lost(TrackReason::kAcquiring, r);
+    if (r->lis_status == LisStatus::kNoHypothesis)
+      return Lost(motion_.known() ? TrackReason::kTooFewBeacons : TrackReason::kNoHypothesis, r);
+    return Lost(TrackReason::kAmbiguous, r);
   }
   if (r->lis_status == LisStatus::kBudgetExhausted) return Lost(TrackReason::kBudgetExhausted, r);
   if (r->lis_status == LisStatus::kTooFewBlobs) return Lost(TrackReason::kTooFewBlobs, r);

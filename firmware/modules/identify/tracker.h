@@ -4,17 +4,17 @@
 // Per frame set (blobs of the cameras that delivered, capture time t_ns):
 // 1. Tracking, when a recent pose is known: predict the pose at t_ns (constant velocity on
 //    position and attitude from the accepted poses of the last velocity_window_s; hold when
-//    only one is known). The prediction's error bounds (PredictionBounds) are the
-//    acceleration bounds over the elapsed time (speed bounds without a velocity), plus
-//    gate_sigmas of the last pose's 1-sigma and the innovation slack. While the matching gate
-//    that covers them stays within max_gate_px: a beacon predicted well inside an image with
-//    no blob in its gate refutes the prediction (forgotten); otherwise each beacon is matched
-//    to the nearest blob in the gate (one-to-one; a beacon with two blobs in its gate is left
-//    out), the pose solved jointly, re-matched with a tight gate. It is accepted with >= 3
-//    beacons, no missing beacon, a small residual, within the bounds (innovation test: with
-//    three beacons a wrong match still fits exactly, but jumps) and, with exactly three
-//    observations, no other exact solution (P3P root) consistent with the blobs within the
-//    bounds.
+//    only one is known; MotionModel, motion_model.h). The prediction's error bounds
+//    (MotionModel::Bounds) are the acceleration bounds over the elapsed time (speed bounds
+//    without a velocity), plus gate_sigmas of the last pose's 1-sigma and the innovation
+//    slack. While the matching gate that covers them stays within max_gate_px: a beacon
+//    predicted well inside an image with no blob in its gate refutes the prediction
+//    (forgotten); otherwise each beacon is matched to the nearest blob in the gate
+//    (one-to-one; a beacon with two blobs in its gate is left out), the pose solved jointly,
+//    re-matched with a tight gate. It is accepted with >= 3 beacons, no missing beacon, a
+//    small residual, within the bounds (innovation test: with three beacons a wrong match
+//    still fits exactly, but jumps) and, with exactly three observations, no other exact
+//    solution (P3P root) consistent with the blobs within the bounds.
 // 2. Otherwise re-identification by lost-in-space (lost_in_space.h). Without a prior, a fix
 //    with >= lis_fix_min_beacons beacons is accepted. When it lists several consistent poses
 //    (complete list), they are followed over the next frame sets through motion bounds: a
@@ -27,11 +27,15 @@
 //    Within max_seed_s of the last accepted pose, the prediction seeds the chain with its
 //    bounds (after a gap too long for the gate), so that one frame set settles it, two more
 //    when reflections are in view (blobs the pose leaves unexplained). When nothing is
-//    consistent near the prediction, a lost-in-space fix on its own still counts.
+//    consistent near the prediction, a lost-in-space fix on its own still counts. (The
+//    followed poses: Acquisition, acquisition.h; the tracker decides when one is accepted.)
 // 3. An accepted pose is reported as fix, or degraded (fewer than fix_min_beacons beacons,
 //    residual above degraded_rms_px, or 1-sigma position / attitude above their bounds, the
 //    1-sigma counting the map's error: map_error_px beside the solve's sigma_px);
 //    otherwise the frame is lost with a reason.
+//
+// Pixel conversions and the expected residuals come from one NoiseModel (noise_model.h): the
+// rig's pixels per radian, fixed at Reset, with the centroid noise and map error of the options.
 //
 // Memory: one object (about 3.4 MB, mostly lost-in-space) holds every buffer; construct it at
 // start (static or reserved), Reset() it with the rig, then Track() never allocates.
@@ -40,12 +44,16 @@
 
 #include <Eigen/Core>
 #include <array>
+#include <cstddef>
 #include <cstdint>
 
 #include "common/limits.h"
 #include "common/rig/rig.h"
+#include "firmware/modules/identify/acquisition.h"
 #include "firmware/modules/identify/lost_in_space.h"
 #include "firmware/modules/identify/match.h"
+#include "firmware/modules/identify/motion_model.h"
+#include "firmware/modules/identify/noise_model.h"
 #include "firmware/modules/solve/observation.h"
 #include "firmware/modules/solve/solve.h"
 
@@ -81,7 +89,9 @@ enum class TrackSource : unsigned char {
   kTracked,      // predicted from the last poses, matched, solved
   kLostInSpace,  // a lost-in-space fix
   kAcquired,     // the one pose left of a lost-in-space ambiguity followed over frames
+  kCount,
 };
+inline constexpr int kNumTrackSource = static_cast<int>(TrackSource::kCount);
 const char* ToString(TrackSource s);
 
 struct TrackOptions {
@@ -194,7 +204,7 @@ struct TrackOptions {
   // map_error_px / solve.sigma_px (0 without a map error): the solve's covariance is for the
   // centroid noise alone; the map's share of a pose's 1-sigma is this times it.
   double MapToCentroidRatio() const {
-    return map_error_px > 0.0 && solve.sigma_px > 0.0 ? map_error_px / solve.sigma_px : 0.0;
+    return NoiseModel{}.WithImageNoise(solve.sigma_px, map_error_px).MapToCentroidRatio();
   }
 };
 
@@ -235,6 +245,10 @@ struct TrackCounters {
   std::uint32_t chain_restarts = 0;    // an unseeded acquisition's survivor outscored: restarted
   SolveCounters solve;
 };
+static_assert(std::tuple_size_v<decltype(TrackCounters::by_status)> == static_cast<std::size_t>(TrackStatus::kCount),
+              "by_status is indexed by TrackStatus");
+static_assert(std::tuple_size_v<decltype(TrackCounters::by_reason)> == static_cast<std::size_t>(TrackReason::kCount),
+              "by_reason is indexed by TrackReason");
 
 class Tracker {
  public:
@@ -265,11 +279,17 @@ class Tracker {
     double max_m = 0.0;
     double max_rad = 0.0;
   };
-  BodyPose Predict(std::uint64_t t_ns) const;
-  void PredictionBounds(double since_s, const TrackOptions& o, double* max_m, double* max_rad) const;
-  bool TrackFrom(const BodyPose& predicted, double max_m, double max_rad, double gate_px, const TrackOptions& o,
+  // One consistent (or nearly consistent) trial of tracking's ambiguous beacons.
+  struct Trial {
+    BodyPose pose;
+    int beacons = 0;    // beacons its solve used
+    double cost = 0.0;  // its solve's cost: 0.5 * sum of squared inlier residuals, px^2
+  };
+  // Tracking (tracker.cc): from the motion model's prediction, with its ambiguity trials.
+  bool TrackPredicted(std::uint64_t t_ns, double since_s, const TrackOptions& o, TrackResult* r);
+  bool TrackFrom(const BodyPose& predicted, const PoseBounds& bounds, double gate_px, const TrackOptions& o,
                  TrackResult* r, bool* refuted);
-  bool SolveTracked(const BodyPose& predicted, double max_m, double max_rad, const TrackOptions& o, TrackResult* r,
+  bool SolveTracked(const BodyPose& predicted, const PoseBounds& bounds, const TrackOptions& o, TrackResult* r,
                     bool* refuted, double* innovation);
   bool ChooseAmbiguous(std::uint32_t choice, int n);
   bool AgreeWith(const TrackResult& best, int num_trials, const TrackOptions& o);
@@ -279,7 +299,10 @@ class Tracker {
   bool SamePoseWithin(const TrackResult& a, const TrackResult& b, const TrackOptions& o) const;
   bool SolveAt(const BodyPose& start, const TwinRegion& twin, const TrackOptions& o, TrackResult* r);
   bool NearbyTwin(const TwinRegion& region, const TrackOptions& o, const TrackResult* r);
-  void PrepareChain(std::uint64_t t_ns, const TrackOptions& o);
+  // Re-identification and the acquisition's decisions.
+  TrackStatus Reidentify(const BlobObs* blobs, int num_blobs, std::uint64_t t_ns, const TrackOptions& o,
+                         TrackResult* r);
+  TrackStatus SettleLis(std::uint64_t t_ns, bool use_prior, const TrackOptions& o, TrackResult* r);
   bool ChainPrior(std::uint64_t t_ns, const TrackOptions& o, LisPrior* prior);
   bool Acquire(std::uint64_t t_ns, const TrackOptions& o, TrackResult* r);
   bool ExplainsPrevious(const BodyPose& pose, std::uint64_t t_ns, const TrackOptions& o, int* unexplained);
@@ -288,8 +311,10 @@ class Tracker {
   TrackStatus TrackOnce(const BlobObs* blobs, int num_blobs, std::uint64_t t_ns, const TrackOptions& o,
                         TrackResult* result);
   void Accept(std::uint64_t t_ns, const TrackOptions& o, TrackResult* r);
+  TrackStatus Publish(TrackSource source, std::uint64_t t_ns, const TrackOptions& o, TrackResult* r);
   TrackStatus Lost(TrackReason why, TrackResult* r);
   void CountOutcome(const TrackResult& r);  // by status and reason
+  // Lost-in-space within the frame set's budget (lis_budget_per_frame).
   LisStatus RunLis(const BlobObs* blobs, int num_blobs, const LisPrior* prior, const TrackOptions& o);
   double HypothesisUnits() const;  // budget units of one hypothesis in this map
   int HypothesesLeft() const;  // of this frame set's budget (lis_budget_per_frame), >= 1
@@ -297,6 +322,9 @@ class Tracker {
   LisStatus ColdSearch(const BlobObs* blobs, int num_blobs, std::uint64_t t_ns, const TrackOptions& o, bool* old);
 
   const Rig* rig_ = nullptr;
+  // Built at Reset from the rig (px/rad); Track completes it with its options' image noise.
+  NoiseModel noise_;
+  AcquisitionLimits limits_;  // the motion and acquisition bounds of Track's options
   const BlobObs* blobs_ = nullptr;
   int num_blobs_ = 0;
   int indexed_blobs_ = 0;  // blobs of cameras that delivered
@@ -307,47 +335,22 @@ class Tracker {
   std::uint64_t cold_t_ns_ = 0;  // the frame set of the cold search in progress
   MatchSet set_;
   // Tracking's trials of ambiguous beacons: the unambiguous matches, the ambiguous beacons,
-  // the best consistent trial and every consistent trial's pose.
+  // the best consistent trial and every consistent trial.
   MatchSet base_;
   AmbiguityList ambiguous_;
   bool ambiguity_refused_ = false;  // this frame set's trials disagreed
   double ambiguity_spread_m_ = 0.0, ambiguity_spread_rad_ = 0.0;  // by this much (AgreeWith)
   TrackResult trial_, trial_result_;
   static constexpr int kMaxTrials = 1 << limits::kMaxAmbiguousMatches;
-  std::array<BodyPose, kMaxTrials> trial_poses_{};
-  std::array<int, kMaxTrials> trial_beacons_{};
-  std::array<double, kMaxTrials> trial_cost_{};
+  std::array<Trial, kMaxTrials> trials_{};
   P3pRayTriple twin_;
   std::array<BodyPose, limits::kMaxP3pSolutions> twin_poses_{};
   MatchSet twin_set_;
-  // The last accepted pose and the motion estimate.
-  bool has_pose_ = false;  // tracking may predict from last_pose_
-  bool has_seed_ = false;  // last_pose_ may seed re-acquisition
-  BodyPose last_pose_;
-  std::uint64_t last_t_ns_ = 0;
-  bool has_velocity_ = false;
-  double velocity_baseline_s_ = 1.0;
-  double last_sigma_rad_ = 0.0;  // attitude 1-sigma of the last pose
-  double last_sigma_m_ = 0.0;    // position 1-sigma of the last pose
-  double last_map_sigma_m_ = 0.0, last_map_sigma_rad_ = 0.0;  // its 1-sigma for the map's error
-  double px_per_rad_ = 0.0;      // largest focal length of the rig
-  int hist_n_ = 0;               // recent accepted poses, newest first
-  std::array<BodyPose, limits::kMaxTrackHistory> hist_{};
-  std::array<std::uint64_t, limits::kMaxTrackHistory> hist_t_ns_{};
-  Eigen::Vector3d v_w_ = Eigen::Vector3d::Zero();      // m/s, world
-  Eigen::Vector3d omega_b_ = Eigen::Vector3d::Zero();  // rad/s, body
-  // Acquisition: the poses not refuted by any frame set since the chain started, each with
-  // the time it was last confirmed (found consistent by lost-in-space) and its motion bounds.
-  int chain_n_ = 0;
-  int chain_frames_ = 0;
-  bool chain_seeded_ = false;
-  double prior_max_m_ = 0.0, prior_max_rad_ = 0.0;
-  std::array<BodyPose, limits::kMaxLisCandidates> chain_{};
-  std::array<std::uint64_t, limits::kMaxLisCandidates> chain_t_{};
-  std::array<double, limits::kMaxLisCandidates> chain_max_m_{};
-  std::array<double, limits::kMaxLisCandidates> chain_max_rad_{};
-  std::array<BodyPose, limits::kMaxLisCandidates> chain_next_{};
-  std::array<std::uint64_t, limits::kMaxLisCandidates> chain_next_t_{};
+  // The track: tracking may predict from the motion model's last pose (has_pose_); the motion
+  // model alone may still seed re-acquisition (MotionModel::known) up to max_seed_s.
+  bool has_pose_ = false;
+  MotionModel motion_;
+  Acquisition acquisition_;  // poses followed while lost-in-space is ambiguous
   // The previous frame set's blobs (ExplainsPrevious); -1: none.
   int prev_num_blobs_ = -1;
   std::uint32_t cameras_ = kAllCameras, prev_cameras_ = kAllCameras;

@@ -1,0 +1,103 @@
+#include "firmware/modules/identify/motion_model.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "common/rotation/rotation.h"
+
+namespace mfns::fw {
+
+void MotionModel::Forget() {
+  known_ = has_velocity_ = false;
+  hist_n_ = 0;
+}
+
+void MotionModel::Start(const BodyPose& pose, std::uint64_t t_ns, double sigma_m, double sigma_rad) {
+  known_ = true;
+  has_velocity_ = false;
+  last_pose_ = pose;
+  last_t_ns_ = t_ns;
+  last_sigma_m_ = std::isfinite(sigma_m) ? std::max(0.0, sigma_m) : 0.0;
+  last_sigma_rad_ = std::isfinite(sigma_rad) ? std::max(0.0, sigma_rad) : 0.0;
+  last_map_sigma_m_ = last_map_sigma_rad_ = 0.0;
+  hist_n_ = last_sigma_m_ == 0.0 && last_sigma_rad_ == 0.0 ? 1 : 0;
+  hist_[0] = pose;
+  hist_t_ns_[0] = t_ns;
+}
+
+void MotionModel::Add(const BodyPose& pose, std::uint64_t t_ns, double sigma_m, double sigma_rad, double map_ratio,
+                      const MotionLimits& lim) {
+  if (!known_) hist_n_ = 0;
+  // The oldest pose within the window: a longer baseline averages the noise of single poses;
+  // across a gap bridged by the prediction, the newest is all there is.
+  int from = -1;
+  for (int i = 0; i < hist_n_; ++i) {
+    const double age = Seconds(t_ns, hist_t_ns_[static_cast<std::size_t>(i)]);
+    if (age > 0.0 && (from < 0 || age <= lim.velocity_window_s)) from = i;
+  }
+  has_velocity_ = false;
+  if (from >= 0) {
+    const double age = Seconds(t_ns, hist_t_ns_[static_cast<std::size_t>(from)]);
+    const BodyPose& old = hist_[static_cast<std::size_t>(from)];
+    v_w_ = (pose.r_w_wb - old.r_w_wb) / age;
+    omega_b_ = LogSO3(old.C_w_b.transpose() * pose.C_w_b) / age;
+    velocity_baseline_s_ = age;
+    has_velocity_ = true;
+  }
+  // History: newest first, bounded.
+  hist_n_ = std::min(hist_n_ + 1, limits::kMaxTrackHistory);
+  for (int i = hist_n_ - 1; i > 0; --i) {
+    hist_[static_cast<std::size_t>(i)] = hist_[static_cast<std::size_t>(i - 1)];
+    hist_t_ns_[static_cast<std::size_t>(i)] = hist_t_ns_[static_cast<std::size_t>(i - 1)];
+  }
+  hist_[0] = pose;
+  hist_t_ns_[0] = t_ns;
+  known_ = true;
+  last_pose_ = pose;
+  last_t_ns_ = t_ns;
+  last_sigma_m_ = sigma_m;
+  last_sigma_rad_ = sigma_rad;
+  last_map_sigma_m_ = map_ratio * last_sigma_m_;
+  last_map_sigma_rad_ = map_ratio * last_sigma_rad_;
+}
+
+BodyPose MotionModel::Predict(std::uint64_t t_ns) const {
+  if (!has_velocity_) return last_pose_;
+  const double dt = Seconds(t_ns, last_t_ns_);
+  BodyPose p;
+  p.r_w_wb = last_pose_.r_w_wb + v_w_ * dt;
+  p.C_w_b = last_pose_.C_w_b * ExpSO3(omega_b_ * dt);
+  return p;
+}
+
+PoseBounds MotionModel::Bounds(double since_s, const MotionLimits& lim) const {
+  const double lead = has_velocity_ ? 1.0 + since_s / velocity_baseline_s_ : 1.0;
+  PoseBounds b;
+  b.max_m = lim.slack_m + lim.sigmas * last_sigma_m_ * lead;
+  b.max_rad = lim.slack_rad + lim.sigmas * last_sigma_rad_ * lead;
+  if (has_velocity_) {
+    b.max_m += 0.5 * lim.max_accel_m_s2 * since_s * since_s;
+    b.max_rad += 0.5 * lim.max_angular_accel_rad_s2 * since_s * since_s;
+  } else {
+    b.max_m += lim.max_speed_m_s * since_s;
+    b.max_rad += lim.max_rate_rad_s * since_s;
+  }
+  return b;
+}
+
+BodyPose MotionModel::CarryBack(const BodyPose& pose, std::uint64_t t_ns, double dt_s, const MotionLimits& lim,
+                                double* dv_m_s, double* dv_rad_s) const {
+  BodyPose back = pose;
+  *dv_m_s = lim.max_speed_m_s;
+  *dv_rad_s = lim.max_rate_rad_s;
+  if (has_velocity_) {
+    back.r_w_wb = pose.r_w_wb - v_w_ * dt_s;
+    back.C_w_b = pose.C_w_b * ExpSO3(-omega_b_ * dt_s);
+    const double since = std::max(0.0, Seconds(t_ns, last_t_ns_));
+    *dv_m_s = lim.max_accel_m_s2 * since + lim.sigmas * last_sigma_m_ / velocity_baseline_s_;
+    *dv_rad_s = lim.max_angular_accel_rad_s2 * since + lim.sigmas * last_sigma_rad_ / velocity_baseline_s_;
+  }
+  return back;
+}
+
+}  // namespace mfns::fw

@@ -1,0 +1,169 @@
+// MotionModel (motion_model.h): constant-velocity prediction against an analytic trajectory,
+// the error bounds' growth with the elapsed time, what starts and forgets the velocity.
+#include "firmware/modules/identify/motion_model.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "common/rotation/rotation.h"
+#include "firmware/lib/testing/alloc_counter.h"
+
+namespace mfns::fw {
+namespace {
+
+constexpr std::uint64_t kT0 = 1'000'000'000;  // ns
+constexpr std::uint64_t kFrameNs = 33'333'333;
+
+// A body moving at constant velocity: r_w_wb(t) = r0 + v_w t, C_w_b(t) = C0 Exp(omega_b t).
+struct Trajectory {
+  Eigen::Vector3d r0{1.0, -0.5, 0.3};
+  Eigen::Vector3d v_w{0.05, 0.02, -0.01};        // m/s
+  Eigen::Matrix3d C0 = ExpSO3(Eigen::Vector3d(0.3, -0.2, 1.0));
+  Eigen::Vector3d omega_b{0.01, -0.02, 0.2};      // rad/s
+  BodyPose At(std::uint64_t t_ns) const {
+    const double t = Seconds(t_ns, kT0);
+    BodyPose p;
+    p.r_w_wb = r0 + v_w * t;
+    p.C_w_b = C0 * ExpSO3(omega_b * t);
+    return p;
+  }
+};
+
+double PositionError(const BodyPose& a, const BodyPose& b) { return (a.r_w_wb - b.r_w_wb).norm(); }
+double AttitudeError(const BodyPose& a, const BodyPose& b) { return LogSO3(a.C_w_b.transpose() * b.C_w_b).norm(); }
+
+TEST(MotionModelTest, ConstantVelocityPredictionFollowsTheTrajectory) {
+  const Trajectory truth;
+  const MotionLimits lim;
+  MotionModel m;
+  m.Forget();
+  for (int i = 0; i < 10; ++i) {
+    const std::uint64_t t = kT0 + static_cast<std::uint64_t>(i) * kFrameNs;
+    m.Add(truth.At(t), t, 0.0, 0.0, 0.0, lim);
+  }
+  ASSERT_TRUE(m.known());
+  ASSERT_TRUE(m.has_velocity());
+  // Exact poses on a constant-velocity path: the prediction is exact at any lead (2 s here).
+  const std::uint64_t later = kT0 + 9 * kFrameNs + 2'000'000'000;
+  EXPECT_LT(PositionError(m.Predict(later), truth.At(later)), 1e-10);
+  EXPECT_LT(AttitudeError(m.Predict(later), truth.At(later)), 1e-10);
+  // Carried back by the velocity, the prediction lands on the last pose again.
+  double dv_m = 0.0, dv_rad = 0.0;
+  const BodyPose back = m.CarryBack(m.Predict(later), later, 2.0, lim, &dv_m, &dv_rad);
+  EXPECT_LT(PositionError(back, m.last_pose()), 1e-12);
+  EXPECT_LT(AttitudeError(back, m.last_pose()), 1e-12);
+  // The velocity's error: the accelerations over the 2 s since the last pose (exact poses).
+  EXPECT_NEAR(dv_m, lim.max_accel_m_s2 * 2.0, 1e-9);
+  EXPECT_NEAR(dv_rad, lim.max_angular_accel_rad_s2 * 2.0, 1e-9);
+}
+
+TEST(MotionModelTest, VelocityIsTakenOverTheWindow) {
+  // Noise on one pose spreads over the window's baseline: the oldest pose within
+  // velocity_window_s is used, so a 1 mm error on the newest moves the velocity by 1 mm / 0.2 s.
+  const Trajectory truth;
+  MotionLimits lim;
+  lim.velocity_window_s = 0.2;
+  MotionModel m;
+  for (int i = 0; i <= 12; ++i) {  // 0.4 s at 30 Hz
+    const std::uint64_t t = kT0 + static_cast<std::uint64_t>(i) * kFrameNs;
+    BodyPose p = truth.At(t);
+    if (i == 12) p.r_w_wb.x() += 1e-3;
+    m.Add(p, t, 0.0, 0.0, 0.0, lim);
+  }
+  const std::uint64_t t12 = kT0 + 12 * kFrameNs;
+  const BodyPose one_second = m.Predict(t12 + 1'000'000'000);
+  // Baseline: 6 frames (0.2 s) back; the error 1 mm now, plus 1 mm / 0.2 s over 1 s.
+  const double expected = 1e-3 + 1e-3 / (6.0 * static_cast<double>(kFrameNs) * 1e-9);
+  EXPECT_NEAR(one_second.r_w_wb.x() - truth.At(t12 + 1'000'000'000).r_w_wb.x(), expected, 1e-9);
+}
+
+TEST(MotionModelTest, HeldPoseBoundsGrowWithTheSpeedBounds) {
+  MotionLimits lim;
+  MotionModel m;
+  const BodyPose pose = Trajectory{}.At(kT0);
+  m.Start(pose, kT0, 0.0, 0.0);
+  EXPECT_TRUE(m.known());
+  EXPECT_FALSE(m.has_velocity());
+  EXPECT_LT(PositionError(m.Predict(kT0 + 500'000'000), pose), 1e-15);  // held
+  for (const double s : {0.0, 0.1, 1.0, 3.0}) {
+    const PoseBounds b = m.Bounds(s, lim);
+    EXPECT_NEAR(b.max_m, lim.slack_m + lim.max_speed_m_s * s, 1e-12);
+    EXPECT_NEAR(b.max_rad, lim.slack_rad + lim.max_rate_rad_s * s, 1e-12);
+  }
+  // A start pose's 1-sigma widens them by sigmas of it.
+  m.Start(pose, kT0, 0.01, 0.002);
+  EXPECT_NEAR(m.Bounds(0.0, lim).max_m, lim.slack_m + lim.sigmas * 0.01, 1e-12);
+  EXPECT_NEAR(m.Bounds(0.0, lim).max_rad, lim.slack_rad + lim.sigmas * 0.002, 1e-12);
+}
+
+TEST(MotionModelTest, PredictionBoundsGrowWithTheAccelerationsAndTheVelocityLever) {
+  const Trajectory truth;
+  const MotionLimits lim;
+  const double sigma_m = 1e-3, sigma_rad = 2e-4;
+  MotionModel m;
+  m.Add(truth.At(kT0), kT0, sigma_m, sigma_rad, 0.0, lim);
+  const std::uint64_t t1 = kT0 + 100'000'000;  // baseline 0.1 s
+  m.Add(truth.At(t1), t1, sigma_m, sigma_rad, 0.0, lim);
+  ASSERT_TRUE(m.has_velocity());
+  double previous = 0.0;
+  for (const double s : {0.0, 0.05, 0.5, 2.0}) {
+    const PoseBounds b = m.Bounds(s, lim);
+    const double lead = 1.0 + s / 0.1;  // the velocity's error grows over the extrapolation
+    EXPECT_NEAR(b.max_m, lim.slack_m + lim.sigmas * sigma_m * lead + 0.5 * lim.max_accel_m_s2 * s * s, 1e-12);
+    EXPECT_NEAR(b.max_rad, lim.slack_rad + lim.sigmas * sigma_rad * lead + 0.5 * lim.max_angular_accel_rad_s2 * s * s,
+                1e-12);
+    EXPECT_GE(b.max_m, previous);
+    previous = b.max_m;
+  }
+  // The truth of a path that accelerates within the bounds stays inside them: a = max_accel.
+  const double a = lim.max_accel_m_s2, s = 1.5;
+  const double off = 0.5 * a * s * s;  // constant-velocity extrapolation error
+  EXPECT_LE(off, m.Bounds(s, lim).max_m);
+}
+
+TEST(MotionModelTest, UncertainStartIsNoVelocitySampleAndForgetDropsTheHistory) {
+  const Trajectory truth;
+  const MotionLimits lim;
+  MotionModel m;
+  m.Start(truth.At(kT0), kT0, 0.05, 0.0);  // uncertain: not in the history
+  m.Add(truth.At(kT0 + kFrameNs), kT0 + kFrameNs, 0.0, 0.0, 0.0, lim);
+  EXPECT_FALSE(m.has_velocity());
+  m.Start(truth.At(kT0), kT0, 0.0, 0.0);  // exact: a velocity sample
+  m.Add(truth.At(kT0 + kFrameNs), kT0 + kFrameNs, 0.0, 0.0, 0.0, lim);
+  EXPECT_TRUE(m.has_velocity());
+  m.Forget();
+  EXPECT_FALSE(m.known());
+  EXPECT_FALSE(m.has_velocity());
+  // A pose after Forget does not continue the old history: no velocity from it.
+  m.Add(truth.At(kT0 + 2 * kFrameNs), kT0 + 2 * kFrameNs, 0.0, 0.0, 0.0, lim);
+  EXPECT_TRUE(m.known());
+  EXPECT_FALSE(m.has_velocity());
+}
+
+TEST(MotionModelTest, MapErrorSigmaFollowsTheRatio) {
+  const MotionLimits lim;
+  MotionModel m;
+  m.Add(Trajectory{}.At(kT0), kT0, 1e-3, 2e-4, 8.0, lim);
+  EXPECT_DOUBLE_EQ(m.last_map_sigma_m(), 8e-3);
+  EXPECT_DOUBLE_EQ(m.last_map_sigma_rad(), 1.6e-3);
+  m.Start(Trajectory{}.At(kT0), kT0, 0.0, 0.0);
+  EXPECT_EQ(m.last_map_sigma_m(), 0.0);
+}
+
+TEST(MotionModelTest, NothingAllocates) {
+  const Trajectory truth;
+  const MotionLimits lim;
+  static MotionModel m;
+  const std::uint64_t before = testing::AllocationCount();
+  for (int i = 0; i < 100; ++i) {
+    const std::uint64_t t = kT0 + static_cast<std::uint64_t>(i) * kFrameNs;
+    m.Add(truth.At(t), t, 1e-3, 1e-4, 1.0, lim);
+    static_cast<void>(m.Predict(t + kFrameNs));
+    static_cast<void>(m.Bounds(0.1, lim));
+  }
+  EXPECT_EQ(testing::AllocationCount() - before, 0u);
+}
+
+}  // namespace
+}  // namespace mfns::fw
