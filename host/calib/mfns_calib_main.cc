@@ -41,7 +41,7 @@ void MakeBlob(const std::string& rig_path, const std::string& out_path, std::uin
 }
 
 void Inspect(const std::string& blob_path) {
-  const std::string data = ReadFile(blob_path, limits::kMaxBlobBytes + 1);
+  const std::string data = ReadFile(blob_path, limits::kMaxBlobBytes);
   const std::span<const std::uint8_t> bytes(reinterpret_cast<const std::uint8_t*>(data.data()), data.size());
   Rig rig;
   BlobInfo info;

@@ -68,7 +68,7 @@ void ReadSigma(const YAML::Node& s, const YamlCtx& ctx, RigCameraSigma* out) {
 void ReadCamera(const YAML::Node& n, const YamlCtx& ctx, RigCamera* cam, RigCameraSigma* sigma, bool* has_sigma) {
   if (!n.IsMap()) ctx.Fail(n, "expected a map");
   const YAML::Node name = Require(n, "name", ctx);
-  CopyName(name.as<std::string>(), cam->name, name, ctx.Sub("name"));
+  CopyName(String(name, ctx.Sub("name")), cam->name, name, ctx.Sub("name"));
   CameraIntrinsics& k = cam->intrinsics;
   k.width = Integer(Require(n, "width", ctx), ctx.Sub("width"));
   k.height = Integer(Require(n, "height", ctx), ctx.Sub("height"));
@@ -183,7 +183,7 @@ void FailIfInvalid(const Rig& rig, const YAML::Node& root, const YamlCtx& ctx) {
 }  // namespace
 
 Rig ParseRigYaml(const std::string& text, const std::string& source) {
-  return ParseRig(text, source);
+  return CatchYamlErrors(source, [&] { return ParseRig(text, source); });
 }
 
 Rig ReadRigYaml(const std::filesystem::path& path) {
@@ -198,7 +198,7 @@ Rig ParseRig(const std::string& text, const std::string& source) {
   if (!root.IsMap()) ctx.Fail(root, "expected a map with rig_id and cameras");
   Rig rig;
   const YAML::Node id = Require(root, "rig_id", ctx);
-  CopyName(id.as<std::string>(), rig.rig_id, id, ctx.Sub("rig_id"));
+  CopyName(String(id, ctx.Sub("rig_id")), rig.rig_id, id, ctx.Sub("rig_id"));
 
   const YAML::Node cams = Require(root, "cameras", ctx);
   if (!cams.IsSequence() || cams.size() == 0) ctx.Sub("cameras").Fail(cams, "expected a non-empty list");

@@ -113,6 +113,21 @@ TEST(RigYaml, ErrorsNameTheFieldAndLine) {
   EXPECT_EQ(ErrorOf(head + kCam + "beacon_sigma_mm: .nan\n"), "rig.yaml:4: beacon_sigma_mm: value is not finite");
 }
 
+// Issue 14, defect 10: a list or a map where a name belongs is named with the file, the line
+// and the field (yaml-cpp said "bad conversion" and nothing else).
+TEST(RigYaml, WrongNodeTypesNameTheFieldNotBadConversion) {
+  const std::string head = "rig_id: r\ncameras:\n";
+  EXPECT_EQ(ErrorOf("rig_id: [a, b]\ncameras: []\n"), "rig.yaml:1: rig_id: expected a string");
+  std::string cam = kCam;
+  cam.replace(cam.find("name: x"), 7, "name: {a: 1}");
+  EXPECT_EQ(ErrorOf(head + cam), "rig.yaml:3: cameras[0].name: expected a string");
+  for (const std::string& yaml : {std::string("rig_id: {a: [1]}\n"), head + "  - [1, 2]\n", head + "  - {name: [x]}\n"}) {
+    const std::string e = ErrorOf(yaml);
+    EXPECT_EQ(e.rfind("rig.yaml:", 0), 0u) << e;
+    EXPECT_EQ(e.find("bad conversion"), std::string::npos) << e;
+  }
+}
+
 // Issue 14, defect 6: finite but absurd numbers (1e300) and repeated beacons are refused with
 // the file, the line and the field (ranges: common/limits.h, README "Rig file").
 TEST(RigYaml, AbsurdValuesAndRepeatedBeaconsNameTheField) {
