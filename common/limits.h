@@ -18,6 +18,16 @@ inline constexpr int kMaxBeacons = 256;
 inline constexpr int kMinNavBeacons = 3;
 inline constexpr int kMaxCameraNameChars = 7;   // "x", "y", "z", ... plus NUL in 8 bytes
 inline constexpr int kMaxRigIdChars = 31;       // plus NUL in 32 bytes
+// Physically sensible ranges of a rig's numbers (ValidateRig; rig files and blobs alike). A
+// value outside is a typo, a unit error or an attack, never a rig: refusing it at the parser
+// keeps absurd-but-finite numbers (1e300) out of every solver (README, "Rig file").
+inline constexpr double kMaxBeaconCoordinateM = 1000.0;  // |x|, |y|, |z| of a beacon (a station is ~100 m)
+inline constexpr double kMinBeaconSeparationM = 1e-3;    // two beacons closer than 1 mm are one position twice
+inline constexpr double kMaxBeaconSigmaM = 1.0;          // 1-sigma of the beacon map
+inline constexpr double kMaxCameraOffsetM = 10.0;        // |x|, |y|, |z| of r_b_bk (camera from body origin)
+inline constexpr double kMinFocalPx = 1.0;               // alpha_x, alpha_y
+inline constexpr double kMaxFocalPx = 1e6;
+inline constexpr double kMaxDistortion = 1000.0;         // |kc1..kc5|
 
 // Images.
 inline constexpr int kMaxImageWidth = 2048;

@@ -381,7 +381,8 @@ const char* ToString(BlobStatus s) {
     case BlobStatus::kTooManyBeacons: return "more beacons than limits::kMaxBeacons";
     case BlobStatus::kCountMismatch: return "sections disagree on the number of cameras or beacons";
     case BlobStatus::kNonFiniteValue: return "NaN or infinite value";
-    case BlobStatus::kInvalidValue: return "rig fails validation (e.g. C_k_b not a rotation)";
+    case BlobStatus::kInvalidValue:
+      return "rig fails validation (e.g. C_k_b not a rotation, a value outside its sensible range, two beacons at one position)";
     case BlobStatus::kRigIdMismatch: return "blob is for another rig id";
     case BlobStatus::kBufferTooSmall: return "output buffer smaller than the encoded blob";
   }

@@ -895,6 +895,30 @@ TEST(ParamBlob, InvalidRigsAreRefused) {
   EXPECT_EQ(Decode(Assemble(HeaderOf(rig, 1), s)), BlobStatus::kInvalidValue);
 }
 
+// Issue 14, defect 6: finite but absurd values and repeated beacons in a blob (CRCs right) are
+// refused by the decoder and the encoder alike (ValidateRig's ranges, common/limits.h).
+TEST(ParamBlob, AbsurdValuesAndRepeatedBeaconsAreRefused) {
+  using Edit = void (*)(Rig*);
+  const std::vector<std::pair<const char*, Edit>> edits = {
+      {"alpha_x 1e300", [](Rig* r) { r->cameras[0].intrinsics.alpha_x = 1e300; }},
+      {"skew 1e300", [](Rig* r) { r->cameras[1].intrinsics.skew = 1e300; }},
+      {"kc1 1e300", [](Rig* r) { r->cameras[2].intrinsics.kc[0] = 1e300; }},
+      {"r_b_bk 1e300", [](Rig* r) { r->cameras[0].r_b_bk.z() = 1e300; }},
+      {"beacon 1e300", [](Rig* r) { r->beacons_w[4].x() = 1e300; }},
+      {"beacon sigma 1e300", [](Rig* r) { r->beacon_sigma = 1e300; }},
+      {"beacon repeated", [](Rig* r) { r->beacons_w[9] = r->beacons_w[0]; }},
+  };
+  for (const auto& [name, edit] : edits) {
+    Rig rig = PaperRig();
+    edit(&rig);
+    Rig out = Sentinel();
+    EXPECT_EQ(DecodeParamBlob(Reference(rig, 1), nullptr, &out, nullptr), BlobStatus::kInvalidValue) << name;
+    EXPECT_EQ(out.num_cameras, -7) << name;
+    std::array<std::uint8_t, limits::kMaxBlobBytes> buffer{};
+    EXPECT_EQ(EncodeParamBlob(rig, 1, buffer, nullptr), BlobStatus::kInvalidValue) << name;
+  }
+}
+
 // ---------------------------------------------------------------------------------------------
 // Section 5, BEACON_FACING (optional; no header flag, so older decoders skip it).
 

@@ -41,10 +41,14 @@ RigStatus ValidateCamera(const RigCamera& c) {
   if (k.width <= 0 || k.height <= 0 || k.width > limits::kMaxImageWidth ||
       k.height > limits::kMaxImageHeight)
     return RigStatus::kBadImageSize;
-  if (!(k.alpha_x > 0.0) || !(k.alpha_y > 0.0) || k.u0 < -0.5 || k.u0 > k.width - 0.5 ||
+  if (!(k.alpha_x >= limits::kMinFocalPx) || !(k.alpha_y >= limits::kMinFocalPx) || k.alpha_x > limits::kMaxFocalPx ||
+      k.alpha_y > limits::kMaxFocalPx || std::abs(k.skew) > k.alpha_x || k.u0 < -0.5 || k.u0 > k.width - 0.5 ||
       k.v0 < -0.5 || k.v0 > k.height - 0.5)
     return RigStatus::kBadIntrinsics;
+  for (double v : k.kc)
+    if (std::abs(v) > limits::kMaxDistortion) return RigStatus::kBadDistortion;
   if (!IsRotation(c.C_k_b, 1e-6)) return RigStatus::kNotARotation;
+  if (c.r_b_bk.cwiseAbs().maxCoeff() > limits::kMaxCameraOffsetM) return RigStatus::kBadCameraOffset;
   return RigStatus::kOk;
 }
 
@@ -69,17 +73,30 @@ const char* ToString(RigStatus s) {
     case RigStatus::kTooManyBeacons: return "more beacons than limits::kMaxBeacons";
     case RigStatus::kBadCameraName: return "camera name empty, too long, not printable or repeated";
     case RigStatus::kBadImageSize: return "image size outside 1..limits::kMaxImageWidth/Height";
-    case RigStatus::kBadIntrinsics: return "focal length not positive or principal point outside the image";
+    case RigStatus::kBadIntrinsics:
+      return "focal length outside 1..1e6 px, |skew| above alpha_x or principal point outside the image";
     case RigStatus::kNotARotation: return "C_k_b is not a rotation matrix";
     case RigStatus::kNonFinite: return "NaN or infinite value";
-    case RigStatus::kBadSigma: return "negative sigma";
+    case RigStatus::kBadSigma: return "negative sigma, or a beacon sigma above 1000 mm";
     case RigStatus::kBadFacing: return "beacon normal not a unit vector or beam half-angle outside (0, 180] deg";
+    case RigStatus::kBadDistortion: return "distortion coefficient outside -1000..1000";
+    case RigStatus::kBadCameraOffset: return "camera position r_b_bk outside +-10000 mm of the body origin";
+    case RigStatus::kBadBeaconPosition: return "beacon position outside +-1e6 mm (1 km) of the world origin";
+    case RigStatus::kDuplicateBeacon: return "two beacons at the same position (closer than 1 mm)";
   }
   return "unknown rig status";
 }
 
-RigStatus ValidateRig(const Rig& rig, int* camera_index) {
+int SameBeaconAs(const Rig& rig, int m) {
+  const Eigen::Vector3d& p = rig.beacons_w[static_cast<std::size_t>(m)];
+  for (int j = 0; j < m; ++j)
+    if ((rig.beacons_w[static_cast<std::size_t>(j)] - p).norm() < limits::kMinBeaconSeparationM) return j;
+  return -1;
+}
+
+RigStatus ValidateRig(const Rig& rig, int* camera_index, int* beacon_index) {
   if (camera_index != nullptr) *camera_index = -1;
+  if (beacon_index != nullptr) *beacon_index = -1;
   if (!IsGoodName(rig.rig_id)) return RigStatus::kBadRigId;
   if (rig.num_cameras <= 0) return RigStatus::kNoCameras;
   if (rig.num_cameras > limits::kMaxCameras) return RigStatus::kTooManyCameras;
@@ -98,16 +115,37 @@ RigStatus ValidateRig(const Rig& rig, int* camera_index) {
       return s;
     }
   }
-  for (int i = 0; i < rig.num_beacons; ++i)
-    if (!rig.beacons_w[static_cast<std::size_t>(i)].allFinite()) return RigStatus::kNonFinite;
+  for (int i = 0; i < rig.num_beacons; ++i) {
+    const Eigen::Vector3d& p = rig.beacons_w[static_cast<std::size_t>(i)];
+    RigStatus s = RigStatus::kOk;
+    if (!p.allFinite()) {
+      s = RigStatus::kNonFinite;
+    } else if (p.cwiseAbs().maxCoeff() > limits::kMaxBeaconCoordinateM) {
+      s = RigStatus::kBadBeaconPosition;
+    } else if (SameBeaconAs(rig, i) >= 0) {  // at most kMaxBeacons^2 / 2 distances
+      s = RigStatus::kDuplicateBeacon;
+    }
+    if (s != RigStatus::kOk) {
+      if (beacon_index != nullptr) *beacon_index = i;
+      return s;
+    }
+  }
   if (!std::isfinite(rig.beacon_sigma)) return RigStatus::kNonFinite;
-  if (rig.beacon_sigma < 0.0) return RigStatus::kBadSigma;
+  if (rig.beacon_sigma < 0.0 || rig.beacon_sigma > limits::kMaxBeaconSigmaM) return RigStatus::kBadSigma;
   for (int i = 0; rig.has_facing && i < rig.num_beacons; ++i) {
     const auto idx = static_cast<std::size_t>(i);
     const Eigen::Vector3d& n = rig.beacon_normal_w[idx];
     const double half = rig.beacon_half_angle[idx];
-    if (!n.allFinite() || !std::isfinite(half)) return RigStatus::kNonFinite;
-    if (std::abs(n.norm() - 1.0) > 1e-6 || !(half > 0.0) || half > kPi) return RigStatus::kBadFacing;
+    RigStatus s = RigStatus::kOk;
+    if (!n.allFinite() || !std::isfinite(half)) {
+      s = RigStatus::kNonFinite;
+    } else if (std::abs(n.norm() - 1.0) > 1e-6 || !(half > 0.0) || half > kPi) {
+      s = RigStatus::kBadFacing;
+    }
+    if (s != RigStatus::kOk) {
+      if (beacon_index != nullptr) *beacon_index = i;
+      return s;
+    }
   }
   return RigStatus::kOk;
 }

@@ -73,11 +73,25 @@ enum class RigStatus : unsigned char {
   kNonFinite,         // NaN or Inf anywhere
   kBadSigma,          // negative sigma
   kBadFacing,         // beacon normal not a unit vector (1e-6) or half-angle outside (0, pi]
+  // Physically sensible ranges (common/limits.h):
+  kBadDistortion,      // |kc_i| above limits::kMaxDistortion
+  kBadCameraOffset,    // |r_b_bk| component above limits::kMaxCameraOffsetM
+  kBadBeaconPosition,  // |beacon coordinate| above limits::kMaxBeaconCoordinateM
+  kDuplicateBeacon,    // two beacons closer than limits::kMinBeaconSeparationM
 };
 const char* ToString(RigStatus s);
 
-// Checks every field; on failure *camera_index (optional) names the offending camera or -1.
-RigStatus ValidateRig(const Rig& rig, int* camera_index = nullptr);
+// Checks every field; on failure *camera_index (optional) names the offending camera or -1,
+// and *beacon_index (optional) the offending beacon or -1 (for kDuplicateBeacon the later of
+// the two; SameBeaconAs gives the earlier). Besides finiteness, every number must lie in its
+// physically sensible range: focal lengths limits::kMinFocalPx..kMaxFocalPx, |skew| <= alpha_x,
+// the principal point inside the image, |kc_i| <= kMaxDistortion, |r_b_bk| components <=
+// kMaxCameraOffsetM, beacon coordinates within +-kMaxBeaconCoordinateM and no two beacons
+// closer than kMinBeaconSeparationM, the beacon sigma <= kMaxBeaconSigmaM.
+RigStatus ValidateRig(const Rig& rig, int* camera_index = nullptr, int* beacon_index = nullptr);
+
+// The first beacon before m closer to beacon m than limits::kMinBeaconSeparationM, or -1.
+int SameBeaconAs(const Rig& rig, int m);
 
 // Body pose: attitude C_w_b (body -> world) and position r_w_wb (body origin in world, m).
 // Eq. 2 uses C_b_w = C_w_b^T and r_b_bw = -C_b_w * r_w_wb.

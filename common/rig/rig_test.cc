@@ -120,5 +120,52 @@ TEST(Rig, ValidateNamesEachProblem) {
   EXPECT_EQ(ValidateRig(r), RigStatus::kBadSigma);
 }
 
+// Issue 14, defect 6: finite but absurd values (1e300) and repeated beacons are refused here,
+// so rig files and blobs alike (common/blob decodes through ValidateRig) keep them out.
+TEST(Rig, ValidateRefusesAbsurdValuesAndRepeatedBeacons) {
+  const Rig good = PaperRig();
+  int cam = -2, beacon = -2;
+  EXPECT_EQ(ValidateRig(good, &cam, &beacon), RigStatus::kOk);
+  EXPECT_EQ(beacon, -1);
+  Rig r = good;
+  r.cameras[1].intrinsics.alpha_x = 1e300;
+  EXPECT_EQ(ValidateRig(r, &cam), RigStatus::kBadIntrinsics);
+  EXPECT_EQ(cam, 1);
+  r = good;
+  r.cameras[1].intrinsics.alpha_y = 0.5;
+  EXPECT_EQ(ValidateRig(r), RigStatus::kBadIntrinsics);
+  r = good;
+  r.cameras[0].intrinsics.skew = 1e300;
+  EXPECT_EQ(ValidateRig(r), RigStatus::kBadIntrinsics);
+  r = good;
+  r.cameras[2].intrinsics.kc[4] = -1e300;
+  EXPECT_EQ(ValidateRig(r, &cam), RigStatus::kBadDistortion);
+  EXPECT_EQ(cam, 2);
+  r = good;
+  r.cameras[0].r_b_bk.y() = 1e300;
+  EXPECT_EQ(ValidateRig(r), RigStatus::kBadCameraOffset);
+  r = good;
+  r.beacons_w[7].z() = 1e300;
+  EXPECT_EQ(ValidateRig(r, &cam, &beacon), RigStatus::kBadBeaconPosition);
+  EXPECT_EQ(cam, -1);
+  EXPECT_EQ(beacon, 7);
+  r = good;
+  r.beacons_w[6] = r.beacons_w[2] + Eigen::Vector3d(0.0, 0.0005, 0.0);
+  EXPECT_EQ(ValidateRig(r, &cam, &beacon), RigStatus::kDuplicateBeacon);
+  EXPECT_EQ(beacon, 6);
+  EXPECT_EQ(SameBeaconAs(r, 6), 2);
+  EXPECT_EQ(SameBeaconAs(r, 5), -1);
+  r = good;
+  r.beacon_sigma = 1e300;
+  EXPECT_EQ(ValidateRig(r), RigStatus::kBadSigma);
+  // The limits themselves are legal.
+  r = good;
+  r.beacons_w[0] = Eigen::Vector3d(limits::kMaxBeaconCoordinateM, -limits::kMaxBeaconCoordinateM, 0.0);
+  r.cameras[0].r_b_bk.x() = -limits::kMaxCameraOffsetM;
+  r.cameras[0].intrinsics.kc[0] = limits::kMaxDistortion;
+  r.beacon_sigma = limits::kMaxBeaconSigmaM;
+  EXPECT_EQ(ValidateRig(r), RigStatus::kOk);
+}
+
 }  // namespace
 }  // namespace mfns

@@ -41,7 +41,7 @@ void MakeBlob(const std::string& rig_path, const std::string& out_path, std::uin
 }
 
 void Inspect(const std::string& blob_path) {
-  const std::string data = ReadFile(blob_path, limits::kMaxBlobBytes + 1);
+  const std::string data = ReadFile(blob_path, limits::kMaxBlobBytes);
   const std::span<const std::uint8_t> bytes(reinterpret_cast<const std::uint8_t*>(data.data()), data.size());
   Rig rig;
   BlobInfo info;
@@ -72,12 +72,12 @@ int Run(int argc, char** argv) {
   app.require_subcommand(1);
 
   std::string rig_path, out_path, blob_path;
-  std::uint64_t generation = 0;
+  std::string generation;  // ParseGenerationOption: CLI11 read "-1" as 2^64-1
   CLI::App* blob = app.add_subcommand("blob", "Turn a rig file into a parameter blob");
   blob->add_option("rig", rig_path, "Rig file (YAML)")->required();
   blob->add_option("--out", out_path, "Output blob file")->required();
   blob->add_option("--generation", generation,
-                   "Blob generation (monotonically increasing; default: UTC seconds now)");
+                   "Blob generation, 0..2^64-1 (monotonically increasing; default: UTC seconds now)");
 
   CLI::App* inspect = app.add_subcommand("inspect", "Check a parameter blob and print its contents");
   inspect->add_option("blob", blob_path, "Blob file")->required();
@@ -93,7 +93,7 @@ int Run(int argc, char** argv) {
   } catch (const CLI::ParseError& e) {
     return app.exit(e) == 0 ? 0 : 1;
   }
-  if (*blob) MakeBlob(rig_path, out_path, blob->count("--generation") ? generation : NowSeconds());
+  if (*blob) MakeBlob(rig_path, out_path, blob->count("--generation") ? ParseGenerationOption(generation) : NowSeconds());
   if (*inspect) Inspect(blob_path);
   if (*paper) WriteRigYaml(out_path, PaperRig());
   return 0;

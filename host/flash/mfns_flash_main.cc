@@ -46,7 +46,7 @@ int Run(int argc, char** argv) {
   opt.signal_navd = !no_signal;
   try {
     const FlashTarget target = ParseTarget(target_text);
-    const std::string data = ReadFile(blob_path, limits::kMaxBlobBytes + 1);
+    const std::string data = ReadFile(blob_path, limits::kMaxBlobBytes);
     const std::vector<std::uint8_t> blob(data.begin(), data.end());
     const FlashResult r = Flash(blob, target, opt);
     std::cout << r.install_output;

@@ -68,7 +68,7 @@ void ReadSigma(const YAML::Node& s, const YamlCtx& ctx, RigCameraSigma* out) {
 void ReadCamera(const YAML::Node& n, const YamlCtx& ctx, RigCamera* cam, RigCameraSigma* sigma, bool* has_sigma) {
   if (!n.IsMap()) ctx.Fail(n, "expected a map");
   const YAML::Node name = Require(n, "name", ctx);
-  CopyName(name.as<std::string>(), cam->name, name, ctx.Sub("name"));
+  CopyName(String(name, ctx.Sub("name")), cam->name, name, ctx.Sub("name"));
   CameraIntrinsics& k = cam->intrinsics;
   k.width = Integer(Require(n, "width", ctx), ctx.Sub("width"));
   k.height = Integer(Require(n, "height", ctx), ctx.Sub("height"));
@@ -138,15 +138,67 @@ std::string List(It begin, It end) {
 
 std::string List(std::initializer_list<double> v) { return List(v.begin(), v.end()); }
 
+// The rig file's field of a camera problem (nullptr: the camera as a whole).
+const char* CameraField(RigStatus s) {
+  switch (s) {
+    case RigStatus::kBadCameraName: return "name";
+    case RigStatus::kBadIntrinsics: return "intrinsics";
+    case RigStatus::kBadDistortion: return "distortion";
+    case RigStatus::kNotARotation: return "C_k_b";
+    case RigStatus::kBadCameraOffset: return "r_b_bk_mm";
+    case RigStatus::kBadSigma: return "sigma";
+    default: return nullptr;
+  }
+}
+
+Rig ParseRig(const std::string& text, const std::string& source);
+
+// ValidateRig's verdict as a UserError naming the file, the line and the field.
+void FailIfInvalid(const Rig& rig, const YAML::Node& root, const YamlCtx& ctx) {
+  int bad_camera = -1, bad_beacon = -1;
+  const RigStatus status = ValidateRig(rig, &bad_camera, &bad_beacon);
+  if (status == RigStatus::kOk) return;
+  if (bad_camera >= 0) {
+    const auto i = static_cast<std::size_t>(bad_camera);
+    const YAML::Node cam = root["cameras"][i];
+    const char* field = CameraField(status);
+    const YamlCtx where = ctx.Sub("cameras").Index(i);
+    if (field != nullptr && Has(cam, field)) where.Sub(field).Fail(cam[field], ToString(status));
+    where.Fail(cam, ToString(status));
+  }
+  if (bad_beacon >= 0) {
+    const auto i = static_cast<std::size_t>(bad_beacon);
+    const char* list = status == RigStatus::kBadFacing ? "beacon_facing" : "beacons_mm";
+    std::string what = ToString(status);
+    if (status == RigStatus::kDuplicateBeacon)
+      what = "same position as beacons_mm[" + std::to_string(SameBeaconAs(rig, bad_beacon)) + "] (closer than " +
+             Short(limits::kMinBeaconSeparationM / kMm) + " mm)";
+    ctx.Sub(list).Index(i).Fail(root[list][i], what);
+  }
+  if (status == RigStatus::kBadSigma && Has(root, "beacon_sigma_mm"))
+    ctx.Sub("beacon_sigma_mm").Fail(root["beacon_sigma_mm"], ToString(status));
+  ctx.Fail(root, ToString(status));
+}
+
 }  // namespace
 
 Rig ParseRigYaml(const std::string& text, const std::string& source) {
+  return CatchYamlErrors(source, [&] { return ParseRig(text, source); });
+}
+
+Rig ReadRigYaml(const std::filesystem::path& path) {
+  return ParseRigYaml(ReadFile(path, 4u << 20), path.string());
+}
+
+namespace {
+
+Rig ParseRig(const std::string& text, const std::string& source) {
   const YAML::Node root = LoadYaml(text, source);
   const YamlCtx ctx{source, ""};
   if (!root.IsMap()) ctx.Fail(root, "expected a map with rig_id and cameras");
   Rig rig;
   const YAML::Node id = Require(root, "rig_id", ctx);
-  CopyName(id.as<std::string>(), rig.rig_id, id, ctx.Sub("rig_id"));
+  CopyName(String(id, ctx.Sub("rig_id")), rig.rig_id, id, ctx.Sub("rig_id"));
 
   const YAML::Node cams = Require(root, "cameras", ctx);
   if (!cams.IsSequence() || cams.size() == 0) ctx.Sub("cameras").Fail(cams, "expected a non-empty list");
@@ -178,18 +230,11 @@ Rig ParseRigYaml(const std::string& text, const std::string& source) {
   const YAML::Node facing = root["beacon_facing"];
   if (facing.IsDefined() && !facing.IsNull()) ReadFacing(facing, ctx.Sub("beacon_facing"), &rig);
 
-  int bad_camera = -1;
-  const RigStatus status = ValidateRig(rig, &bad_camera);
-  if (status != RigStatus::kOk) {
-    const YamlCtx where = bad_camera >= 0 ? ctx.Sub("cameras").Index(static_cast<std::size_t>(bad_camera)) : ctx;
-    where.Fail(bad_camera >= 0 ? cams[static_cast<std::size_t>(bad_camera)] : root, ToString(status));
-  }
+  FailIfInvalid(rig, root, ctx);
   return rig;
 }
 
-Rig ReadRigYaml(const std::filesystem::path& path) {
-  return ParseRigYaml(ReadFile(path, 4u << 20), path.string());
-}
+}  // namespace
 
 std::string FormatRigYaml(const Rig& rig) {
   std::ostringstream o;

@@ -104,13 +104,58 @@ TEST(RigYaml, ErrorsNameTheFieldAndLine) {
   EXPECT_NE(ErrorOf(head + bad).find("cameras[0].euler_deg: disagrees with C_k_b by 1.0"), std::string::npos);
   bad = kCam;
   bad.replace(bad.find("640, 512"), 8, "9640, 512");
-  EXPECT_EQ(ErrorOf(head + bad),
-            "rig.yaml:3: cameras[0]: focal length not positive or principal point outside the image");
+  EXPECT_EQ(ErrorOf(head + bad), "rig.yaml:3: cameras[0].intrinsics: focal length outside 1..1e6 px, |skew| above "
+                                 "alpha_x or principal point outside the image");
   EXPECT_EQ(ErrorOf(head + kCam + "beacons_mm: [[1, 2]]\n"), "rig.yaml:4: beacons_mm[0]: expected 3 numbers, got 2");
   EXPECT_NE(ErrorOf("rig_id: [unclosed\n").find("rig.yaml:"), std::string::npos);
   EXPECT_NE(ErrorOf("rig_id: [unclosed\n").find("not valid YAML"), std::string::npos);
   EXPECT_EQ(ErrorOf(head + kCam + "beacon_sigma_mm: -1\n"), "rig.yaml:4: beacon_sigma_mm: must not be negative");
   EXPECT_EQ(ErrorOf(head + kCam + "beacon_sigma_mm: .nan\n"), "rig.yaml:4: beacon_sigma_mm: value is not finite");
+}
+
+// Issue 14, defect 10: a list or a map where a name belongs is named with the file, the line
+// and the field (yaml-cpp said "bad conversion" and nothing else).
+TEST(RigYaml, WrongNodeTypesNameTheFieldNotBadConversion) {
+  const std::string head = "rig_id: r\ncameras:\n";
+  EXPECT_EQ(ErrorOf("rig_id: [a, b]\ncameras: []\n"), "rig.yaml:1: rig_id: expected a string");
+  std::string cam = kCam;
+  cam.replace(cam.find("name: x"), 7, "name: {a: 1}");
+  EXPECT_EQ(ErrorOf(head + cam), "rig.yaml:3: cameras[0].name: expected a string");
+  for (const std::string& yaml : {std::string("rig_id: {a: [1]}\n"), head + "  - [1, 2]\n", head + "  - {name: [x]}\n"}) {
+    const std::string e = ErrorOf(yaml);
+    EXPECT_EQ(e.rfind("rig.yaml:", 0), 0u) << e;
+    EXPECT_EQ(e.find("bad conversion"), std::string::npos) << e;
+  }
+}
+
+// Issue 14, defect 6: finite but absurd numbers (1e300) and repeated beacons are refused with
+// the file, the line and the field (ranges: common/limits.h, README "Rig file").
+TEST(RigYaml, AbsurdValuesAndRepeatedBeaconsNameTheField) {
+  const std::string head = "rig_id: r\ncameras:\n";
+  const std::string three = "beacons_mm:\n  - [0, 0, 1000]\n  - [500, 0, 1000]\n  - [0, 500, 1000]\n";
+  EXPECT_EQ(ErrorOf(head + kCam + three), "(no error)");
+  const auto with = [&](const char* from, const char* to) {
+    std::string cam = kCam;
+    cam.replace(cam.find(from), std::string(from).size(), to);
+    return ErrorOf(head + cam + three);
+  };
+  EXPECT_EQ(with("[1600, 1600, 0, 640, 512]", "[1e300, 1600, 0, 640, 512]"),
+            "rig.yaml:3: cameras[0].intrinsics: focal length outside 1..1e6 px, |skew| above alpha_x or principal point "
+            "outside the image");
+  EXPECT_NE(with("[1600, 1600, 0, 640, 512]", "[1600, 1600, -1e300, 640, 512]").find("cameras[0].intrinsics: "),
+            std::string::npos);
+  EXPECT_EQ(with("distortion: [0, 0, 0, 0, 0]", "distortion: [0, 0, 0, 0, 1e300]"),
+            "rig.yaml:3: cameras[0].distortion: distortion coefficient outside -1000..1000");
+  EXPECT_EQ(with("r_b_bk_mm: [0, 0, 0]", "r_b_bk_mm: [0, 1e300, 0]"),
+            "rig.yaml:3: cameras[0].r_b_bk_mm: camera position r_b_bk outside +-10000 mm of the body origin");
+  EXPECT_EQ(ErrorOf(head + kCam + "beacons_mm:\n  - [0, 0, 1000]\n  - [1e300, 0, 0]\n"),
+            "rig.yaml:6: beacons_mm[1]: beacon position outside +-1e6 mm (1 km) of the world origin");
+  EXPECT_EQ(ErrorOf(head + kCam + three + "  - [500, 0, 1000.5]\n"),
+            "rig.yaml:8: beacons_mm[3]: same position as beacons_mm[1] (closer than 1 mm)");
+  EXPECT_EQ(ErrorOf(head + kCam + three + "beacon_sigma_mm: 1e300\n"),
+            "rig.yaml:8: beacon_sigma_mm: negative sigma, or a beacon sigma above 1000 mm");
+  // 1.2 mm apart is two beacons.
+  EXPECT_EQ(ErrorOf(head + kCam + three + "  - [500, 0, 1001.2]\n"), "(no error)");
 }
 
 // The paper rig with a facing for each of its 10 beacons: odd normals, half-angles from the

@@ -78,7 +78,8 @@ bool BooleanOr(const YAML::Node& map, const char* key, bool fallback, const Yaml
 void RejectUnknownKeys(const YAML::Node& map, std::initializer_list<const char*> known, const YamlCtx& ctx) {
   if (!map.IsMap()) ctx.Fail(map, "expected a map");
   for (const auto& kv : map) {
-    const std::string key = kv.first.as<std::string>();
+    if (!kv.first.IsScalar()) ctx.Fail(kv.first, "a key must be a name, not a list or a map");
+    const std::string key = kv.first.Scalar();
     bool found = false;
     for (const char* k : known) found = found || key == k;
     if (!found) ctx.Fail(kv.first, "unknown field '" + key + "'");

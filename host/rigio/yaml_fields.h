@@ -46,6 +46,18 @@ std::array<double, N> Numbers(const YAML::Node& n, const YamlCtx& ctx) {
   return out;
 }
 
+// Runs parse(): a yaml-cpp exception that escapes the typed readers above (its what() is a
+// bare "bad conversion" or "operator[] call on a scalar") becomes a UserError naming the source
+// and the line.
+template <typename F>
+auto CatchYamlErrors(const std::string& source, F&& parse) -> decltype(parse()) {
+  try {
+    return parse();
+  } catch (const YAML::Exception& e) {
+    throw UserError(source + ":" + std::to_string(e.mark.line + 1) + ": " + e.msg);
+  }
+}
+
 // Refuses keys of `map` not in `known` (catches typos such as "frame_rate" for
 // "frame_rate_hz"), naming the first unknown key.
 void RejectUnknownKeys(const YAML::Node& map, std::initializer_list<const char*> known, const YamlCtx& ctx);

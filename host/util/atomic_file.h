@@ -23,7 +23,10 @@ class UserError : public std::runtime_error {
 void WriteFileAtomic(const std::filesystem::path& path, std::span<const std::uint8_t> bytes);
 void WriteFileAtomic(const std::filesystem::path& path, std::string_view text);
 
-// Reads a whole file, refusing files above max_bytes. Throws UserError on failure.
+// Reads a whole file, refusing files above max_bytes ("too large (N bytes, limit max_bytes)").
+// Throws UserError on failure, saying which: "no such file", "is a directory, expected a
+// file", "not a regular file (a FIFO, socket or device)" (never blocks on a FIFO), or the
+// system's reason.
 std::string ReadFile(const std::filesystem::path& path, std::size_t max_bytes = 256u << 20);
 
 }  // namespace mfns::host

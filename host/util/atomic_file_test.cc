@@ -1,6 +1,7 @@
 #include "host/util/atomic_file.h"
 
 #include <gtest/gtest.h>
+#include <sys/stat.h>
 
 #include <filesystem>
 
@@ -46,6 +47,28 @@ TEST(AtomicFile, ReadRefusesMissingAndOversized) {
   } catch (const UserError& e) {
     EXPECT_NE(std::string(e.what()).find("too large"), std::string::npos);
   }
+  std::filesystem::remove_all(dir);
+}
+
+// Issue 14, defect 10: a directory or a FIFO given as a file is named as what it is (it read
+// "no such file"), a FIFO never blocks, and the size limit quoted is the limit given.
+TEST(AtomicFile, ReadSaysWhatIsWrongWithThePath) {
+  const auto dir = TempDir();
+  const auto what = [](const std::filesystem::path& p, std::size_t max) {
+    try {
+      ReadFile(p, max);
+    } catch (const UserError& e) {
+      return std::string(e.what());
+    }
+    return std::string("(no error)");
+  };
+  EXPECT_EQ(what(dir / "nope", 100), (dir / "nope").string() + ": no such file");
+  EXPECT_EQ(what(dir, 100), dir.string() + ": is a directory, expected a file");
+  ASSERT_EQ(::mkfifo((dir / "fifo").c_str(), 0600), 0);
+  EXPECT_EQ(what(dir / "fifo", 100), (dir / "fifo").string() + ": not a regular file (a FIFO, socket or device)");
+  WriteFileAtomic(dir / "blob", std::string(16385, 'a'));
+  EXPECT_EQ(what(dir / "blob", 16384), (dir / "blob").string() + ": too large (16385 bytes, limit 16384)");
+  EXPECT_EQ(ReadFile(dir / "blob", 16385).size(), 16385u);
   std::filesystem::remove_all(dir);
 }
 

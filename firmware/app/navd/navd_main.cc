@@ -89,11 +89,11 @@ int Run(int argc, char** argv) {
   std::unique_ptr<FrameSource> source;
   static LinuxV4l2Io v4l2_io;
   static std::array<NavdOptions::Path, limits::kMaxCameras> default_paths{};
+  std::array<const char*, limits::kMaxCameras> paths{};  // V4L2: each camera's device
   if (opt.source == SourceKind::kReplay) {
-    source = std::make_unique<ReplaySource>(
-        ReplayConfigFromRig(rig, opt.replay_dir.data(), opt.rate_given ? opt.rate_hz : 0.0));
+    // Without truth.csv the frames are timed by --rate-hz, default 18.6 (as --help says).
+    source = std::make_unique<ReplaySource>(ReplayConfigFromRig(rig, opt.replay_dir.data(), opt.rate_hz));
   } else {
-    std::array<const char*, limits::kMaxCameras> paths{};
     for (int k = 0; k < rig.num_cameras; ++k) {
       const auto ks = static_cast<std::size_t>(k);
       std::snprintf(default_paths[ks].data(), default_paths[ks].size(), "/dev/video%d", k);
@@ -110,6 +110,13 @@ int Run(int argc, char** argv) {
     std::fprintf(stderr, "mfns-navd: frame source did not start: %s%s%s\n", ToString(ss), problem[0] != '\0' ? ": " : "",
                  problem);
     if (opt.source == SourceKind::kReplay) return 1;
+    const auto* v4l2 = static_cast<const V4l2Source*>(source.get());
+    for (int k = 0; k < rig.num_cameras; ++k) {
+      const SourceStatus cs = v4l2->camera_status(k);
+      if (cs != SourceStatus::kOk)
+        std::fprintf(stderr, "mfns-navd: camera %s (%s): %s\n", rig.cameras[static_cast<std::size_t>(k)].name.data(),
+                     paths[static_cast<std::size_t>(k)], ToString(cs));
+    }
     // V4L2: the cameras that started keep streaming; the loop retries the others.
   }
 
@@ -153,7 +160,8 @@ int Run(int argc, char** argv) {
   auto loop = std::make_unique<NavLoop>(rig, source.get(), &trigger, &udp, &log);
   const char* reason = nullptr;
   if (!loop->Configure(config, &reason)) {
-    std::fprintf(stderr, "mfns-navd: %s\n", reason != nullptr ? reason : "bad configuration");
+    std::fprintf(stderr, "mfns-navd: --params %s (rig %s, generation %llu): %s\n", opt.params.data(), rig.rig_id.data(),
+                 static_cast<unsigned long long>(info.generation), reason != nullptr ? reason : "configuration refused");
     return 1;
   }
   // The log last of all the start: a start that fails leaves the previous log alone.

@@ -22,8 +22,12 @@ NavReason ToNavReason(TrackReason r) {
 
 bool Navigator::Init(const Rig& rig, const NavigatorOptions& options, const char** why) {
   if (!options.IsValid(why)) return false;
-  if (ValidateRig(rig) != RigStatus::kOk || rig.num_beacons < limits::kMinNavBeacons) {
-    if (why != nullptr) *why = "the rig is invalid or has fewer than 3 beacons";
+  if (const RigStatus rs = ValidateRig(rig); rs != RigStatus::kOk) {
+    if (why != nullptr) *why = ToString(rs);
+    return false;
+  }
+  if (rig.num_beacons < limits::kMinNavBeacons) {
+    if (why != nullptr) *why = "beacons: fewer than 3 in the rig (navigation needs 3)";
     return false;
   }
   rig_ = rig;

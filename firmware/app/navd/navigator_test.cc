@@ -288,6 +288,21 @@ TEST(Navigator, InitInfersTheFacingOfAMapOfWalls) {
   EXPECT_EQ(nav.rig().beacon_normal_w[7], truth.beacon_normal_w[7]);
 }
 
+// Issue 14, defect 10: a rig navd cannot use is refused with the reason (mfns-navd prints it
+// after the --params file), not "invalid or has fewer than 3 beacons" for both.
+TEST(Navigator, InitSaysWhyARigIsRefused) {
+  static Navigator nav;
+  const char* why = nullptr;
+  Rig rig = PaperRig();
+  rig.num_beacons = 2;
+  EXPECT_FALSE(nav.Init(rig, NavigatorOptions{}, &why));
+  EXPECT_STREQ(why, "beacons: fewer than 3 in the rig (navigation needs 3)");
+  rig = PaperRig();
+  rig.beacons_w[3].x() = 1e300;
+  EXPECT_FALSE(nav.Init(rig, NavigatorOptions{}, &why));
+  EXPECT_STREQ(why, ToString(RigStatus::kBadBeaconPosition));
+}
+
 TEST(Navigator, LostWithTooFewBlobsAndCameraDownDegrades) {
   static const Rig rig = PaperRig();
   static Navigator nav;

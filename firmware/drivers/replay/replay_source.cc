@@ -114,14 +114,21 @@ void ReplaySource::SetFrameName(Camera* cam, int frame) const {
 SourceStatus ReplaySource::ScanCamera(int k, int* first_frame, int* last_frame) {
   Camera& cam = cams_[static_cast<unsigned>(k)];
   const char* name = config_.camera_names[static_cast<unsigned>(k)];
-  if (!ValidName(name)) return SourceStatus::kBadConfig;
+  if (!ValidName(name)) {
+    SetProblem(name != nullptr ? name : "(none)", "camera name empty, too long or with a '/' or '..'");
+    return SourceStatus::kBadConfig;
+  }
   int len = 0;
   if (!Append(&cam.path, &len, config_.dir) || !Append(&cam.path, &len, "/frames/") ||
       !Append(&cam.path, &len, name)) {
+    SetProblem(config_.dir, "path too long");
     return SourceStatus::kBadConfig;
   }
   DIR* d = ::opendir(cam.path.data());
-  if (d == nullptr) return SourceStatus::kOpenFailed;
+  if (d == nullptr) {
+    SetProblem(cam.path.data(), std::strerror(errno));  // camera name and folder: "DIR/frames/x: No such file..."
+    return SourceStatus::kOpenFailed;
+  }
   *first_frame = -1;
   *last_frame = -1;
   // A folder holds at most kMaxReplayFrames frame files; allow as many other entries.
@@ -134,9 +141,13 @@ SourceStatus ReplaySource::ScanCamera(int k, int* first_frame, int* last_frame) 
     if (f > *last_frame) *last_frame = f;
   }
   ::closedir(d);
-  if (*first_frame < 0) return SourceStatus::kOpenFailed;  // nothing to replay
+  if (*first_frame < 0) {  // nothing to replay
+    SetProblem(cam.path.data(), "no frames (NNNNNN.pgm) in this camera's folder");
+    return SourceStatus::kOpenFailed;
+  }
   if (!Append(&cam.path, &len, "/") ||
       static_cast<std::size_t>(len) + kFrameFileChars + 1 > cam.path.size()) {
+    SetProblem(cam.path.data(), "path too long");
     return SourceStatus::kBadConfig;
   }
   cam.name_at = len;
@@ -147,12 +158,18 @@ SourceStatus ReplaySource::ReadTruth() {
   std::array<char, limits::kMaxPathChars + 1> path{};
   int len = 0;
   if (!Append(&path, &len, config_.dir) || !Append(&path, &len, "/truth.csv")) {
+    SetProblem(config_.dir, "path too long");
     return SourceStatus::kBadConfig;
   }
   t_ns_.assign(static_cast<std::size_t>(num_frames_), kNoTime);
   const int fd = ::open(path.data(), O_RDONLY | O_NONBLOCK | O_CLOEXEC);  // a FIFO must not hang Start
   if (fd < 0) {
-    if (errno != ENOENT || !(config_.frame_rate_hz > 0.0) || !std::isfinite(config_.frame_rate_hz)) {
+    if (errno != ENOENT) {
+      SetProblem(path.data(), std::strerror(errno));
+      return SourceStatus::kBadConfig;
+    }
+    if (!(config_.frame_rate_hz > 0.0) || !std::isfinite(config_.frame_rate_hz)) {
+      SetProblem(path.data(), "missing, and no frame rate to time the frames by");
       return SourceStatus::kBadConfig;
     }
     has_truth_ = false;
@@ -195,7 +212,10 @@ SourceStatus ReplaySource::ReadTruth() {
     if (header) {
       frame_col = ColumnOf(line, "frame");
       t_col = ColumnOf(line, "t_ns");
-      if (frame_col < 0 || t_col < 0) return SourceStatus::kBadConfig;
+      if (frame_col < 0 || t_col < 0) {
+        SetProblem(path.data(), "the header has no frame or no t_ns column");
+        return SourceStatus::kBadConfig;
+      }
       header = false;
       continue;
     }
@@ -203,14 +223,21 @@ SourceStatus ReplaySource::ReadTruth() {
     std::uint64_t t = 0;
     if (!ParseU64(Field(line, frame_col), &frame) || !ParseU64(Field(line, t_col), &t) ||
         t == kNoTime) {
+      SetProblem(path.data(), "a frame or t_ns that is not a whole number");
       return SourceStatus::kBadConfig;
     }
     if (frame >= static_cast<std::uint64_t>(num_frames_)) continue;  // no images for it
     std::uint64_t& slot = t_ns_[static_cast<std::size_t>(frame)];
-    if (slot != kNoTime) return SourceStatus::kBadConfig;  // duplicated frame
+    if (slot != kNoTime) {
+      SetProblem(path.data(), "a frame listed twice");
+      return SourceStatus::kBadConfig;
+    }
     slot = t;
   }
-  if (header) return SourceStatus::kBadConfig;  // empty file
+  if (header) {
+    SetProblem(path.data(), "empty");
+    return SourceStatus::kBadConfig;
+  }
   has_truth_ = true;
   return SourceStatus::kOk;
 }
@@ -230,10 +257,13 @@ SourceStatus ReplaySource::SizeBuffer(int k, int first_frame) {
   }
   const int want_w = config_.width[static_cast<unsigned>(k)];
   const int want_h = config_.height[static_cast<unsigned>(k)];
-  if ((want_w != 0 && h.width != want_w) || (want_h != 0 && h.height != want_h)) {
+  if ((want_w != 0 && h.width != want_w) || (want_h != 0 && h.height != want_h) ||
+      h.raster_bytes > limits::kMaxImageBytes) {
+    char why[96];
+    std::snprintf(why, sizeof(why), "%dx%d, the rig's camera is %dx%d", h.width, h.height, want_w, want_h);
+    SetProblem(cam.path.data(), why);
     return SourceStatus::kFormatRefused;
   }
-  if (h.raster_bytes > limits::kMaxImageBytes) return SourceStatus::kFormatRefused;
   cam.buffer.assign(h.raster_bytes, 0);
   cam.width = h.width;
   cam.height = h.height;
@@ -249,6 +279,9 @@ SourceStatus ReplaySource::Start() {
   num_frames_ = 0;
   if (config_.dir == nullptr || config_.dir[0] == '\0' || config_.num_cameras < 1 ||
       config_.num_cameras > limits::kMaxCameras) {
+    char why[64];
+    std::snprintf(why, sizeof(why), "no replay folder, or a camera count outside 1..%d", limits::kMaxCameras);
+    SetProblem(config_.dir != nullptr && config_.dir[0] != '\0' ? config_.dir : "(no folder)", why);
     return SourceStatus::kBadConfig;
   }
   std::array<int, limits::kMaxCameras> first{};

@@ -276,6 +276,46 @@ TEST_F(ReplayTest, StartFailuresAreTyped) {
   }
 }
 
+// Issue 14, defect 10: a start that fails says which folder or file and why (navd printed a
+// bare "open failed" or "bad configuration").
+TEST_F(ReplayTest, StartFailuresNameTheFolderOrFile) {
+  const std::string d = dir_.path();
+  {
+    ReplaySource src(Config(30.0));  // no camera folders
+    EXPECT_EQ(src.Start(), SourceStatus::kOpenFailed);
+    EXPECT_STREQ(src.problem(), (d + "/frames/x: No such file or directory").c_str());
+  }
+  WriteSequence(2, false, /*truth=*/false);
+  {
+    std::filesystem::create_directories(d + "/frames/w");
+    ReplayConfig c = Config(30.0);
+    c.camera_names[2] = "w";
+    ReplaySource src(c);
+    EXPECT_EQ(src.Start(), SourceStatus::kOpenFailed);
+    EXPECT_STREQ(src.problem(), (d + "/frames/w: no frames (NNNNNN.pgm) in this camera's folder").c_str());
+  }
+  {
+    ReplaySource src(Config(0.0));  // no truth.csv, no rate
+    EXPECT_EQ(src.Start(), SourceStatus::kBadConfig);
+    EXPECT_STREQ(src.problem(), (d + "/truth.csv: missing, and no frame rate to time the frames by").c_str());
+  }
+  {
+    WriteFile(d + "/truth.csv", "frame,time\n0,1\n");
+    ReplaySource src(Config(30.0));
+    EXPECT_EQ(src.Start(), SourceStatus::kBadConfig);
+    EXPECT_STREQ(src.problem(), (d + "/truth.csv: the header has no frame or no t_ns column").c_str());
+  }
+  {
+    WriteFile(d + "/truth.csv", "frame,t_ns\n0,1\n1,2\n");
+    ReplayConfig c = Config();
+    c.width[0] = kW + 1;
+    ReplaySource src(c);
+    EXPECT_EQ(src.Start(), SourceStatus::kFormatRefused);
+    EXPECT_NE(std::string(src.problem()).find("/frames/x/000000.pgm: 12x9, the rig's camera is 13x0"), std::string::npos)
+        << src.problem();
+  }
+}
+
 TEST_F(ReplayTest, FirstFrameMaySitLaterInTheSequence) {
   WriteSequence(3);
   std::filesystem::remove(FramePath(dir_.path(), "z", 0));

@@ -1,6 +1,8 @@
 #include "host/calib/app/calib_commands.h"
 
 #include <algorithm>
+#include <cerrno>
+#include <charconv>
 #include <chrono>
 #include <cstdlib>
 #include <map>
@@ -105,7 +107,11 @@ void Compare(const CalibInput& in, const IntrinsicsStage& stage, RigOptions ro, 
 
 CalibInput CornersFromCsv(const CalibDataset& ds, const std::string& path) {
   const std::string text = ReadFile(path);
-  std::map<std::string, std::vector<CornerObs>> by_image;  // "camera/image"
+  struct Row {
+    CornerObs corner;
+    int line = 0;
+  };
+  std::map<std::string, std::vector<Row>> by_image;  // "camera/image"
   const int n_ids = static_cast<int>(TargetPoints(ds.target).size());
   std::istringstream lines(text);
   std::string line;
@@ -119,50 +125,89 @@ CalibInput CornersFromCsv(const CalibDataset& ds, const std::string& path) {
     for (std::string x; std::getline(fields, x, ',');) f.push_back(x);
     const std::string where = path + ":" + std::to_string(line_no) + ": ";
     if (f.size() != 5) throw UserError(where + "expected camera,image,corner,u_px,v_px");
-    CornerObs c;
+    Row row;
+    row.line = line_no;
+    CornerObs& c = row.corner;
     char* end = nullptr;
-    c.id = static_cast<int>(std::strtol(f[2].c_str(), &end, 10));
-    if (f[2].empty() || *end != '\0' || c.id < 0 || c.id >= n_ids)
+    errno = 0;
+    const long id = std::strtol(f[2].c_str(), &end, 10);
+    if (f[2].empty() || *end != '\0' || errno != 0 || id < 0 || id >= n_ids)
       throw UserError(where + "corner id \"" + f[2] + "\" is not one of the target's 0.." + std::to_string(n_ids - 1));
+    c.id = static_cast<int>(id);
     for (int a = 0; a < 2; ++a) {
       const std::string& v = f[static_cast<std::size_t>(3 + a)];
       c.uv[a] = std::strtod(v.c_str(), &end);
-      if (v.empty() || *end != '\0' || !std::isfinite(c.uv[a])) throw UserError(where + "bad pixel coordinate \"" + v + "\"");
+      if (v.empty() || *end != '\0' || !std::isfinite(c.uv[a]))
+        throw UserError(where + (a == 0 ? "u_px" : "v_px") + ": bad pixel coordinate \"" + v + "\"");
     }
-    by_image[f[0] + "/" + f[1]].push_back(c);
+    std::vector<Row>& rows = by_image[f[0] + "/" + f[1]];
+    for (const Row& other : rows)
+      if (other.corner.id == c.id)
+        throw UserError(where + "corner: id " + f[2] + " of " + f[0] + "/" + f[1] + " repeats line " +
+                        std::to_string(other.line));
+    rows.push_back(row);
   }
   CalibInput in;
   in.target_points = TargetPoints(ds.target);
   for (const std::string& name : ds.cameras) in.cameras.push_back({name, 0, 0});
-  for (const DatasetImage& im : ds.images) {
-    const int k = static_cast<int>(std::find(ds.cameras.begin(), ds.cameras.end(), im.camera) - ds.cameras.begin());
-    CameraInfo& cam = in.cameras[static_cast<std::size_t>(k)];
-    if (cam.width == 0) {  // the image size from the camera's first readable image
-      try {
-        const cv::Mat m = ReadPgm(im.path.string());
-        cam.width = m.cols;
-        cam.height = m.rows;
-      } catch (const PgmError&) {
-      }
+  const auto camera_of = [&](const DatasetImage& im) {
+    return static_cast<std::size_t>(std::find(ds.cameras.begin(), ds.cameras.end(), im.camera) - ds.cameras.begin());
+  };
+  for (const DatasetImage& im : ds.images) {  // each camera's image size from its first readable image
+    CameraInfo& cam = in.cameras[camera_of(im)];
+    if (cam.width != 0) continue;
+    try {
+      const cv::Mat m = ReadPgm(im.path.string());
+      cam.width = m.cols;
+      cam.height = m.rows;
+    } catch (const PgmError&) {
     }
+  }
+  for (const CameraInfo& c : in.cameras)
+    if (c.width == 0) throw UserError("camera " + c.name + ": no readable image to take its size from");
+  for (const DatasetImage& im : ds.images) {
+    const std::size_t k = camera_of(im);
+    const CameraInfo& cam = in.cameras[k];
     auto it = by_image.find(im.camera + "/" + im.image);
     if (it == by_image.end()) {
       in.skipped.push_back({im.camera, im.image, "no corners in " + path});
       continue;
     }
     ViewObservation v;
-    v.camera = k;
+    v.camera = static_cast<int>(k);
     v.image = im.image;
     v.kind = im.kind;
     v.main_cmd = im.main_cmd;
     v.aux_cmd = im.aux_cmd;
-    v.corners = it->second;
+    for (const Row& row : it->second) {
+      // Within the image or near it: a finite but absurd coordinate (1e300) must not reach the
+      // solvers (it aborted Ceres).
+      const double size[2] = {static_cast<double>(cam.width), static_cast<double>(cam.height)};
+      for (int a = 0; a < 2; ++a) {
+        const double lo = -0.5 - kCornerMarginPx, hi = size[a] - 0.5 + kCornerMarginPx;
+        if (!(row.corner.uv[a] >= lo && row.corner.uv[a] <= hi)) {
+          std::ostringstream msg;
+          msg << path << ":" << row.line << ": " << (a == 0 ? "u_px" : "v_px") << ": " << row.corner.uv[a]
+              << " is outside the " << cam.width << "x" << cam.height << " image of camera " << cam.name << " (" << lo
+              << ".." << hi << ")";
+          throw UserError(msg.str());
+        }
+      }
+      v.corners.push_back(row.corner);
+    }
     std::sort(v.corners.begin(), v.corners.end(), [](const CornerObs& a, const CornerObs& b) { return a.id < b.id; });
     in.views.push_back(std::move(v));
   }
-  for (const CameraInfo& c : in.cameras)
-    if (c.width == 0) throw UserError("camera " + c.name + ": no readable image to take its size from");
   return in;
+}
+
+std::uint64_t ParseGenerationOption(const std::string& text) {
+  std::uint64_t value = 0;
+  const char* end = text.data() + text.size();
+  const auto r = std::from_chars(text.data(), end, value);
+  if (text.empty() || text.find_first_not_of("0123456789") != std::string::npos || r.ec != std::errc() || r.ptr != end)
+    throw UserError("--generation: expected a whole number 0..18446744073709551615, got \"" + text + "\"");
+  return value;
 }
 
 std::string FormatCornersCsv(const CalibInput& in) {
@@ -315,6 +360,7 @@ ZhangResult RunIntrinsicsCommand(const IntrinsicsCommandOptions& o, std::ostream
 
 void AddRigCommand(CLI::App& app) {
   auto o = std::make_shared<RigCommandOptions>();
+  auto generation = std::make_shared<std::string>();  // ParseGenerationOption, not CLI11's unsigned parse
   CLI::App* cmd = app.add_subcommand("rig", "Calibrate the rig (intrinsics, C_k_b, r_b_bk with sigma) from a turntable "
                                             "dataset (docs/calib-dataset.md)");
   cmd->add_option("dataset", o->dataset, "Dataset directory")->required();
@@ -336,7 +382,7 @@ void AddRigCommand(CLI::App& app) {
                 "Checkerboards: fit a blurred-corner model to every SB corner (5x more exact, ~0.07 s CPU per "
                 "1280x1024 image; docs/calibration.md); --no-refine-corners (the default) keeps SB's corners");
   cmd->add_option("--rig-id", o->rig_id, "Rig id of the blob (default: the truth rig's, else mfns-calibrated)");
-  cmd->add_option("--generation", o->generation, "Blob generation (default: UTC seconds now)");
+  cmd->add_option("--generation", *generation, "Blob generation, 0..2^64-1 (default: UTC seconds now)");
   cmd->add_flag("--no-covariance", o->no_covariance, "ml: skip the covariance (sigma 0)");
   cmd->add_option("--corners", o->corners_csv,
                   "Use these corners (CSV camera,image,corner,u_px,v_px as the dataset's corners.csv) instead of "
@@ -345,8 +391,9 @@ void AddRigCommand(CLI::App& app) {
   cmd->add_flag("--compare", o->compare,
                 "Also run every other method on the same corners and write compare.csv (errors against the dataset's "
                 "truth)");
-  cmd->callback([o, cmd]() {
+  cmd->callback([o, cmd, generation]() {
     o->generation_set = cmd->count("--generation") > 0;
+    if (o->generation_set) o->generation = ParseGenerationOption(*generation);
     o->angle_sigma_set = cmd->count("--angle-sigma-arcsec") > 0;
     RunRigCommand(*o, std::cerr);
   });

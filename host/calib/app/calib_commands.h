@@ -34,7 +34,7 @@ struct RigCommandOptions {
   bool fast_detect = false;
   bool refine_corners = false;  // corner_refine.h model fit after findChessboardCornersSB (--refine-corners)
   std::string rig_id;  // default: truth-rig.yaml's rig id, else "mfns-calibrated"
-  std::uint64_t generation = 0;
+  std::uint64_t generation = 0;  // the command line's --generation through ParseGenerationOption
   bool generation_set = false;
   bool no_covariance = false;
   bool compare = false;  // also run the other methods on the same corners; compare.csv against the truth
@@ -45,8 +45,17 @@ struct RigCommandOptions {
 };
 
 // The corners of a CSV in the corners.csv format (docs/calib-dataset.md) as the input of a
-// calibration: images of the dataset without rows are skipped. Throws UserError naming the line.
+// calibration: images of the dataset without rows are skipped. Throws UserError naming the line
+// and the field for anything malformed: a corner id the target does not have or one repeated
+// in an image, a coordinate that is not a number or lies farther than kCornerMarginPx outside
+// its image (pixel centres at integers: the image spans [-0.5, width - 0.5]).
+inline constexpr double kCornerMarginPx = 10.0;
 CalibInput CornersFromCsv(const CalibDataset& ds, const std::string& path);
+
+// A --generation value: a whole number 0..2^64-1 in decimal digits; anything else ("-1", "1e3",
+// "x", 2^64) is a UserError naming the option (CLI11 wrapped "-1" to 2^64-1, refusing every
+// later flash as "not newer").
+std::uint64_t ParseGenerationOption(const std::string& text);
 std::string FormatCornersCsv(const CalibInput& in);
 
 // Runs the rig calibration and writes the outputs; summary and progress go to `log`.

@@ -42,6 +42,72 @@ void WriteText(const fs::path& p, const std::string& text) {
   f << text;
 }
 
+// Issue 14, defect 6 (fast: a hand-made 64x48 dataset, no rendering): a corners CSV with a
+// finite but absurd coordinate (1e300 aborted Ceres in mfns-calib rig) or one far outside its
+// image, or a corner repeated in an image, is refused with the file, the line and the field.
+class CornersCsvRangeTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = fs::temp_directory_path() / ("mfns_corners_range_test_" + std::to_string(::getpid()));
+    fs::remove_all(dir_);
+    fs::create_directories(dir_ / "images" / "z");
+    WriteText(dir_ / "target.yaml", "type: checkerboard\ncols: 4\nrows: 3\nsquare_mm: 30\n");
+    WriteText(dir_ / "images.csv", "camera,image,kind,main_deg,aux_deg\nz,000,free,,\n");
+    WriteText(dir_ / "images" / "z" / "000.pgm", "P5\n64 48\n255\n" + std::string(64 * 48, '\x80'));
+  }
+  void TearDown() override { fs::remove_all(dir_); }
+  std::string ErrorOf(const std::string& rows) {
+    WriteText(dir_ / "c.csv", "camera,image,corner,u_px,v_px\n" + rows);
+    try {
+      CornersFromCsv(ReadCalibDataset(dir_), (dir_ / "c.csv").string());
+    } catch (const UserError& e) {
+      return e.what();
+    }
+    return "(no error)";
+  }
+  fs::path dir_;
+};
+
+TEST_F(CornersCsvRangeTest, AbsurdOrRepeatedCornersNameTheLineAndField) {
+  const std::string csv = (dir_ / "c.csv").string();
+  EXPECT_EQ(ErrorOf("z,000,0,10,12\nz,000,1,-10.5,57.5\n"), "(no error)");  // the margin's edges
+  EXPECT_EQ(ErrorOf("z,000,0,10,12\nz,000,1,1e300,12\n"),
+            csv + ":3: u_px: 1e+300 is outside the 64x48 image of camera z (-10.5..73.5)");
+  EXPECT_EQ(ErrorOf("z,000,0,10,-1e300\n"), csv + ":2: v_px: -1e+300 is outside the 64x48 image of camera z (-10.5..57.5)");
+  EXPECT_EQ(ErrorOf("z,000,0,10,57.6\n").rfind(csv + ":2: v_px: 57.6 is outside", 0), 0u);
+  EXPECT_EQ(ErrorOf("z,000,0,10,12\nz,000,0,11,12\n"), csv + ":3: corner: id 0 of z/000 repeats line 2");
+  EXPECT_EQ(ErrorOf("z,000,99999999999999999999,10,12\n").rfind(csv + ":2: corner id", 0), 0u);
+}
+
+// Issue 14, defect 6: a negative or non-numeric generation is refused at parse time (CLI11
+// read "-1" as 2^64-1, and every later flash was refused as not newer).
+TEST(GenerationOption, OnlyWholeNumbersUpTo2To64) {
+  EXPECT_EQ(ParseGenerationOption("0"), 0u);
+  EXPECT_EQ(ParseGenerationOption("18446744073709551615"), 18446744073709551615u);
+  for (const char* bad : {"-1", "", "1e3", "x", "+5", " 5", "18446744073709551616", "0x10"}) {
+    try {
+      ParseGenerationOption(bad);
+      ADD_FAILURE() << bad;
+    } catch (const UserError& e) {
+      EXPECT_EQ(std::string(e.what()).rfind("--generation: expected a whole number", 0), 0u) << e.what();
+    }
+  }
+  // The tool: exit 1, one line naming the option, no blob.
+  const fs::path dir = fs::temp_directory_path() / ("mfns_generation_test_" + std::to_string(::getpid()));
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  ASSERT_EQ(std::system(("bin/mfns-calib paper-rig --out " + (dir / "rig.yaml").string()).c_str()), 0);
+  const std::string cmd = "bin/mfns-calib blob " + (dir / "rig.yaml").string() + " --out " + (dir / "b.bin").string() +
+                          " --generation -1 2> " + (dir / "err.txt").string();
+  const int rc = std::system(cmd.c_str());
+  ASSERT_TRUE(WIFEXITED(rc));
+  EXPECT_EQ(WEXITSTATUS(rc), 1);
+  const std::string err = ReadFile(dir / "err.txt");
+  EXPECT_EQ(err, "mfns-calib: --generation: expected a whole number 0..18446744073709551615, got \"-1\"\n");
+  EXPECT_FALSE(fs::exists(dir / "b.bin"));
+  fs::remove_all(dir);
+}
+
 // A small dataset (640x512 cameras, 5 turntable + 4 free images per camera), made once.
 class RigCommandTest : public ::testing::Test {
  protected:
@@ -234,7 +300,7 @@ TEST_F(RigCommandTest, CornersFromCsvAndWrittenBack) {
     RunRigCommand(o, log);
     ADD_FAILURE() << "no error";
   } catch (const UserError& err) {
-    EXPECT_NE(std::string(err.what()).find("bad-corners.csv:2: bad pixel coordinate"), std::string::npos) << err.what();
+    EXPECT_NE(std::string(err.what()).find("bad-corners.csv:2: v_px: bad pixel coordinate"), std::string::npos) << err.what();
   }
 }
 

@@ -145,11 +145,19 @@ void ReadTruth(const std::filesystem::path& path, DatasetTruth* truth) {
   }
 }
 
+CalibrationTarget ParseTarget(const std::string& text, const std::string& source);
+
 }  // namespace
 
 const char* ToString(ImageKind k) { return k == ImageKind::kTurntable ? "turntable" : "free"; }
 
 CalibrationTarget ParseTargetYaml(const std::string& text, const std::string& source) {
+  return CatchYamlErrors(source, [&] { return ParseTarget(text, source); });
+}
+
+namespace {
+
+CalibrationTarget ParseTarget(const std::string& text, const std::string& source) {
   const YAML::Node root = LoadYaml(text, source);
   const YamlCtx ctx{source, ""};
   const std::string type = String(Require(root, "type", ctx), ctx.Sub("type"));
@@ -183,6 +191,8 @@ CalibrationTarget ParseTargetYaml(const std::string& text, const std::string& so
   }
   ctx.Sub("type").Fail(root["type"], "expected checkerboard or aprilgrid, got \"" + type + "\"");
 }
+
+}  // namespace
 
 std::string FormatTargetYaml(const CalibrationTarget& target) {
   std::ostringstream o;
@@ -269,7 +279,8 @@ CalibDataset ReadCalibDataset(const std::filesystem::path& dir) {
     ds.truth.rig = ReadRigYaml(dir / "truth-rig.yaml");
     ds.truth.has_rig = true;
   }
-  if (std::filesystem::is_regular_file(dir / "truth.yaml", ec)) ReadTruth(dir / "truth.yaml", &ds.truth);
+  if (std::filesystem::is_regular_file(dir / "truth.yaml", ec))
+    CatchYamlErrors((dir / "truth.yaml").string(), [&] { ReadTruth(dir / "truth.yaml", &ds.truth); });
   return ds;
 }
 

@@ -82,6 +82,73 @@ TEST(TargetSpec, ParsesTheCommandLineForms) {
     EXPECT_THROW(ParseTargetSpec(bad), UserError) << bad;
 }
 
+// Issue 14, defect 5: counts and ids that overflowed int arithmetic (SIGSEGV) or allocated
+// gigabytes are refused first, with one line naming the spec or file and the field.
+std::string SpecError(const std::string& spec) {
+  try {
+    ParseTargetSpec(spec);
+  } catch (const UserError& e) {
+    return e.what();
+  }
+  return "";
+}
+
+TEST(TargetSpec, OutOfBoundsFieldsAreNamedNotOverflowed) {
+  const struct {
+    const char* spec;
+    const char* field;
+  } cases[] = {{"aprilgrid:6x6:10:0.3:2147483647", "first_id"},
+               {"aprilgrid:6x6:10:0.3:-1", "first_id"},
+               {"aprilgrid:65536x65536:10:0.3", "tag_cols"},
+               {"aprilgrid:500x500:10:0.3", "tag_cols x tag_rows"},
+               {"aprilgrid:25x24:10:0.3", "tag_cols x tag_rows"},  // 600 tags, 587 codes
+               {"aprilgrid:6x6:10:1e300", "tag_spacing"},
+               {"aprilgrid:6x6:1e300:0.3", "tag_size_mm"},
+               {"checkerboard:1000000000x7:30", "cols"},
+               {"checkerboard:9x2147483647:30", "rows"},
+               {"checkerboard:9x7:1e300", "square_mm"},
+               {"checkerboard:9x7:0.00001", "square_mm"}};
+  for (const auto& c : cases) {
+    const std::string what = SpecError(c.spec);
+    EXPECT_NE(what.find(std::string("--target \"") + c.spec + "\""), std::string::npos) << c.spec << ": " << what;
+    EXPECT_NE(what.find(std::string(": ") + c.field + ": "), std::string::npos) << c.spec << ": " << what;
+    EXPECT_EQ(what.find('\n'), std::string::npos) << what;
+  }
+  // The largest legal grids still work.
+  EXPECT_EQ(ParseTargetSpec("aprilgrid:1x587:10:0.3").corners().size(), 4u * 587u);
+  EXPECT_EQ(ParseTargetSpec("aprilgrid:1x1:10:0.3:586").corners().size(), 4u);
+  EXPECT_EQ(ParseTargetSpec("checkerboard:200x200:1").corners().size(), 200u * 200u);
+}
+
+TEST(TargetYaml, OutOfBoundsFieldsAreNamedWithTheFile) {
+  const struct {
+    const char* yaml;
+    const char* field;
+  } cases[] = {
+      {"type: checkerboard\ncols: 1000000000\nrows: 7\nsquare_mm: 30\n", "cols"},
+      {"type: checkerboard\ncols: 9\nrows: 7\nsquare_mm: 30\nborder_mm: 1e300\n", "border_mm"},
+      {"type: aprilgrid\ntag_cols: 6\ntag_rows: 6\ntag_size_mm: 10\ntag_spacing: 0.3\nfirst_id: 2147483647\n", "first_id"},
+      {"type: aprilgrid\ntag_cols: 65536\ntag_rows: 65536\ntag_size_mm: 10\ntag_spacing: 0.3\n", "tag_cols"},
+  };
+  for (const auto& c : cases) {
+    std::string what;
+    try {
+      ParseTargetYaml(c.yaml, "d/target.yaml");
+    } catch (const UserError& e) {
+      what = e.what();
+    }
+    EXPECT_EQ(what.rfind("d/target.yaml: ", 0), 0u) << what;
+    EXPECT_NE(what.find(std::string(": ") + c.field + ": "), std::string::npos) << c.yaml << ": " << what;
+  }
+}
+
+TEST_F(DatasetTest, TargetYamlWithAnOverflowingFirstIdIsAUserError) {
+  WriteFileAtomic(dir_ / "target.yaml",
+                  "type: aprilgrid\ntag_cols: 6\ntag_rows: 6\ntag_size_mm: 10\ntag_spacing: 0.3\nfirst_id: 2147483647\n");
+  const std::string what = Error("camera,image,kind,main_deg,aux_deg\nz,000,free,,\n");
+  EXPECT_NE(what.find("target.yaml: aprilgrid: first_id: 2147483647 outside 0..586"), std::string::npos) << what;
+}
+
 TEST(TargetYaml, RoundTripsAndGivesCornerPositions) {
   for (const CalibrationTarget& t : {ParseTargetSpec("checkerboard:9x7:30"), ParseTargetSpec("aprilgrid:6x5:40:0.3:10")}) {
     const CalibrationTarget back = ParseTargetYaml(FormatTargetYaml(t), "t.yaml");

@@ -45,6 +45,22 @@ Scenario SmallSession(bool noise) {
   return s;
 }
 
+// Issue 14, defect 10: a rig without beacons (a calibration result) is enough to simulate a
+// calibration session; its truth-rig.yaml has no beacons either.
+TEST(CalibDataset, ARigWithoutBeaconsIsEnough) {
+  const auto dir = TempDir();
+  CalibDatasetOptions opt;
+  opt.out_dir = dir;
+  opt.progress = false;
+  Scenario s = ParseScenarioYaml(PresetYaml("paper-calibration") + "beacons_mm: []\n", "c.yaml", ".");
+  s.calibration.turntable_images = 1;
+  s.calibration.free_images = 1;
+  const CalibDatasetSummary sum = WriteCalibDataset(s, "", opt);
+  EXPECT_EQ(sum.images, 6);
+  EXPECT_EQ(ReadRigYaml(dir / "truth-rig.yaml").num_beacons, 0);
+  std::filesystem::remove_all(dir);
+}
+
 // Every turntable image's corners follow from the truth files alone: the turntable pose from
 // the true angles, the rig from truth-rig.yaml, the corner from the target definition.
 TEST(CalibDataset, TruthChainIsConsistent) {

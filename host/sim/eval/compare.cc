@@ -76,6 +76,9 @@ CompareResult ComparePoses(const std::filesystem::path& sim_dir, const std::file
   const std::array<const char*, 6> bound_cols = {"sigma_x_mm", "sigma_y_mm", "sigma_z_mm", "sigma_roll_deg",
                                                  "sigma_pitch_deg", "sigma_yaw_deg"};
 
+  // Statistics of nothing would print as 0.000 mm, a perfect navigator.
+  if (est.rows.empty()) throw UserError(est.source + ": no poses (only a header); nothing to compare");
+  if (truth.rows.empty()) throw UserError(truth.source + ": no frames (only a header); nothing to compare");
   std::map<long, std::size_t> est_row, crb_row;
   const int est_frame = est.Column("frame"), crb_frame = crb.Column("frame");
   for (std::size_t i = 0; i < est.rows.size(); ++i) est_row[std::lround(est.Number(i, est_frame))] = i;
@@ -125,6 +128,8 @@ CompareResult ComparePoses(const std::filesystem::path& sim_dir, const std::file
     r.worst_position_mm = std::max(r.worst_position_mm, std::sqrt(pos2));
     r.worst_attitude_deg = std::max(r.worst_attitude_deg, std::sqrt(att2));
   }
+  if (r.missing == r.frames)
+    throw UserError(est.source + ": none of its " + std::to_string(est.rows.size()) + " frames is in " + truth.source);
   for (std::size_t a = 0; a < 6; ++a) {
     const auto& v = errors[a];
     if (v.empty()) continue;
@@ -153,6 +158,10 @@ std::string FormatCompare(const CompareResult& r) {
                 r.frames, r.frames_3plus, r.fixes_3plus, r.frames_3plus ? 100.0 * r.fixes_3plus / r.frames_3plus : 0.0,
                 r.fixes, r.degraded, r.lost, r.missing, r.compared);
   o << line;
+  if (r.compared == 0) {  // no error statistics: never print them as 0.000
+    o << "no fix with a valid bound to compare: no error statistics\n";
+    return o.str();
+  }
   o << "axis          mean        std        rms   CRB rms   rms/CRB\n";
   for (std::size_t a = 0; a < 6; ++a) {
     const AxisStats& s = r.axes[a];

@@ -30,10 +30,11 @@ struct CompareResult {
 
 inline constexpr std::array<const char*, 6> kAxisNames = {"x_mm", "y_mm", "z_mm", "roll_deg", "pitch_deg", "yaw_deg"};
 
-// Throws UserError on a missing file or a malformed CSV (naming the file and line).
+// Throws UserError on a missing file or a malformed CSV (naming the file and line), on a poses
+// or truth CSV with no rows, and when no frame of the poses is in truth.csv.
 CompareResult ComparePoses(const std::filesystem::path& sim_dir, const std::filesystem::path& poses_csv);
 
-// A fixed-width table for people.
+// A fixed-width table for people (without the axis table when nothing was compared).
 std::string FormatCompare(const CompareResult& r);
 
 }  // namespace mfns::host

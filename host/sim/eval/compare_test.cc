@@ -76,5 +76,32 @@ TEST(Compare, MalformedInputsNameTheFileAndLine) {
   std::filesystem::remove_all(dir);
 }
 
+// Issue 14, defect 10: an empty poses log (header only, as navd writes before its first frame
+// set) or one that shares no frame with the truth is an error, not "0.000 mm"; all-lost poses
+// give no error statistics.
+TEST(Compare, EmptyOrDisjointPosesAreErrorsNotPerfectScores) {
+  const auto dir = TempDir();
+  WriteFileAtomic(dir / "truth.csv", std::string("frame,t_ns,x_mm,y_mm,z_mm,roll_deg,pitch_deg,yaw_deg\n0,0,0,0,0,0,0,0\n"));
+  WriteFileAtomic(dir / "crb.csv", std::string("frame,n_visible,valid\n0,3,0\n"));
+  const std::string head = "frame,t_ns,status,x_mm,y_mm,z_mm,roll_deg,pitch_deg,yaw_deg,n_beacons,rms_px\n";
+  const auto error = [&](const std::string& poses) {
+    WriteFileAtomic(dir / "poses.csv", poses);
+    try {
+      ComparePoses(dir, dir / "poses.csv");
+    } catch (const UserError& e) {
+      return std::string(e.what());
+    }
+    return std::string("(no error)");
+  };
+  EXPECT_EQ(error(head), (dir / "poses.csv").string() + ": no poses (only a header); nothing to compare");
+  EXPECT_EQ(error(head + "7,0,fix,0,0,0,0,0,0,3,0.1\n"),
+            (dir / "poses.csv").string() + ": none of its 1 frames is in " + (dir / "truth.csv").string());
+  EXPECT_EQ(error(head + "0,0,lost,0,0,0,0,0,0,0,0\n"), "(no error)");
+  const std::string text = FormatCompare(ComparePoses(dir, dir / "poses.csv"));
+  EXPECT_NE(text.find("no error statistics"), std::string::npos) << text;
+  EXPECT_EQ(text.find("0.000 mm"), std::string::npos) << text;
+  std::filesystem::remove_all(dir);
+}
+
 }  // namespace
 }  // namespace mfns::host

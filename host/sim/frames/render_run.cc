@@ -1,5 +1,7 @@
 #include "host/sim/frames/render_run.h"
 
+#include <unistd.h>
+
 #include <algorithm>
 #include <atomic>
 #include <cmath>
@@ -117,9 +119,16 @@ void EnsureDir(const std::filesystem::path& dir) {
   if (ec) throw UserError(dir.string() + ": cannot create directory: " + ec.message());
 }
 
+// A calibration scenario may come without beacons (scenario.h); frames and the bound need them.
+void RequireBeacons(const Scenario& s) {
+  if (s.rig.num_beacons == 0)
+    throw UserError("scenario '" + s.name + "' has no beacons (give beacons_mm or a rig with beacons)");
+}
+
 }  // namespace
 
 RenderSummary WriteBoundCsv(const Scenario& s, const std::filesystem::path& path) {
+  RequireBeacons(s);
   const std::vector<FrameTruth> frames = SimulateTrajectory(s);
   std::ostringstream o;
   o << "frame,t_ns,n_visible";
@@ -152,13 +161,30 @@ RenderSummary WriteBoundCsv(const Scenario& s, const std::filesystem::path& path
 }
 
 RenderSummary RenderScenario(const Scenario& s, const std::string& scenario_text, const RenderOptions& options) {
-  const std::filesystem::path& dir = options.out_dir;
+  namespace fs = std::filesystem;
+  const fs::path& dir = options.out_dir;
+  RequireBeacons(s);
   EnsureDir(dir);
   const std::vector<FrameTruth> frames = SimulateTrajectory(s);
   const SensorModel sensor = MakeSensor(s);
   ValidateSensor(sensor);
+  // The frames go to DIR/.frames.partial-PID and replace DIR/frames as a whole only once all are
+  // written: a render into a folder of an earlier one leaves none of its frames behind (a longer
+  // earlier run's frame 000360.pgm would be replayed after this run's last), and a failed render
+  // leaves the earlier frames as they were. Other files in DIR are left alone.
+  const std::string pid = std::to_string(::getpid());
+  const fs::path partial = dir / (".frames.partial-" + pid);
+  std::error_code ec;
+  fs::remove_all(partial, ec);
+  struct RemoveOnExit {
+    fs::path path;
+    ~RemoveOnExit() {
+      std::error_code e;
+      fs::remove_all(path, e);
+    }
+  } cleanup{partial};
   for (int k = 0; k < s.rig.num_cameras; ++k)
-    EnsureDir(dir / "frames" / s.rig.cameras[static_cast<std::size_t>(k)].name.data());
+    EnsureDir(partial / s.rig.cameras[static_cast<std::size_t>(k)].name.data());
 
   std::vector<std::vector<BlobRow>> blobs(frames.size());
   std::atomic<int> next{0}, done{0};
@@ -175,7 +201,7 @@ RenderSummary RenderScenario(const Scenario& s, const std::string& scenario_text
           const cv::Mat image = RenderCamera(s, view, spec, sensor, k, &rng);
           char name[32];
           std::snprintf(name, sizeof(name), "%06d.pgm", i);
-          WritePgm((dir / "frames" / s.rig.cameras[static_cast<std::size_t>(k)].name.data() / name).string(), image);
+          WritePgm((partial / s.rig.cameras[static_cast<std::size_t>(k)].name.data() / name).string(), image);
         }
       } catch (const std::exception& e) {
         const std::lock_guard<std::mutex> lock(error_mutex);
@@ -195,6 +221,23 @@ RenderSummary RenderScenario(const Scenario& s, const std::string& scenario_text
   for (int t = 0; t < threads; ++t) pool.emplace_back(worker);
   for (std::thread& t : pool) t.join();
   if (!error.empty()) throw UserError(error);
+  // Swap: the earlier frames aside, the new ones in, the earlier ones gone (with --no-images the
+  // earlier frames go too: they would not match the new truth).
+  const fs::path frames_dir = dir / "frames", old_frames = dir / (".frames.old-" + pid);
+  fs::remove_all(old_frames, ec);
+  if (fs::symlink_status(frames_dir, ec).type() != fs::file_type::not_found) {
+    fs::rename(frames_dir, old_frames, ec);
+    if (ec) throw UserError(frames_dir.string() + ": cannot move the earlier frames aside: " + ec.message());
+  }
+  if (options.write_images) {
+    fs::rename(partial, frames_dir, ec);
+    if (ec) {
+      std::error_code back;
+      fs::rename(old_frames, frames_dir, back);
+      throw UserError(frames_dir.string() + ": cannot put the new frames in place: " + ec.message());
+    }
+  }
+  fs::remove_all(old_frames, ec);
 
   std::ostringstream b;
   b << "frame,camera,beacon,u_px,v_px,u_geom_px,v_geom_px\n";

@@ -44,7 +44,11 @@ struct RenderSummary {
 };
 
 // Renders scenario `s` (whose YAML text is `scenario_text`) into options.out_dir (created if
-// missing). Throws UserError on I/O failure.
+// missing). DIR/frames is replaced as a whole once every new frame is written (rendered into
+// DIR/.frames.partial-PID first): no frame of an earlier render into DIR stays behind (with
+// write_images false the earlier frames are removed), a failed render leaves the earlier frames
+// untouched, and files of DIR other than the outputs above are left alone. Throws UserError on
+// I/O failure and for a scenario without beacons.
 RenderSummary RenderScenario(const Scenario& s, const std::string& scenario_text, const RenderOptions& options);
 
 // Writes crb.csv (see above) for the scenario's trajectory into path, returns visibility

@@ -112,6 +112,32 @@ TEST(RenderRun, SpotsSitOnTheirTruth) {
   std::filesystem::remove_all(dir);
 }
 
+// Issue 14, defect 10: a render into the folder of an earlier, longer one leaves none of the
+// earlier frames behind (navd would replay them after the new run's last), keeps the user's
+// other files, and leaves no temporary folder; --no-images removes the earlier frames.
+TEST(RenderRun, RenderingAgainIntoAFolderLeavesNoStaleFrames) {
+  const auto dir = TempDir();
+  RenderOptions opt;
+  opt.out_dir = dir;
+  opt.progress = false;
+  opt.threads = 2;
+  RenderScenario(Small(3, false), "", opt);
+  ASSERT_TRUE(std::filesystem::exists(dir / "frames" / "x" / "000002.pgm"));
+  WriteFileAtomic(dir / "poses.csv", "frame,t_ns\n");
+  RenderScenario(Small(2, false), "", opt);
+  for (const char* cam : {"x", "y", "z"}) {
+    EXPECT_TRUE(std::filesystem::exists(dir / "frames" / cam / "000001.pgm")) << cam;
+    EXPECT_FALSE(std::filesystem::exists(dir / "frames" / cam / "000002.pgm")) << cam;
+  }
+  EXPECT_EQ(ReadFile(dir / "poses.csv"), "frame,t_ns\n");
+  for (const auto& e : std::filesystem::directory_iterator(dir))
+    EXPECT_NE(e.path().filename().string().rfind(".frames.", 0), 0u) << e.path();
+  opt.write_images = false;
+  RenderScenario(Small(2, false), "", opt);
+  EXPECT_FALSE(std::filesystem::exists(dir / "frames"));
+  std::filesystem::remove_all(dir);
+}
+
 TEST(RenderRun, SameSeedSameBytesAnyThreadCount) {
   const auto a = TempDir(), b = TempDir(), c = TempDir();
   RenderOptions opt;

@@ -15,7 +15,8 @@
 namespace mfns::host {
 namespace {
 
-constexpr int kTagCells = 8;  // tag36h11 in libapriltag: width_at_border
+constexpr int kTagCells = 8;
+constexpr double kMm = 1e-3;  // field names and messages are in mm, as the target files and specs  // tag36h11 in libapriltag: width_at_border
 
 // One axis of an AprilGrid: what each cell between consecutive edges is.
 struct AxisCell {
@@ -59,7 +60,8 @@ using TagBits = std::array<std::array<bool, kTagCells>, kTagCells>;
 std::vector<TagBits> Tag36h11Bits(int first_id, int count) {
   std::unique_ptr<apriltag_family_t, void (*)(apriltag_family_t*)> family(tag36h11_create(),
                                                                          tag36h11_destroy);
-  if (first_id < 0 || first_id + count > static_cast<int>(family->ncodes))
+  if (first_id < 0 || count < 0 ||
+      static_cast<long long>(first_id) + count > static_cast<long long>(family->ncodes))
     throw std::invalid_argument("aprilgrid: tag ids must lie in tag36h11's 0.." +
                                 std::to_string(family->ncodes - 1));
   if (family->width_at_border != kTagCells || family->reversed_border)
@@ -87,6 +89,20 @@ std::string Shortest(double value) {
   return std::string(buffer.data(), result.ptr);
 }
 
+// Field checks of the specs: std::invalid_argument naming the target type and the field.
+void CheckCount(const char* type, const char* field, long long value, long long lo, long long hi) {
+  if (value < lo || value > hi)
+    throw std::invalid_argument(std::string(type) + ": " + field + ": " + std::to_string(value) + " outside " +
+                                std::to_string(lo) + ".." + std::to_string(hi));
+}
+
+void CheckRange(const char* type, const char* field, double value, double lo, double hi, bool lo_open) {
+  const bool ok = std::isfinite(value) && (lo_open ? value > lo : value >= lo) && value <= hi;
+  if (!ok)
+    throw std::invalid_argument(std::string(type) + ": " + field + ": " + Shortest(value) + " outside " +
+                                (lo_open ? "(" : "[") + Shortest(lo) + ", " + Shortest(hi) + "]");
+}
+
 }  // namespace
 
 const char* ToString(TargetType type) {
@@ -98,11 +114,10 @@ const char* ToString(TargetType type) {
 }
 
 CalibrationTarget CalibrationTarget::Checkerboard(const CheckerboardSpec& spec) {
-  if (spec.cols < 2 || spec.rows < 2) throw std::invalid_argument("checkerboard: needs >= 2x2 inner corners");
-  if (!(spec.square_m > 0.0) || !std::isfinite(spec.square_m))
-    throw std::invalid_argument("checkerboard: square_m must be > 0");
-  if (!(spec.border_m >= 0.0) || !std::isfinite(spec.border_m))
-    throw std::invalid_argument("checkerboard: border_m must be >= 0");
+  CheckCount("checkerboard", "cols", spec.cols, 2, kMaxCheckerboardCorners);
+  CheckCount("checkerboard", "rows", spec.rows, 2, kMaxCheckerboardCorners);
+  CheckRange("checkerboard", "square_mm", spec.square_m / kMm, kMinTargetSquareM / kMm, kMaxTargetSquareM / kMm, false);
+  CheckRange("checkerboard", "border_mm", spec.border_m / kMm, 0.0, kMaxTargetBorderM / kMm, false);
   CalibrationTarget t;
   t.type_ = TargetType::kCheckerboard;
   t.checkerboard_ = spec;
@@ -132,13 +147,16 @@ CalibrationTarget CalibrationTarget::Checkerboard(const CheckerboardSpec& spec) 
 }
 
 CalibrationTarget CalibrationTarget::AprilGrid(const AprilGridSpec& spec) {
-  if (spec.tag_cols < 1 || spec.tag_rows < 1) throw std::invalid_argument("aprilgrid: needs >= 1x1 tags");
-  if (!(spec.tag_size_m > 0.0) || !std::isfinite(spec.tag_size_m))
-    throw std::invalid_argument("aprilgrid: tag_size_m must be > 0");
-  if (!(spec.tag_spacing > 0.0) || !std::isfinite(spec.tag_spacing))
-    throw std::invalid_argument("aprilgrid: tag_spacing must be > 0");
-  if (!(spec.border_m >= 0.0) || !std::isfinite(spec.border_m))
-    throw std::invalid_argument("aprilgrid: border_m must be >= 0");
+  // tag36h11's 587 codes bound every count; the product is taken in 64 bits.
+  constexpr int kCodes = 587;
+  CheckCount("aprilgrid", "first_id", spec.first_id, 0, kCodes - 1);
+  CheckCount("aprilgrid", "tag_cols", spec.tag_cols, 1, kCodes);
+  CheckCount("aprilgrid", "tag_rows", spec.tag_rows, 1, kCodes);
+  CheckCount("aprilgrid", "tag_cols x tag_rows", static_cast<long long>(spec.tag_cols) * spec.tag_rows, 1,
+             kCodes - spec.first_id);
+  CheckRange("aprilgrid", "tag_size_mm", spec.tag_size_m / kMm, kMinTargetSquareM / kMm, kMaxTargetSquareM / kMm, false);
+  CheckRange("aprilgrid", "tag_spacing", spec.tag_spacing, 0.0, kMaxTagSpacing, true);
+  CheckRange("aprilgrid", "border_mm", spec.border_m / kMm, 0.0, kMaxTargetBorderM / kMm, false);
   const std::vector<TagBits> bits = Tag36h11Bits(spec.first_id, spec.tag_cols * spec.tag_rows);
   CalibrationTarget t;
   t.type_ = TargetType::kAprilGrid;

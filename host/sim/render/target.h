@@ -68,8 +68,22 @@ enum class Surface : unsigned char { kOffTarget, kWhite, kBlack };
 // sheet is the union of the cells. Immutable after construction; cheap to copy.
 class CalibrationTarget {
  public:
-  // Throw std::invalid_argument on counts < 2 (checkerboard) or < 1 (AprilGrid), non-positive
-  // sizes, negative borders, or AprilGrid ids outside tag36h11's 0..586.
+  // Throw std::invalid_argument, naming the field as target.yaml does ("aprilgrid: first_id:
+  // 2147483647 outside 0..586", lengths in mm: "checkerboard: square_mm: ..."), on anything
+  // outside the bounds below (checked before any arithmetic or allocation, so no count can
+  // overflow or allocate more than a few MB):
+  //   checkerboard cols, rows      2..kMaxCheckerboardCorners (inner corners per side)
+  //   aprilgrid tag_cols, tag_rows 1..587 each, tag_cols * tag_rows <= 587 - first_id
+  //   aprilgrid first_id           0..586 (tag36h11 has 587 codes)
+  //   square_m, tag_size_m         kMinTargetSquareM..kMaxTargetSquareM (0.1 mm .. 1000 mm)
+  //   tag_spacing                  (0, kMaxTagSpacing]
+  //   border_m                     0..kMaxTargetBorderM (1000 mm)
+  // Non-finite values are refused too.
+  static constexpr int kMaxCheckerboardCorners = 200;
+  static constexpr double kMinTargetSquareM = 1e-4;
+  static constexpr double kMaxTargetSquareM = 1.0;
+  static constexpr double kMaxTagSpacing = 10.0;
+  static constexpr double kMaxTargetBorderM = 1.0;
   static CalibrationTarget Checkerboard(const CheckerboardSpec& spec);
   static CalibrationTarget AprilGrid(const AprilGridSpec& spec);
 

@@ -142,7 +142,10 @@ void ReadBeacons(const YAML::Node& root, const YamlCtx& ctx, Rig* rig) {
   }
   if (Has(root, "beacon_facing")) ReadBeaconFacing(root["beacon_facing"], ctx.Sub("beacon_facing"), rig);
   if (Has(root, "beacon_sigma_mm")) rig->beacon_sigma = Number(root["beacon_sigma_mm"], ctx.Sub("beacon_sigma_mm")) * kMm;
-  if (rig->num_beacons == 0) ctx.Fail(root, "the scenario has no beacons (give beacons_mm or a rig with beacons)");
+  // A calibration session (target:) needs no beacons: its rig may be a calibration result
+  // without a map. Everything else (render, crb, navmatrix) does.
+  if (rig->num_beacons == 0 && !Has(root, "target"))
+    ctx.Fail(root, "the scenario has no beacons (give beacons_mm or a rig with beacons)");
 }
 
 void ReadTurntable(const YAML::Node& n, const YamlCtx& ctx, Turntable* tt) {
@@ -440,7 +443,7 @@ BodyPose TurntablePose(const Turntable& tt, double main_rad, double aux_rad) {
   return pose;
 }
 
-Scenario ParseScenarioYaml(const std::string& text, const std::string& source, const std::filesystem::path& base_dir) {
+static Scenario ParseScenario(const std::string& text, const std::string& source, const std::filesystem::path& base_dir) {
   const YAML::Node root = LoadYaml(text, source);
   const YamlCtx ctx{source, ""};
   RejectUnknownKeys(root, {"name", "seed", "rig", "beacons_mm", "beacon_sigma_mm", "frame_rate_hz", "frames", "t0_ns",
@@ -473,7 +476,12 @@ Scenario ParseScenarioYaml(const std::string& text, const std::string& source, c
     ctx.Sub("frame_rate_hz").Fail(root["frame_rate_hz"], "must be in (0, 1000]");
   s.frames = IntegerOr(root, "frames", s.frames, ctx);
   if (s.frames < 1 || s.frames > 1'000'000) ctx.Sub("frames").Fail(root["frames"], "must be 1..1000000");
-  if (Has(root, "t0_ns")) s.t0_ns = root["t0_ns"].as<long long>(s.t0_ns);
+  if (Has(root, "t0_ns")) {
+    long long t0 = 0;
+    if (!root["t0_ns"].IsScalar() || !YAML::convert<long long>::decode(root["t0_ns"], t0) || t0 < 0)
+      ctx.Sub("t0_ns").Fail(root["t0_ns"], "expected a non-negative integer");
+    s.t0_ns = t0;
+  }
   if (Has(root, "turntable")) ReadTurntable(root["turntable"], ctx.Sub("turntable"), &s.turntable);
   if (Has(root, "trajectory")) {
     ReadTrajectory(root["trajectory"], ctx.Sub("trajectory"), &s.trajectory);
@@ -487,6 +495,10 @@ Scenario ParseScenarioYaml(const std::string& text, const std::string& source, c
   }
   ReadCalibration(root, ctx, &s.calibration);
   return s;
+}
+
+Scenario ParseScenarioYaml(const std::string& text, const std::string& source, const std::filesystem::path& base_dir) {
+  return CatchYamlErrors(source, [&] { return ParseScenario(text, source, base_dir); });
 }
 
 Scenario LoadPreset(const std::string& name) { return ParseScenarioYaml(PresetYaml(name), "preset " + name, "."); }

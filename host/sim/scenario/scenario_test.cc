@@ -111,5 +111,28 @@ TEST(Scenario, ErrorsNameTheField) {
   EXPECT_EQ(ErrorOf("rig: missing.yaml\n"), "./missing.yaml: no such file");
 }
 
+// Issue 14, defect 10: a key that is a list, or a t0_ns that is not an integer, is named with
+// the file and the line (yaml-cpp's "bad conversion", or a silent default, before).
+TEST(Scenario, WrongNodeTypesNameTheField) {
+  EXPECT_EQ(ErrorOf("? [a, b]\n: 1\n"), "s.yaml:1: a key must be a name, not a list or a map");
+  EXPECT_EQ(ErrorOf("t0_ns: soon\n"), "s.yaml:1: t0_ns: expected a non-negative integer");
+}
+
+// Issue 14, defect 10: a calibration session (target:) needs no beacons, so its rig may be a
+// calibration result without a map; any other scenario still needs them.
+TEST(Scenario, CalibrationScenariosNeedNoBeacons) {
+  const std::string text = PresetYaml("paper-calibration") + "beacons_mm: []\n";
+  const Scenario s = ParseScenarioYaml(text, "c.yaml", ".");
+  EXPECT_EQ(s.rig.num_beacons, 0);
+  EXPECT_TRUE(s.calibration.present);
+  std::string turntable = PresetYaml("paper-turntable") + "beacons_mm: []\n";
+  try {
+    ParseScenarioYaml(turntable, "t.yaml", ".");
+    ADD_FAILURE() << "a turntable sweep without beacons was accepted";
+  } catch (const UserError& e) {
+    EXPECT_NE(std::string(e.what()).find("t.yaml:1: the scenario has no beacons"), std::string::npos) << e.what();
+  }
+}
+
 }  // namespace
 }  // namespace mfns::host
