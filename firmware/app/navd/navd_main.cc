@@ -84,6 +84,8 @@ int Run(int argc, char** argv) {
     std::fprintf(stderr, "mfns-navd: refusing to navigate: %s\n", why);
     return 1;
   }
+  // Reloads stay on this rig: another rig id's blob, however new, is refused (and said why).
+  loader.ExpectRigId(info.rig_id.data());
 
   // Source.
   std::unique_ptr<FrameSource> source;
@@ -92,7 +94,9 @@ int Run(int argc, char** argv) {
   std::array<const char*, limits::kMaxCameras> paths{};  // V4L2: each camera's device
   if (opt.source == SourceKind::kReplay) {
     // Without truth.csv the frames are timed by --rate-hz, default 18.6 (as --help says).
-    source = std::make_unique<ReplaySource>(ReplayConfigFromRig(rig, opt.replay_dir.data(), opt.rate_hz));
+    ReplayConfig replay = ReplayConfigFromRig(rig, opt.replay_dir.data(), opt.rate_hz);
+    replay.realtime = opt.realtime;
+    source = std::make_unique<ReplaySource>(replay);
   } else {
     for (int k = 0; k < rig.num_cameras; ++k) {
       const auto ks = static_cast<std::size_t>(k);
@@ -205,24 +209,28 @@ int Run(int argc, char** argv) {
   bool log_warned = false;
   for (std::int64_t n = 0; !g_stop && (opt.frames == 0 || n < opt.frames); ++n) {
     if (g_reload || loader.Changed()) {
-      // Between frame sets: decode the newest valid parameters beside the ones in use.
+      // Between frame sets: decode the newest valid parameters beside the ones in use. Every
+      // attempt says what it did: taken, or why not (a newer slot corrupt or for another rig).
       g_reload = 0;
       BlobInfo next_info;
       Rig& next = rigs[static_cast<std::size_t>(1 - active)];
-      if (loader.Reload(&next, &next_info) == StoreStatus::kOk && !SameBlob(next_info, info)) {
-        const char* refused = nullptr;
-        if (loop->Reload(next, next_info.generation, &refused)) {
-          active = 1 - active;
-          info = next_info;
-          std::fprintf(stderr, "mfns-navd: parameters reloaded: generation %llu\n",
-                       static_cast<unsigned long long>(info.generation));
-          std::snprintf(status_line, sizeof(status_line), "navigating, parameters generation %llu",
-                        static_cast<unsigned long long>(info.generation));
-          notifier.Status(status_line);
-        } else {
-          std::fprintf(stderr, "mfns-navd: new parameters refused (%s); generation %llu stays\n",
-                       refused != nullptr ? refused : "?", static_cast<unsigned long long>(info.generation));
-        }
+      const StoreStatus ls = loader.Reload(&next, &next_info);
+      const char* refused = nullptr;
+      if (ls == StoreStatus::kOk && !SameBlob(next_info, info) && loop->Reload(next, next_info.generation, &refused)) {
+        active = 1 - active;
+        info = next_info;
+        std::fprintf(stderr, "mfns-navd: parameters reloaded: generation %llu\n",
+                     static_cast<unsigned long long>(info.generation));
+        std::snprintf(status_line, sizeof(status_line), "navigating, parameters generation %llu",
+                      static_cast<unsigned long long>(info.generation));
+        notifier.Status(status_line);
+      } else {
+        loader.Describe(why, sizeof(why));
+        std::fprintf(stderr, "mfns-navd: reload: %s (%s); generation %llu stays\n",
+                     ls != StoreStatus::kOk ? "no valid parameters"
+                     : refused != nullptr   ? refused
+                                            : "nothing newer to take",
+                     why, static_cast<unsigned long long>(info.generation));
       }
     }
     if (loop->Step() == StepStatus::kEndOfStream) break;

@@ -15,7 +15,7 @@ namespace mfns::fw {
 namespace {
 
 enum : int {
-  kParams = 1000, kSource, kDevice, kY16, kBuffers, kRate, kTrigger, kPulse, kOutput, kLog, kFrames, kTimeout,
+  kParams = 1000, kRealtime, kSource, kDevice, kY16, kBuffers, kRate, kTrigger, kPulse, kOutput, kLog, kFrames, kTimeout,
   kDeadline, kSigma, kHealthEvery, kRetryEvery, kSetAside, kInitialPose, kInitialSigma, kPidFile, kQuiet, kHelp
 };
 
@@ -33,7 +33,7 @@ const option kLongOptions[] = {
     {"initial-pose", required_argument, nullptr, kInitialPose},
     {"initial-sigma", required_argument, nullptr, kInitialSigma},
     {"pid-file", required_argument, nullptr, kPidFile},
-    {"quiet", no_argument, nullptr, kQuiet},               {"help", no_argument, nullptr, kHelp},
+    {"realtime", no_argument, nullptr, kRealtime},         {"quiet", no_argument, nullptr, kQuiet},               {"help", no_argument, nullptr, kHelp},
     {nullptr, 0, nullptr, 0},
 };
 
@@ -123,6 +123,7 @@ const char* NavdUsage() {
          "  --initial-sigma MM,DEG  1-sigma errors of --initial-pose, default 10,1\n"
          "  --pid-file PATH         pid file for mfns-paramctl's reload signal (default /run/mfns-navd.pid; '' = none)\n"
          "  --quiet                 no per-second status line on stderr\n"
+         "  --realtime              replay: deliver each frame set at its recorded time, not as fast as read\n"
          "  --help                  this text\n";
 }
 
@@ -243,6 +244,7 @@ OptionsStatus ParseNavdOptions(int argc, char** argv, NavdOptions* opt, char* wh
         std::memcpy(opt->pid_file.data(), a, std::strlen(a));
         break;
       case kQuiet: opt->quiet = true; break;
+      case kRealtime: opt->realtime = true; break;
       case kHelp: opt->help = true; return OptionsStatus::kHelp;
       default: {
         const char* bad = (optind >= 1 && optind <= argc) ? argv[optind - 1] : "?";

@@ -47,6 +47,7 @@ struct NavdOptions {
   double initial_sigma_mm = 10.0, initial_sigma_deg = 1.0;
   Path pid_file{};               // --pid-file ("" = none); default /run/mfns-navd.pid
   bool quiet = false;
+  bool realtime = false;  // replay: each frame set at its recorded time (ReplayConfig::realtime)
   bool help = false;
 };
 

@@ -3,6 +3,7 @@
 #include <dirent.h>
 #include <fcntl.h>
 #include <sys/stat.h>
+#include <time.h>
 #include <unistd.h>
 
 #include <cerrno>
@@ -275,6 +276,7 @@ SourceStatus ReplaySource::Start() {
   Stop();
   problem_[0] = '\0';
   ResetCounters();
+  pace_t0_ = pace_wall0_ = 0;
   has_truth_ = false;
   num_frames_ = 0;
   if (config_.dir == nullptr || config_.dir[0] == '\0' || config_.num_cameras < 1 ||
@@ -329,6 +331,7 @@ SourceStatus ReplaySource::Acquire(int camera, int /*timeout_ms*/, FrameView* ou
     ++c.unknown_clock;
     return SourceStatus::kDropped;
   }
+  if (config_.realtime) Pace(t);
   out->data = cam.buffer.data();
   out->width = cam.width;
   out->height = cam.height;
@@ -341,6 +344,26 @@ SourceStatus ReplaySource::Acquire(int camera, int /*timeout_ms*/, FrameView* ou
   cam.held = true;
   ++c.frames;
   return SourceStatus::kOk;
+}
+
+// Sleeps until the wall clock has advanced from the first paced frame as much as the recorded
+// time has (the other cameras of a frame set find that time passed: no second sleep). A
+// recorded time before the first is not waited for.
+void ReplaySource::Pace(std::uint64_t t_ns) {
+  timespec now{};
+  clock_gettime(CLOCK_MONOTONIC, &now);
+  const std::uint64_t wall = static_cast<std::uint64_t>(now.tv_sec) * 1000000000ull + static_cast<std::uint64_t>(now.tv_nsec);
+  if (pace_wall0_ == 0) {
+    pace_t0_ = t_ns;
+    pace_wall0_ = wall;
+    return;
+  }
+  if (t_ns <= pace_t0_) return;
+  const std::uint64_t due = pace_wall0_ + (t_ns - pace_t0_);
+  if (due <= wall) return;
+  const timespec until{static_cast<time_t>(due / 1000000000ull), static_cast<long>(due % 1000000000ull)};
+  while (clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &until, nullptr) == EINTR) {
+  }
 }
 
 void ReplaySource::Release(int camera) {

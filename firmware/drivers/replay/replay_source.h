@@ -40,6 +40,9 @@ struct ReplayConfig {
   // Used when <dir>/truth.csv does not exist: t_ns = round(frame * 1e9 / frame_rate_hz).
   // Without truth.csv and without a rate (<= 0), Start fails with kBadConfig.
   double frame_rate_hz = 0.0;
+  // Deliver each frame at its recorded time after the first (as cameras would: CLOCK_MONOTONIC
+  // sleeps), not as fast as they can be read. For demos and for tests of a running navd.
+  bool realtime = false;
 };
 
 // Names and sizes from the rig (the names are borrowed from rig: it must outlive the config).
@@ -84,7 +87,10 @@ class ReplaySource final : public FrameSource {
   void SetProblem(const char* path, const char* why);
 
   ReplayConfig config_;
+  void Pace(std::uint64_t t_ns);
+
   bool started_ = false;
+  std::uint64_t pace_t0_ = 0, pace_wall0_ = 0;  // realtime: first frame's time and its wall clock
   bool has_truth_ = false;
   int num_frames_ = 0;
   std::vector<std::uint64_t> t_ns_;  // per frame; kNoTime when truth.csv has no row

@@ -20,11 +20,7 @@ StoreStatus ParamLoader::Open(const char* path, const char* expected_rig_id, Rig
   const std::size_t len = path != nullptr ? strnlen(path, path_.size()) : 0;
   if (len == 0 || len >= path_.size()) return last_ = StoreStatus::kBadPath;
   std::memcpy(path_.data(), path, len + 1);
-  has_expected_ = expected_rig_id != nullptr;
-  expected_.fill('\0');
-  // An id longer than any valid one stays longer after truncation here, so it still matches
-  // no blob (the decoder compares whole strings).
-  if (has_expected_) std::strncpy(expected_.data(), expected_rig_id, expected_.size() - 1);
+  ExpectRigId(expected_rig_id);
 
   const int fd = io_->Open(path_.data(), O_RDONLY | O_DIRECTORY | O_NONBLOCK | O_CLOEXEC, 0);
   if (fd >= 0) {
@@ -53,6 +49,14 @@ StoreStatus ParamLoader::Open(const char* path, const char* expected_rig_id, Rig
   }
   watcher_.Start(dir.data(), &base, 1, force_stat_watch);
   return Reload(rig, info);
+}
+
+void ParamLoader::ExpectRigId(const char* id) {
+  has_expected_ = id != nullptr;
+  expected_.fill('\0');
+  // An id longer than any valid one stays longer after truncation here, so it still matches
+  // no blob (the decoder compares whole strings).
+  if (has_expected_) std::strncpy(expected_.data(), id, expected_.size() - 1);
 }
 
 StoreStatus ParamLoader::Reload(Rig* rig, BlobInfo* info) {

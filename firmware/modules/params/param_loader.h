@@ -44,6 +44,10 @@ class ParamLoader {
   StoreStatus Open(const char* path, const char* expected_rig_id, Rig* rig, BlobInfo* info,
                    bool force_stat_watch = false);
 
+  // From now on only blobs for rig `id` are valid (nullptr: any). navd pins the id of the rig
+  // it started with, so that a reload never switches to another flyer's parameters.
+  void ExpectRigId(const char* id);
+
   // Non-blocking: true when a slot (or the file) changed since the last call.
   bool Changed() { return watcher_.Changed(); }
 

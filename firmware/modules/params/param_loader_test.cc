@@ -75,6 +75,38 @@ TEST(ParamLoader, AnExpectedRigIdRefusesBlobsForOtherRigs) {
             StoreStatus::kNoValidBlob);
 }
 
+// Issue 14 defect 9: navd hot-loaded a valid blob of another rig id with a higher generation.
+// Pinned to the rig it started with, a reload keeps the current slot and says why the newer
+// one is not taken; a newer but corrupt slot is named too.
+TEST(ParamLoader, APinnedRigIdKeepsReloadsOnThatRig) {
+  TempDir dir;
+  WriteBytes(dir / "slot-a.bin", MakeBlob(3));
+  ParamLoader loader;
+  Rig rig;
+  BlobInfo info;
+  ASSERT_EQ(loader.Open(dir.path().c_str(), nullptr, &rig, &info), StoreStatus::kOk);
+  loader.ExpectRigId(info.rig_id.data());
+  WriteBytes(dir / "slot-b.bin", MakeBlob(9, "another-flyer"));
+  BlobInfo next;
+  ASSERT_EQ(loader.Reload(&rig, &next), StoreStatus::kOk);
+  EXPECT_EQ(next.generation, 3u);
+  EXPECT_EQ(loader.active_slot(), 0);
+  EXPECT_THAT(Why(loader), HasSubstr("slot-b.bin: blob is for another rig id"));
+  auto corrupt = MakeBlob(10);
+  corrupt[70] ^= 0xff;
+  WriteBytes(dir / "slot-b.bin", corrupt);
+  ASSERT_EQ(loader.Reload(&rig, &next), StoreStatus::kOk);
+  EXPECT_EQ(next.generation, 3u);
+  EXPECT_THAT(Why(loader), HasSubstr("slot-b.bin: payload CRC32 mismatch"));
+  WriteBytes(dir / "slot-b.bin", MakeBlob(11));
+  ASSERT_EQ(loader.Reload(&rig, &next), StoreStatus::kOk);
+  EXPECT_EQ(next.generation, 11u);
+  loader.ExpectRigId(nullptr);  // unpinned: any rig again
+  WriteBytes(dir / "slot-a.bin", MakeBlob(12, "another-flyer"));
+  ASSERT_EQ(loader.Reload(&rig, &next), StoreStatus::kOk);
+  EXPECT_EQ(next.generation, 12u);
+}
+
 TEST(ParamLoader, APlainBlobFileIsAcceptedWithItsOwnReasons) {
   TempDir dir;
   const std::string file = dir / "calibration.bin";
