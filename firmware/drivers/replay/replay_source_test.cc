@@ -3,6 +3,7 @@
 #include "firmware/drivers/replay/replay_source.h"
 
 #include <gtest/gtest.h>
+#include <time.h>
 #include <sys/stat.h>
 
 #include <string>
@@ -124,6 +125,30 @@ TEST_F(ReplayTest, TimestampsFromTheRateWithoutTruth) {
     EXPECT_EQ(v.t_capture_ns, expected);
     src.Release(0);
   }
+}
+
+// --realtime: frame f of every camera is delivered no earlier than f periods after frame 0
+// (a lower bound only: a loaded machine may be later, never earlier).
+TEST_F(ReplayTest, RealtimeDeliversEachFrameSetAtItsRecordedTime) {
+  WriteSequence(4, false, /*truth=*/false);
+  ReplayConfig c = Config(/*rate_hz=*/25.0);  // 40 ms apart
+  c.realtime = true;
+  ReplaySource src(c);
+  ASSERT_EQ(src.Start(), SourceStatus::kOk);
+  const auto now_ns = [] {
+    timespec ts{};
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return static_cast<std::int64_t>(ts.tv_sec) * 1000000000 + ts.tv_nsec;
+  };
+  std::int64_t t0 = 0;
+  for (int f = 0; f < 4; ++f)
+    for (int k = 0; k < 3; ++k) {
+      FrameView v;
+      ASSERT_EQ(src.Acquire(k, 50, &v), SourceStatus::kOk);
+      if (f == 0 && k == 0) t0 = now_ns();
+      EXPECT_GE(now_ns() - t0, f * 40000000 - 1000000) << "frame " << f << " camera " << k << " early";
+      src.Release(k);
+    }
 }
 
 TEST_F(ReplayTest, AMissingFrameOfOneCameraDoesNotStopTheOthers) {
