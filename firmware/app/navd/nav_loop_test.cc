@@ -1,6 +1,10 @@
 #include "firmware/app/navd/nav_loop.h"
 
+#include <arpa/inet.h>
 #include <gtest/gtest.h>
+#include <netinet/in.h>
+#include <sys/socket.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <cstdio>
@@ -10,6 +14,8 @@
 
 #include "common/rig/paper_rig.h"
 #include "common/rotation/rotation.h"
+#include "firmware/drivers/gpio/fake_gpio_line_io.h"
+#include "firmware/drivers/gpio/gpio_trigger.h"
 #include "firmware/lib/in_process_source.h"
 #include "firmware/modules/publish/publishers.h"
 #include "firmware/modules/detect/detect_testing.h"
@@ -175,6 +181,62 @@ TEST(NavLoop, NoAllocationAfterStartAndFixesFromImages) {
   EXPECT_GE(fixes_3plus, sets_3plus * 95 / 100);
   EXPECT_EQ(wrong, 0);
   EXPECT_EQ(loop->counters().frame_sets, static_cast<std::uint64_t>(sets));
+}
+
+// Issue 14 item 6: no heap after start also with every output on: the trigger pulsing a line
+// (the fake gpiod seam, its call record reserved beforehand), UDP pose and health datagrams to
+// a local socket, and the poses log. Each output is checked to have worked every frame set.
+TEST(NavLoop, NoAllocationAfterStartWithTriggerUdpAndLog) {
+  const Rig rig = SmallRig();
+  SweepRenderer sweep(rig);
+  InProcessSource source(rig.num_cameras);
+  ASSERT_EQ(source.Start(), SourceStatus::kOk);
+  const long sets = testing::Trials(2000, 300);
+  FakeGpioLineIo gpio;
+  gpio.calls.reserve(static_cast<std::size_t>(8 * sets + 16));
+  TriggerConfig tc;
+  tc.enabled = true;
+  tc.chip = "gpiochip0";
+  tc.line_offset = 17;
+  GpioTrigger trigger(&gpio, tc);
+  ASSERT_EQ(trigger.Start(), TriggerStatus::kOk);
+  const int rx = ::socket(AF_INET, SOCK_DGRAM, 0);
+  ASSERT_GE(rx, 0);
+  sockaddr_in addr{};
+  addr.sin_family = AF_INET;
+  addr.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  socklen_t len = sizeof(addr);
+  ASSERT_EQ(::bind(rx, reinterpret_cast<sockaddr*>(&addr), sizeof(addr)), 0);
+  ASSERT_EQ(::getsockname(rx, reinterpret_cast<sockaddr*>(&addr), &len), 0);
+  UdpPublisher udp;
+  const std::string url = "udp://127.0.0.1:" + std::to_string(ntohs(addr.sin_port));
+  ASSERT_EQ(udp.Open(url.c_str()), PublishStatus::kOk);
+  const std::string path = ::testing::TempDir() + "nav_loop_outputs.csv";
+  PoseLog log;
+  ASSERT_EQ(log.Open(path.c_str()), PublishStatus::kOk);
+  auto loop = std::make_unique<NavLoop>(rig, &source, &trigger, &udp, &log);
+  ASSERT_TRUE(loop->Configure(Config(), nullptr));
+
+  const std::uint64_t before = testing::AllocationCount();
+  std::array<std::uint8_t, 512> datagram{};
+  long received = 0;
+  for (long n = 0; n < sets; ++n) {
+    sweep.Render(n);
+    for (int k = 0; k < rig.num_cameras; ++k)
+      ASSERT_TRUE(source.Push(k, sweep.View(k, 1'000'000'000ull + static_cast<std::uint64_t>(n) * kFrameNs,
+                                            static_cast<std::uint32_t>(n))));
+    ASSERT_EQ(loop->Step(), StepStatus::kOk);
+    while (::recv(rx, datagram.data(), datagram.size(), MSG_DONTWAIT) > 0) ++received;  // (keeps the queue short)
+  }
+  EXPECT_EQ(testing::AllocationCount() - before, 0u) << "heap allocations after start";
+  ::close(rx);
+  EXPECT_EQ(trigger.counters().pulses, static_cast<std::uint64_t>(sets));
+  EXPECT_EQ(udp.counters().send_errors, 0u);
+  EXPECT_EQ(udp.counters().sent, static_cast<std::uint64_t>(sets + sets / Config().health_every));
+  EXPECT_GE(received, sets / 2) << "datagrams reached the socket";
+  EXPECT_EQ(log.counters().log_rows, static_cast<std::uint64_t>(sets));
+  ASSERT_EQ(log.Close(), PublishStatus::kOk);
+  std::remove(path.c_str());
 }
 
 TEST(NavLoop, ACameraThatStopsIsSetAsideRetriedAndTheOthersGoOn) {
