@@ -10,6 +10,7 @@ HOST_PKGS=(
   libgpiod-dev gpiod libyaml-cpp-dev libcli11-dev
   libgtest-dev libgmock-dev googletest libbenchmark-dev
   g++-aarch64-linux-gnu qemu-user
+  clang libclang-rt-14-dev  # the fuzz preset: libFuzzer, ASan, UBSan (tests/fuzz)
   openssh-server openssh-client dpkg-dev file
   chromium  # headless check of report.html (host/calib/app/rig_command_test)
 )

@@ -1,13 +1,14 @@
 #!/usr/bin/env bash
-# Installs what is missing, builds and runs every test suite: host, host-asan, and aarch64
-# (cross-compiled, run under qemu-aarch64). Exits non-zero if any build or test fails.
-# Usage: scripts/test-all.sh [preset ...]   (default: host host-asan aarch64)
+# Installs what is missing, builds and runs every test suite: host, host-asan, aarch64
+# (cross-compiled, run under qemu-aarch64) and fuzz (each libFuzzer target for
+# MFNS_FUZZ_SECONDS, tests/fuzz). Exits non-zero if any build or test fails.
+# Usage: scripts/test-all.sh [preset ...]   (default: host host-asan aarch64 fuzz)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/install-deps.sh
 
 presets=("$@")
-[ ${#presets[@]} -gt 0 ] || presets=(host host-asan aarch64)
+[ ${#presets[@]} -gt 0 ] || presets=(host host-asan aarch64 fuzz)
 jobs=$(nproc)
 total_pass=0
 total_fail=0

@@ -160,7 +160,7 @@ MessageStatus DecodePose(std::span<const std::uint8_t> in, PoseRecord* r) {
   for (int i = 0; i < 3; ++i) r->euler_deg[i] = rd.F32();
   r->residual_rms_px = rd.F32();
   for (int i = 0; i < 6; ++i)
-    for (int j = i; j < 6; ++j) r->covariance(i, j) = r->covariance(j, i) = rd.F32();
+    for (int j = i; j < 6; ++j) r->covariance(i, j) = r->covariance(j, i) = static_cast<double>(rd.F32());
   return MessageStatus::kOk;
 }
 
