@@ -210,20 +210,27 @@ HealthRecord NavLoop::Health() const {
 // A frame set stamped no later than the previous one (a repeated or backward driver clock)
 // cannot be placed in time: its motion since the last pose would read as none, and tracking
 // would refute the true pose (seen: a repeated timestamp lost the track for 23 frame sets).
-// It is counted and stamped one nominal frame period (deadline_ms) after the previous one.
+// It is counted and stamped one nominal frame period (deadline_ms) after the previous frame
+// set; the next good stamp is compared with the last good one, not with that estimate (which
+// may run ahead of it by the difference of the periods), and kept after the estimate.
 // After kClockRebaseFaults such frame sets in a row the clock itself went back (a driver
 // restart): its time is taken as it is, and the track is seeded again from the last pose.
 bool NavLoop::CheckClock(std::uint64_t* t_capture_ns) {
   constexpr int kClockRebaseFaults = 3;
-  const bool fault = last_t_capture_ns_ != 0 && *t_capture_ns <= last_t_capture_ns_;
+  const std::uint64_t driver_t = *t_capture_ns;
+  const bool fault = last_driver_t_ns_ != 0 && driver_t <= last_driver_t_ns_;
   consecutive_clock_faults_ = fault ? consecutive_clock_faults_ + 1 : 0;
   if (fault) ++counters_.clock_faults;
   if (fault && consecutive_clock_faults_ >= kClockRebaseFaults) {
     consecutive_clock_faults_ = 0;
     BodyPose last;
     if (navigator_.LastPose(&last)) navigator_.SetInitialPose(last, config_.reload_sigma_m, config_.reload_sigma_rad);
+    last_driver_t_ns_ = driver_t;
   } else if (fault) {
     *t_capture_ns = last_t_capture_ns_ + static_cast<std::uint64_t>(config_.deadline_ms * 1e6);
+  } else {
+    last_driver_t_ns_ = driver_t;
+    if (driver_t <= last_t_capture_ns_) *t_capture_ns = last_t_capture_ns_ + 1;
   }
   last_t_capture_ns_ = *t_capture_ns;
   return fault;

@@ -103,7 +103,8 @@ class NavLoop {
   NavOutput nav_;
   std::array<CameraSupervision, limits::kMaxCameras> supervision_{};
   LoopCounters counters_;
-  std::uint64_t last_t_capture_ns_ = 0;  // of the last frame set with a frame (0: none yet)
+  std::uint64_t last_t_capture_ns_ = 0;  // stamp given to the last frame set with a frame
+  std::uint64_t last_driver_t_ns_ = 0;   // the last good driver stamp (0: none yet)
   int consecutive_clock_faults_ = 0;
   std::uint32_t pose_sequence_ = 0, health_sequence_ = 0;
   std::array<std::uint8_t, kPoseMessageBytes> pose_bytes_{};

@@ -1,6 +1,7 @@
 #include "firmware/app/navd/nav_loop.h"
 
 #include <arpa/inet.h>
+#include <fcntl.h>
 #include <gtest/gtest.h>
 #include <netinet/in.h>
 #include <sys/socket.h>
@@ -235,6 +236,136 @@ TEST(NavLoop, NoAllocationAfterStartWithTriggerUdpAndLog) {
   EXPECT_EQ(udp.counters().sent, static_cast<std::uint64_t>(sets + sets / Config().health_every));
   EXPECT_GE(received, sets / 2) << "datagrams reached the socket";
   EXPECT_EQ(log.counters().log_rows, static_cast<std::uint64_t>(sets));
+  ASSERT_EQ(log.Close(), PublishStatus::kOk);
+  std::remove(path.c_str());
+}
+
+// Resident set size now (bytes), read without the heap (/proc/self/statm's second field).
+long ResidentBytes() {
+  const int fd = ::open("/proc/self/statm", O_RDONLY | O_CLOEXEC);
+  if (fd < 0) return -1;
+  std::array<char, 128> buf{};
+  const ssize_t n = ::read(fd, buf.data(), buf.size() - 1);
+  ::close(fd);
+  if (n <= 0) return -1;
+  long size = 0, resident = 0;
+  if (std::sscanf(buf.data(), "%ld %ld", &size, &resident) != 2) return -1;
+  return resident * ::sysconf(_SC_PAGESIZE);
+}
+
+// The faults of the soak, by frame set: which camera gives a blank (all-zero) or a saturated
+// frame, times out, or stalls; and whether the frame set repeats the previous timestamp.
+struct SoakFaults {
+  int blank = -1, white = -1, timeout = -1;
+  bool repeat_time = false;
+};
+SoakFaults FaultsAt(long n) {
+  SoakFaults f;
+  if (n % 97 == 50) f.blank = static_cast<int>((n / 97) % 3);
+  if (n % 211 == 70) f.white = static_cast<int>((n / 211) % 3);
+  if (n % 131 == 90) f.timeout = static_cast<int>((n / 131) % 3);
+  if (n % 1009 >= 500 && n % 1009 < 530) f.timeout = 1;  // camera y stalls for 30 frame sets
+  f.repeat_time = n % 173 == 100;
+  // (No blank frame for y around its stall: while set aside its frames are not all read.)
+  if (n % 1009 >= 490 && n % 1009 < 570) {
+    if (f.blank == 1) f.blank = -1;
+    if (f.white == 1) f.white = -1;
+  }
+  return f;
+}
+
+// Issue 14 item 4, the soak: frame sets through NavLoop with every output on (trigger, UDP,
+// log) and faults mixed in (blank and saturated frames, timeouts, a camera stalled for 30 frame
+// sets every 1009, repeated timestamps): no heap after start, resident memory flat, every
+// fault counted as injected, never a wrong fix, and the sweep posed almost throughout. CI runs
+// 3000 frame sets (fewer under qemu and the sanitizers); scripts/soak.sh runs 10^5
+// (MFNS_SOAK_FRAME_SETS) and then also asserts no deadline slip (timing: the soak's machine).
+TEST(NavLoop, SoakWithFaultsAndEveryOutput) {
+  const char* env = std::getenv("MFNS_SOAK_FRAME_SETS");
+  const bool soak = env != nullptr && std::atol(env) > 0;
+  const long sets = soak ? std::atol(env) : testing::Trials(3000, 400);
+  const Rig rig = SmallRig();
+  SweepRenderer sweep(rig);
+  InProcessSource source(rig.num_cameras);
+  ASSERT_EQ(source.Start(), SourceStatus::kOk);
+  FakeGpioLineIo gpio;
+  // (Written once so that its pages are resident before the RSS is measured.)
+  gpio.calls.resize(static_cast<std::size_t>(8 * sets + 16));
+  gpio.calls.clear();
+  TriggerConfig tc;
+  tc.enabled = true;
+  tc.chip = "gpiochip0";
+  GpioTrigger trigger(&gpio, tc);
+  ASSERT_EQ(trigger.Start(), TriggerStatus::kOk);
+  UdpPublisher udp;
+  ASSERT_EQ(udp.Open("udp://127.0.0.1:9"), PublishStatus::kOk);  // discard port: sent, not read
+  const std::string path = ::testing::TempDir() + "nav_loop_soak.csv";
+  PoseLog log;
+  ASSERT_EQ(log.Open(path.c_str()), PublishStatus::kOk);
+  NavLoopConfig c = Config();
+  c.has_initial_pose = true;
+  auto loop = std::make_unique<NavLoop>(rig, &source, &trigger, &udp, &log);
+  ASSERT_TRUE(loop->Configure(c, nullptr));
+  std::vector<std::uint8_t> black(static_cast<std::size_t>(320 * 256), 0), white(black.size(), 255);
+
+  const std::uint64_t allocs_before = testing::AllocationCount();
+  long rss_early = 0, wrong = 0, posed = 0, injected_blank = 0, injected_repeat = 0;
+  std::uint64_t t = 1'000'000'000ull;
+  PoseRecord rec;
+  long clean_3plus = 0, clean_posed = 0;  // frame sets without a fault, >= 3 beacons in view
+  for (long n = 0; n < sets; ++n) {
+    const int visible = sweep.Render(n);
+    const SoakFaults f = FaultsAt(n);
+    // A repeated stamp: this frame set carries the previous one's (the stamps after it are
+    // right again; a clock that stays one period behind is not covered yet, see
+    // docs/reliability.md).
+    t += kFrameNs;
+    const std::uint64_t stamp = f.repeat_time && n > 0 ? t - kFrameNs : t;
+    injected_repeat += f.repeat_time && n > 0;
+    for (int k = 0; k < rig.num_cameras; ++k) {
+      if (k == f.timeout) {
+        source.PushStatus(k, SourceStatus::kTimeout);
+        continue;
+      }
+      FrameView v = sweep.View(k, stamp, static_cast<std::uint32_t>(n));
+      if (k == f.blank) v.data = black.data();
+      if (k == f.white) v.data = white.data();
+      injected_blank += k == f.blank || k == f.white;
+      ASSERT_TRUE(source.Push(k, v));
+    }
+    ASSERT_EQ(loop->Step(&rec), StepStatus::kOk);
+    wrong += rec.status != NavStatus::kLost && !FixIsRight(rec, sweep.pose());
+    posed += rec.status != NavStatus::kLost;
+    if (visible >= 3 && f.blank < 0 && f.white < 0 && f.timeout < 0 && !f.repeat_time) {
+      ++clean_3plus;
+      clean_posed += rec.status != NavStatus::kLost;
+    }
+    if (n == sets / 10) rss_early = ResidentBytes();
+  }
+  const long rss_end = ResidentBytes();
+  const std::uint64_t allocs = testing::AllocationCount() - allocs_before;
+  const HealthRecord h = loop->Health();
+  std::uint64_t bad_frames = 0;
+  for (int k = 0; k < rig.num_cameras; ++k) bad_frames += h.cameras[static_cast<std::size_t>(k)].bad_frames;
+  std::printf("soak: %ld frame sets with >= 3 beacons and no fault: %ld posed\n", clean_3plus, clean_posed);
+  std::printf("soak: %ld frame sets, posed %ld, wrong %ld, allocations %llu, RSS %ld -> %ld kB, slips %llu, "
+              "worst frame set %.2f ms, clock faults %u, bad frames %llu\n",
+              sets, posed, wrong, static_cast<unsigned long long>(allocs), rss_early / 1024, rss_end / 1024,
+              static_cast<unsigned long long>(loop->counters().deadline_slips),
+              static_cast<double>(loop->counters().worst_frame_set_ns) * 1e-6, h.clock_faults,
+              static_cast<unsigned long long>(bad_frames));
+  EXPECT_EQ(allocs, 0u) << "heap allocations after start";
+  EXPECT_EQ(wrong, 0);
+  EXPECT_LE(rss_end - rss_early, 256 * 1024) << "resident memory grew";
+  EXPECT_EQ(h.clock_faults, static_cast<std::uint32_t>(injected_repeat));
+  EXPECT_EQ(bad_frames, static_cast<std::uint64_t>(injected_blank));
+  EXPECT_EQ(trigger.counters().pulses, static_cast<std::uint64_t>(sets));
+  EXPECT_EQ(log.counters().log_rows, static_cast<std::uint64_t>(sets));
+  // (Measured: 95-98 %, as without faults; see docs/reliability.md.)
+  EXPECT_GE(clean_posed, clean_3plus * 9 / 10);
+  if (soak) {
+    EXPECT_EQ(loop->counters().deadline_slips, 0u);
+  }
   ASSERT_EQ(log.Close(), PublishStatus::kOk);
   std::remove(path.c_str());
 }
