@@ -1,7 +1,5 @@
 #include "firmware/app/navd/nav_loop.h"
 
-#include <time.h>
-
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -9,12 +7,6 @@
 #include "common/rotation/rotation.h"
 
 namespace mfns::fw {
-
-std::uint64_t MonotonicNs() {
-  timespec ts{};
-  clock_gettime(CLOCK_MONOTONIC, &ts);
-  return static_cast<std::uint64_t>(ts.tv_sec) * 1000000000ull + static_cast<std::uint64_t>(ts.tv_nsec);
-}
 
 namespace {
 std::uint32_t Saturate32(std::uint64_t n) { return static_cast<std::uint32_t>(std::min<std::uint64_t>(n, 0xFFFFFFFFu)); }

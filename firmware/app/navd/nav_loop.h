@@ -17,6 +17,7 @@
 #include "firmware/lib/frame_source.h"
 #include "firmware/modules/detect/detect.h"
 #include "firmware/app/navd/navigator.h"
+#include "firmware/lib/monotonic_clock.h"
 #include "firmware/modules/publish/publishers.h"
 
 namespace mfns::fw {
@@ -111,7 +112,5 @@ class NavLoop {
   std::array<std::uint8_t, kHealthMessageBytes> health_bytes_{};
 };
 
-// CLOCK_MONOTONIC now, ns.
-std::uint64_t MonotonicNs();
 
 }  // namespace mfns::fw

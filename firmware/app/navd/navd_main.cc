@@ -32,11 +32,6 @@ volatile sig_atomic_t g_reload = 0;
 void OnStop(int) { g_stop = 1; }
 void OnReload(int) { g_reload = 1; }
 
-std::uint64_t MonotonicNs() {
-  timespec ts{};
-  clock_gettime(CLOCK_MONOTONIC, &ts);
-  return static_cast<std::uint64_t>(ts.tv_sec) * 1'000'000'000ull + static_cast<std::uint64_t>(ts.tv_nsec);
-}
 
 // The faults the health datagram counts, in one line, when there were any (a run that read
 // corrupt frames must not look like one that saw too few beacons).

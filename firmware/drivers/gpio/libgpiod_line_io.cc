@@ -1,10 +1,10 @@
 #include <gpiod.h>
-#include <time.h>
 
 #include <cerrno>
 
 #include "common/limits.h"
 #include "firmware/drivers/gpio/gpio_line_io.h"
+#include "firmware/lib/monotonic_clock.h"
 
 namespace mfns::fw {
 namespace {
@@ -45,22 +45,10 @@ void LibgpiodLineIo::Release() {
   chip_ = nullptr;
 }
 
-std::int64_t LibgpiodLineIo::NowNs() {
-  timespec ts{};
-  clock_gettime(CLOCK_MONOTONIC, &ts);
-  return static_cast<std::int64_t>(ts.tv_sec) * 1000000000LL + ts.tv_nsec;
-}
+std::int64_t LibgpiodLineIo::NowNs() { return static_cast<std::int64_t>(MonotonicNs()); }
 
 int LibgpiodLineIo::SleepUntilNs(std::int64_t t_ns) {
-  timespec ts{};
-  ts.tv_sec = static_cast<time_t>(t_ns / 1000000000LL);
-  ts.tv_nsec = static_cast<long>(t_ns % 1000000000LL);  // NOLINT(runtime/int)
-  int r = EINTR;
-  // An absolute deadline makes a resumed sleep end on time; a signal storm cannot hold us.
-  for (int attempt = 0; attempt <= limits::kMaxEintrRetries && r == EINTR; ++attempt) {
-    r = clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &ts, nullptr);
-  }
-  return r;
+  return t_ns < 0 ? EINVAL : SleepUntilMonotonicNs(static_cast<std::uint64_t>(t_ns));  // (as clock_nanosleep)
 }
 
 }  // namespace mfns::fw

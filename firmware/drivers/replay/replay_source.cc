@@ -3,7 +3,6 @@
 #include <dirent.h>
 #include <fcntl.h>
 #include <sys/stat.h>
-#include <time.h>
 #include <unistd.h>
 
 #include <cerrno>
@@ -13,6 +12,7 @@
 #include <string_view>
 
 #include "firmware/drivers/replay/pgm.h"
+#include "firmware/lib/monotonic_clock.h"
 
 namespace mfns::fw {
 namespace {
@@ -261,7 +261,11 @@ SourceStatus ReplaySource::SizeBuffer(int k, int first_frame) {
   if ((want_w != 0 && h.width != want_w) || (want_h != 0 && h.height != want_h) ||
       h.raster_bytes > limits::kMaxImageBytes) {
     char why[96];
-    std::snprintf(why, sizeof(why), "%dx%d, the rig's camera is %dx%d", h.width, h.height, want_w, want_h);
+    if (h.raster_bytes > limits::kMaxImageBytes)
+      std::snprintf(why, sizeof(why), "%dx%d, above the %zu-byte image limit", h.width, h.height,
+                    static_cast<std::size_t>(limits::kMaxImageBytes));
+    else
+      std::snprintf(why, sizeof(why), "%dx%d, the rig's camera is %dx%d", h.width, h.height, want_w, want_h);
     SetProblem(cam.path.data(), why);
     return SourceStatus::kFormatRefused;
   }
@@ -350,9 +354,7 @@ SourceStatus ReplaySource::Acquire(int camera, int /*timeout_ms*/, FrameView* ou
 // time has (the other cameras of a frame set find that time passed: no second sleep). A
 // recorded time before the first is not waited for.
 void ReplaySource::Pace(std::uint64_t t_ns) {
-  timespec now{};
-  clock_gettime(CLOCK_MONOTONIC, &now);
-  const std::uint64_t wall = static_cast<std::uint64_t>(now.tv_sec) * 1000000000ull + static_cast<std::uint64_t>(now.tv_nsec);
+  const std::uint64_t wall = MonotonicNs();
   if (pace_wall0_ == 0) {
     pace_t0_ = t_ns;
     pace_wall0_ = wall;
@@ -360,10 +362,7 @@ void ReplaySource::Pace(std::uint64_t t_ns) {
   }
   if (t_ns <= pace_t0_) return;
   const std::uint64_t due = pace_wall0_ + (t_ns - pace_t0_);
-  if (due <= wall) return;
-  const timespec until{static_cast<time_t>(due / 1000000000ull), static_cast<long>(due % 1000000000ull)};
-  while (clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &until, nullptr) == EINTR) {
-  }
+  if (due > wall) SleepUntilMonotonicNs(due);
 }
 
 void ReplaySource::Release(int camera) {
