@@ -184,6 +184,22 @@ TEST(NavLoop, NoAllocationAfterStartAndFixesFromImages) {
   EXPECT_EQ(loop->counters().frame_sets, static_cast<std::uint64_t>(sets));
 }
 
+// The shrunk sweep feeding a loop that starts at the sweep's first pose exactly (no
+// acquisition); trigger, UDP and log as given (null: none). Start() before use.
+struct TrackedSweep {
+  explicit TrackedSweep(GpioTrigger* trigger = nullptr, UdpPublisher* udp = nullptr, PoseLog* log = nullptr)
+      : sweep(rig), source(rig.num_cameras), loop(rig, &source, trigger, udp, log) {}
+  bool Start() {
+    NavLoopConfig c = Config();
+    c.has_initial_pose = true;
+    return source.Start() == SourceStatus::kOk && loop.Configure(c, nullptr);
+  }
+  const Rig rig = SmallRig();
+  SweepRenderer sweep;
+  InProcessSource source;
+  NavLoop loop;
+};
+
 // Issue 14 item 6: no heap after start also with every output on: the trigger pulsing a line
 // (the fake gpiod seam, its call record reserved beforehand), UDP pose and health datagrams to
 // a local socket, and the poses log. Each output is checked to have worked every frame set.
@@ -476,28 +492,22 @@ TEST(NavLoop, InitialPoseAndReloadKeepTheTrack) {
 // A lost frame set after a fix carries no pose numbers (NaN in the record, the datagram and
 // the CSV), so a reader that skips the status cannot take the last pose for a new one.
 TEST(NavLoop, ALostFrameSetPublishesNaNNotTheLastPose) {
-  const Rig rig = SmallRig();
-  SweepRenderer sweep(rig);
-  InProcessSource source(rig.num_cameras);
-  ASSERT_EQ(source.Start(), SourceStatus::kOk);
   const std::string path = ::testing::TempDir() + "nav_loop_lost.csv";
   PoseLog log;
   ASSERT_EQ(log.Open(path.c_str()), PublishStatus::kOk);
-  NavLoopConfig c = Config();
-  c.has_initial_pose = true;  // the sweep's start, exactly
-  NavLoop loop(rig, &source, nullptr, nullptr, &log);
-  ASSERT_TRUE(loop.Configure(c, nullptr));
-  const SweepRun run = Drive(&loop, &sweep, &source, 0, 10);
+  TrackedSweep s(nullptr, nullptr, &log);
+  ASSERT_TRUE(s.Start());
+  const SweepRun run = Drive(&s.loop, &s.sweep, &s.source, 0, 10);
   ASSERT_GT(run.fixes_3plus, 0);
   // Then every camera sees only background.
   std::vector<std::uint8_t> dark(static_cast<std::size_t>(320 * 256), 10);
-  for (int k = 0; k < rig.num_cameras; ++k) {
-    FrameView v = sweep.View(k, 1'000'000'000ull + 10 * kFrameNs, 10);
+  for (int k = 0; k < s.rig.num_cameras; ++k) {
+    FrameView v = s.sweep.View(k, 1'000'000'000ull + 10 * kFrameNs, 10);
     v.data = dark.data();
-    ASSERT_TRUE(source.Push(k, v));
+    ASSERT_TRUE(s.source.Push(k, v));
   }
   PoseRecord rec;
-  ASSERT_EQ(loop.Step(&rec), StepStatus::kOk);
+  ASSERT_EQ(s.loop.Step(&rec), StepStatus::kOk);
   EXPECT_EQ(rec.status, NavStatus::kLost);
   EXPECT_TRUE(rec.r_w_wb.array().isNaN().all());
   EXPECT_TRUE(rec.q_w_b.coeffs().array().isNaN().all());
@@ -520,14 +530,8 @@ TEST(NavLoop, ALostFrameSetPublishesNaNNotTheLastPose) {
 // clock that went back for good (three faults in a row) is taken as it is, the track seeded
 // again from the last pose.
 TEST(NavLoop, ARepeatedOrBackwardTimestampKeepsTheTrack) {
-  const Rig rig = SmallRig();
-  SweepRenderer sweep(rig);
-  InProcessSource source(rig.num_cameras);
-  ASSERT_EQ(source.Start(), SourceStatus::kOk);
-  NavLoopConfig c = Config();
-  c.has_initial_pose = true;  // the sweep's start, exactly
-  NavLoop loop(rig, &source, nullptr, nullptr, nullptr);
-  ASSERT_TRUE(loop.Configure(c, nullptr));
+  TrackedSweep s;
+  ASSERT_TRUE(s.Start());
   // Frame set n's stamp: n periods on, except a repeat (20), one step back (30), and from 40
   // on a clock 10 s behind.
   const auto stamp = [](int n) -> std::uint64_t {
@@ -540,14 +544,14 @@ TEST(NavLoop, ARepeatedOrBackwardTimestampKeepsTheTrack) {
   int wrong = 0, sets_3plus = 0, posed_3plus = 0;
   std::uint64_t last_t = 0;
   for (int n = 0; n < 70; ++n) {
-    const int visible = sweep.Render(n);
-    for (int k = 0; k < rig.num_cameras; ++k) ASSERT_TRUE(source.Push(k, sweep.View(k, stamp(n), static_cast<std::uint32_t>(n))));
-    ASSERT_EQ(loop.Step(&rec), StepStatus::kOk);
-    wrong += rec.status != NavStatus::kLost && !FixIsRight(rec, sweep.pose());
+    const int visible = s.sweep.Render(n);
+    for (int k = 0; k < s.rig.num_cameras; ++k) ASSERT_TRUE(s.source.Push(k, s.sweep.View(k, stamp(n), static_cast<std::uint32_t>(n))));
+    ASSERT_EQ(s.loop.Step(&rec), StepStatus::kOk);
+    wrong += rec.status != NavStatus::kLost && !FixIsRight(rec, s.sweep.pose());
     if (n == 20 || n == 30 || n == 40 || n == 41) {
       EXPECT_EQ(rec.reason, NavReason::kClockFault) << n;
       EXPECT_NE(rec.status, NavStatus::kFix) << n;
-      EXPECT_EQ(rec.t_capture_ns, last_t + static_cast<std::uint64_t>(c.deadline_ms * 1e6))
+      EXPECT_EQ(rec.t_capture_ns, last_t + static_cast<std::uint64_t>(Config().deadline_ms * 1e6))
           << n << ": one period after the last";
     }
     if (n != 42 && visible >= 3 && n >= 3) {  // (42: the track seeded again, see below)
@@ -556,8 +560,8 @@ TEST(NavLoop, ARepeatedOrBackwardTimestampKeepsTheTrack) {
     }
     last_t = rec.t_capture_ns;
   }
-  EXPECT_EQ(loop.counters().clock_faults, 5u);  // 20, 30, 40, 41, 42
-  EXPECT_EQ(loop.Health().clock_faults, 5u);
+  EXPECT_EQ(s.loop.counters().clock_faults, 5u);  // 20, 30, 40, 41, 42
+  EXPECT_EQ(s.loop.Health().clock_faults, 5u);
   EXPECT_EQ(wrong, 0);
   EXPECT_EQ(posed_3plus, sets_3plus) << "the track is kept through every clock fault";
 }
@@ -566,35 +570,29 @@ TEST(NavLoop, ARepeatedOrBackwardTimestampKeepsTheTrack) {
 // (its missing beacons refuted the right pose). A blank frame counts as the camera's silence
 // (health: bad_frames), so the others keep the track.
 TEST(NavLoop, ABlankFrameFromOneCameraKeepsTheTrack) {
-  const Rig rig = SmallRig();
-  SweepRenderer sweep(rig);
-  InProcessSource source(rig.num_cameras);
-  ASSERT_EQ(source.Start(), SourceStatus::kOk);
-  NavLoopConfig c = Config();
-  c.has_initial_pose = true;  // the sweep's start, exactly
-  NavLoop loop(rig, &source, nullptr, nullptr, nullptr);
-  ASSERT_TRUE(loop.Configure(c, nullptr));
+  TrackedSweep s;
+  ASSERT_TRUE(s.Start());
   std::vector<std::uint8_t> black(static_cast<std::size_t>(320 * 256), 0), white(black.size(), 255);
   PoseRecord rec;
   int wrong = 0, sets_3plus = 0, posed_3plus = 0;
   for (int n = 0; n < 60; ++n) {
-    const int visible = sweep.Render(n);
-    for (int k = 0; k < rig.num_cameras; ++k) {
-      FrameView v = sweep.View(k, 1'000'000'000ull + static_cast<std::uint64_t>(n) * kFrameNs, static_cast<std::uint32_t>(n));
+    const int visible = s.sweep.Render(n);
+    for (int k = 0; k < s.rig.num_cameras; ++k) {
+      FrameView v = s.sweep.View(k, 1'000'000'000ull + static_cast<std::uint64_t>(n) * kFrameNs, static_cast<std::uint32_t>(n));
       if (k == 0 && n == 20) v.data = black.data();
       if (k == 0 && n == 30) v.data = white.data();
-      ASSERT_TRUE(source.Push(k, v));
+      ASSERT_TRUE(s.source.Push(k, v));
     }
-    ASSERT_EQ(loop.Step(&rec), StepStatus::kOk);
-    wrong += rec.status != NavStatus::kLost && !FixIsRight(rec, sweep.pose());
+    ASSERT_EQ(s.loop.Step(&rec), StepStatus::kOk);
+    wrong += rec.status != NavStatus::kLost && !FixIsRight(rec, s.sweep.pose());
     // (In frame sets 20 and 30 the other cameras may see fewer than 3 beacons.)
     if (n >= 3 && visible >= 3 && n != 20 && n != 30) {
       ++sets_3plus;
       posed_3plus += rec.status != NavStatus::kLost;
     }
   }
-  EXPECT_EQ(loop.Health().cameras[0].bad_frames, 2u);
-  EXPECT_EQ(loop.Health().cameras[1].bad_frames, 0u);
+  EXPECT_EQ(s.loop.Health().cameras[0].bad_frames, 2u);
+  EXPECT_EQ(s.loop.Health().cameras[1].bad_frames, 0u);
   EXPECT_EQ(wrong, 0);
   EXPECT_EQ(posed_3plus, sets_3plus);
 }
