@@ -128,6 +128,26 @@ TEST(RigYaml, WrongNodeTypesNameTheFieldNotBadConversion) {
   }
 }
 
+// Found by rig_yaml_fuzz (issue 14 item 2): a NUL byte in a flow list made yaml-cpp's message
+// quote raw control characters, so the "one-line" error spanned two lines; text from the file
+// (a quoted scalar) could carry any control character too. Both are escaped now, long text cut.
+TEST(RigYaml, ErrorsStayOnOneLineWhateverTheFileHolds) {
+  const std::string head = "rig_id: r\ncameras:\n";
+  const std::string nul = ErrorOf("rig_id: [0.04" + std::string(1, '\0') + "\n0.09]\ncameras: []\n");
+  EXPECT_EQ(nul.rfind("rig.yaml:", 0), 0u) << nul;
+  EXPECT_EQ(nul.find('\n'), std::string::npos) << nul;
+  EXPECT_EQ(nul.find('\0'), std::string::npos) << nul;
+  std::string cam = kCam;
+  cam.replace(cam.find("width: 1280"), 11, "width: \"12\\t\\u0001x\"");
+  EXPECT_EQ(ErrorOf(head + cam), "rig.yaml:3: cameras[0].width: expected an integer");
+  std::string number = kCam;
+  number.replace(number.find("r_b_bk_mm: [0, 0, 0]"), 20, "r_b_bk_mm: [0, \"" + std::string(500, 'y') + "\\x01\", 0]");
+  const std::string e = ErrorOf(head + number);
+  EXPECT_EQ(e.rfind("rig.yaml:3: cameras[0].r_b_bk_mm[1]: expected a number, got 'yyy", 0), 0u) << e;
+  EXPECT_LT(e.size(), 320u);
+  EXPECT_EQ(e.substr(e.size() - 3), "...");
+}
+
 // Issue 14, defect 6: finite but absurd numbers (1e300) and repeated beacons are refused with
 // the file, the line and the field (ranges: common/limits.h, README "Rig file").
 TEST(RigYaml, AbsurdValuesAndRepeatedBeaconsNameTheField) {

@@ -10,7 +10,7 @@ void YamlCtx::Fail(const YAML::Node& node, const std::string& what) const {
   std::ostringstream ss;
   ss << source;
   if (node.IsDefined() && node.Mark().line >= 0) ss << ":" << node.Mark().line + 1;
-  ss << ": " << (field.empty() ? "" : field + ": ") << what;
+  ss << ": " << (field.empty() ? "" : field + ": ") << OneLine(what);
   throw UserError(ss.str());
 }
 
@@ -24,8 +24,28 @@ YAML::Node LoadYaml(const std::string& text, const std::string& source) {
   try {
     return YAML::Load(text);
   } catch (const YAML::Exception& e) {
-    throw UserError(source + ":" + std::to_string(e.mark.line + 1) + ": not valid YAML: " + e.msg);
+    throw UserError(source + ":" + std::to_string(e.mark.line + 1) + ": not valid YAML: " + OneLine(e.msg));
   }
+}
+
+std::string OneLine(const std::string& text) {
+  constexpr std::size_t kMaxChars = 240;
+  std::string out;
+  for (const char ch : text) {
+    if (out.size() >= kMaxChars) return out + "...";
+    const auto c = static_cast<unsigned char>(ch);
+    if (c == '\n') {
+      out += "\\n";
+    } else if (c < 0x20 || c == 0x7f) {
+      constexpr char kHex[] = "0123456789abcdef";
+      out += "\\x";
+      out += kHex[c >> 4];
+      out += kHex[c & 15];
+    } else {
+      out += ch;
+    }
+  }
+  return out;
 }
 
 bool Has(const YAML::Node& map, const char* key) {

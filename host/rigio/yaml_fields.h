@@ -24,6 +24,11 @@ struct YamlCtx {
 // Parses text; a syntax error becomes a UserError with the line.
 YAML::Node LoadYaml(const std::string& text, const std::string& source);
 
+// Text from the file (a scalar, yaml-cpp's message quoting it) made fit for a one-line error:
+// control characters escaped (a newline as \n, others as \xHH), cut after 240 characters with
+// "...". (Found by rig_yaml_fuzz: "unknown escape character" quoted a raw newline.)
+std::string OneLine(const std::string& text);
+
 bool Has(const YAML::Node& map, const char* key);  // defined and not null
 YAML::Node Require(const YAML::Node& map, const char* key, const YamlCtx& ctx);
 double Number(const YAML::Node& n, const YamlCtx& ctx);  // finite
@@ -54,7 +59,7 @@ auto CatchYamlErrors(const std::string& source, F&& parse) -> decltype(parse()) 
   try {
     return parse();
   } catch (const YAML::Exception& e) {
-    throw UserError(source + ":" + std::to_string(e.mark.line + 1) + ": " + e.msg);
+    throw UserError(source + ":" + std::to_string(e.mark.line + 1) + ": " + OneLine(e.msg));
   }
 }
 

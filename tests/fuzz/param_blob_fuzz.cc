@@ -14,23 +14,8 @@
 #include <span>
 
 #include "common/blob/param_blob.h"
+#include "tests/fuzz/blob_repair.h"
 
-namespace {
-
-void PutLe(std::uint8_t* p, std::uint32_t v, int n) {
-  for (int i = 0; i < n; ++i) p[i] = static_cast<std::uint8_t>(v >> (8 * i));
-}
-
-// Header offsets from common/blob/README.md.
-void RepairBlob(std::span<std::uint8_t> b) {
-  if (b.size() < mfns::kBlobHeaderBytes) return;
-  const auto payload = b.subspan(mfns::kBlobHeaderBytes);
-  PutLe(&b[14], static_cast<std::uint32_t>(payload.size() & 0xFFFF), 2);
-  PutLe(&b[56], mfns::Crc32(payload), 4);
-  PutLe(&b[60], mfns::Crc32(b.first(60)), 4);
-}
-
-}  // namespace
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   if (size == 0) return 0;
@@ -38,7 +23,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   const std::size_t n = size - 1 < input.size() ? size - 1 : input.size();
   std::memcpy(input.data(), data + 1, n);
   const std::span<std::uint8_t> blob(input.data(), n);
-  if ((data[0] & 1u) != 0) RepairBlob(blob);
+  if ((data[0] & 1u) != 0) mfns::fuzz::RepairBlob(blob);
 
   mfns::Rig rig;
   mfns::BlobInfo info;

@@ -4,8 +4,6 @@
 #include <bit>
 #include <cmath>
 #include <limits>
-#include <cstdio>
-#include <cstdlib>
 
 #include "common/rotation/rotation.h"
 
@@ -491,14 +489,7 @@ LostInSpace::SearchEnd LostInSpace::Search(int budget, LisResult* res) {
           ++res->work;
           ++res->hypotheses;
           TryTriple(a, b, c, res);
-          if (res->confirmed) {
-            if (std::getenv("LIS_DEBUG") && prior_ == nullptr) {
-              long n = 0, pos = 0;
-              for (int x = 0; x < nb; ++x) { const BeaconSet& bs2 = fij[x]; for (int y = bs2.First(); y >= 0; y = bs2.Next(y + 1)) { int cnt = (fik[x] & fjk[y]).Count(); if (x < a || (x == a && y < b)) pos += cnt; n += cnt; } }
-              std::fprintf(stderr, "found item %d of %d group %d near %d feasible %ld pos %ld work %d sel %d nb %d\n", cur_.item, num_items_, item.group, item.near, n, pos, res->work, num_sel_, nb);
-            }
-            return SearchEnd::kDone;
-          }
+          if (res->confirmed) return SearchEnd::kDone;
         }
       }
     }
