@@ -41,6 +41,10 @@ Eigen::Matrix3d ReadRotation(const YAML::Node& cam, const YamlCtx& ctx) {
     Eigen::Matrix3d Cm;
     Cm << m[0], m[1], m[2], m[3], m[4], m[5], m[6], m[7], m[8];
     if (!IsRotation(Cm, 1e-6)) ctx.Sub("C_k_b").Fail(c_node, "not a rotation matrix (orthonormal, det +1)");
+    // Kept as the nearest exact rotation: the writer derives euler_deg from it, and near the
+    // 2-1-3 set's singularity (phi = +-90 deg) a matrix 1e-7 off orthonormal gave angles that
+    // the reader then refused as disagreeing with C_k_b (found by rig_yaml_fuzz).
+    Cm = NearestRotation(Cm);
     if (has_e) {
       const double diff = LogSO3(Cm * C.transpose()).norm();
       if (diff > 1e-6)

@@ -148,6 +148,24 @@ TEST(RigYaml, ErrorsStayOnOneLineWhateverTheFileHolds) {
   EXPECT_EQ(e.substr(e.size() - 3), "...");
 }
 
+// Found by rig_yaml_fuzz: a C_k_b near the 2-1-3 set's singularity (the paper's camera y, one
+// element 4e-8 off) was kept as read, 1e-7 off orthonormal; the writer's euler_deg from it then
+// disagreed with it by 0.0008 deg and the file it wrote was refused on reading. The reader keeps
+// the nearest rotation, so what it writes it reads back.
+TEST(RigYaml, WhatItWritesItReadsBackNearTheEulerSingularity) {
+  const std::string yaml =
+      "rig_id: r\ncameras:\n  - {name: y, width: 1280, height: 1024, intrinsics: [1600, 1600, 0, 640, 512], "
+      "distortion: [0, 0, 0, 0, 0], r_b_bk_mm: [0, 0, 0], C_k_b: [0.999916009944187, -9.59328531735502e-06, "
+      "0.0129604384673377, -0.0129604130246433, -0.00285533866069538, 0.999911933489827, 2.74540005451568e-05, "
+      "-0.999995923466242, -0.00285522317358188]}\n";
+  const Rig rig = ParseRigYaml(yaml, "rig.yaml");
+  EXPECT_TRUE(IsRotation(rig.cameras[0].C_k_b, 1e-12));
+  const std::string written = FormatRigYaml(rig);
+  Rig again;
+  ASSERT_NO_THROW(again = ParseRigYaml(written, "written.yaml")) << written;
+  EXPECT_LT(LogSO3(again.cameras[0].C_k_b * rig.cameras[0].C_k_b.transpose()).norm(), 1e-12);
+}
+
 // Issue 14, defect 6: finite but absurd numbers (1e300) and repeated beacons are refused with
 // the file, the line and the field (ranges: common/limits.h, README "Rig file").
 TEST(RigYaml, AbsurdValuesAndRepeatedBeaconsNameTheField) {

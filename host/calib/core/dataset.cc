@@ -216,7 +216,7 @@ CalibrationTarget ParseTargetSpec(const std::string& spec) {
   std::istringstream in(spec);
   while (std::getline(in, part, ':')) parts.push_back(part);
   const auto bad = [&](const std::string& why) -> UserError {
-    return UserError("--target \"" + spec + "\": " + why +
+    return UserError("--target \"" + OneLine(spec) + "\": " + OneLine(why) +
                      " (expected checkerboard:COLSxROWS:SQUARE_MM or aprilgrid:COLSxROWS:TAG_MM:SPACING[:FIRST_ID])");
   };
   if (parts.size() < 3) throw bad("too few fields");

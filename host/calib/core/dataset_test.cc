@@ -114,6 +114,10 @@ TEST(TargetSpec, OutOfBoundsFieldsAreNamedNotOverflowed) {
     EXPECT_NE(what.find(std::string(": ") + c.field + ": "), std::string::npos) << c.spec << ": " << what;
     EXPECT_EQ(what.find('\n'), std::string::npos) << what;
   }
+  // Found by calib_dataset_fuzz: a spec holding a newline was echoed raw, a two-line error.
+  const std::string two_lines = SpecError("aprilgrid:6x6\n:10:0.3");
+  EXPECT_EQ(two_lines.find('\n'), std::string::npos) << two_lines;
+  EXPECT_NE(two_lines.find("--target \"aprilgrid:6x6\\n:10:0.3\""), std::string::npos) << two_lines;
   // The largest legal grids still work.
   EXPECT_EQ(ParseTargetSpec("aprilgrid:1x587:10:0.3").corners().size(), 4u * 587u);
   EXPECT_EQ(ParseTargetSpec("aprilgrid:1x1:10:0.3:586").corners().size(), 4u);

@@ -25,7 +25,13 @@ Rig ReadRigField(const YAML::Node& root, const YamlCtx& ctx, const std::filesyst
   const std::string name = String(root["rig"], ctx.Sub("rig"));
   if (name == "paper") return PaperRig();
   const std::filesystem::path path = std::filesystem::path(name).is_absolute() ? std::filesystem::path(name) : base_dir / name;
-  return ReadRigYaml(path);
+  // The rig file's own error (missing, or its file:line: field) behind the scenario's line, so
+  // that the user sees which scenario named it.
+  try {
+    return ReadRigYaml(path);
+  } catch (const UserError& e) {
+    ctx.Sub("rig").Fail(root["rig"], e.what());
+  }
 }
 
 void ReadModule(const YAML::Node& n, const YamlCtx& ctx, StationModule* m) {

@@ -108,7 +108,7 @@ TEST(Scenario, ErrorsNameTheField) {
   EXPECT_EQ(ErrorOf("trajectory: {kind: spin}\n"), "s.yaml:1: trajectory.kind: expected static, turntable, free-flight or wander, got 'spin'");
   EXPECT_EQ(ErrorOf("errors:\n  beacon_map: {sigma_mm: -1}\n"), "s.yaml:2: errors.beacon_map.sigma_mm: must not be negative");
   EXPECT_EQ(ErrorOf("clutter: {stop_camera: w}\n"), "s.yaml:1: clutter.stop_camera: no camera named 'w' in the rig");
-  EXPECT_EQ(ErrorOf("rig: missing.yaml\n"), "./missing.yaml: no such file");
+  EXPECT_EQ(ErrorOf("rig: missing.yaml\n"), "s.yaml:1: rig: ./missing.yaml: no such file");
 }
 
 // Issue 14, defect 10: a key that is a list, or a t0_ns that is not an integer, is named with
