@@ -566,6 +566,43 @@ TEST(NavLoop, ARepeatedOrBackwardTimestampKeepsTheTrack) {
   EXPECT_EQ(posed_3plus, sets_3plus) << "the track is kept through every clock fault";
 }
 
+// Found by the soak (docs/reliability.md): after a repeated stamp the driver clock stays one
+// period behind (every later stamp one period early). CheckClock kept those frame sets 1 ns
+// after its estimate, so the navigator saw no motion across one frame set and lost the track
+// (~5 frame sets). Now the first good stamp after the fault is compared with the frame sets
+// since the last good one and the missing period is carried as a clock offset: only the
+// repeat is a clock fault, every later frame set is a fix stamped one period after the last.
+TEST(NavLoop, AClockThatStaysOnePeriodBehindAfterARepeatKeepsTheTrack) {
+  TrackedSweep s;
+  ASSERT_TRUE(s.Start());
+  const auto stamp = [](int n) -> std::uint64_t {
+    const int periods = n >= 20 ? n - 1 : n;  // 20 repeats 19's stamp, the clock stays behind
+    return 20'000'000'000ull + static_cast<std::uint64_t>(periods) * kFrameNs;
+  };
+  PoseRecord rec;
+  int wrong = 0, sets_3plus = 0, fixes_3plus = 0;
+  std::uint64_t last_t = 0;
+  for (int n = 0; n < 60; ++n) {
+    const int visible = s.sweep.Render(n);
+    for (int k = 0; k < s.rig.num_cameras; ++k) ASSERT_TRUE(s.source.Push(k, s.sweep.View(k, stamp(n), static_cast<std::uint32_t>(n))));
+    ASSERT_EQ(s.loop.Step(&rec), StepStatus::kOk);
+    wrong += rec.status != NavStatus::kLost && !FixIsRight(rec, s.sweep.pose());
+    if (n > 20) {
+      const double dt_ms = static_cast<double>(rec.t_capture_ns - last_t) * 1e-6;
+      EXPECT_NEAR(dt_ms, kFrameNs * 1e-6, 0.1) << n << ": one period after the last frame set";
+    }
+    if (n >= 3 && n != 20 && visible >= 3) {  // (20: the repeat itself, degraded)
+      ++sets_3plus;
+      fixes_3plus += rec.status == NavStatus::kFix;
+    }
+    last_t = rec.t_capture_ns;
+  }
+  EXPECT_EQ(s.loop.counters().clock_faults, 1u);
+  EXPECT_EQ(s.loop.counters().clock_offsets, 1u);
+  EXPECT_EQ(wrong, 0);
+  EXPECT_EQ(fixes_3plus, sets_3plus) << "the track is kept: a fix in every frame set with >= 3 beacons";
+}
+
 // Issue 14 defect 8: one all-zero or all-white frame from one camera lost the track for ~1.2 s
 // (its missing beacons refuted the right pose). A blank frame counts as the camera's silence
 // (health: bad_frames), so the others keep the track.
