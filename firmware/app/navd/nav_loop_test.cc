@@ -194,6 +194,15 @@ struct TrackedSweep {
     c.has_initial_pose = true;
     return source.Start() == SourceStatus::kOk && loop.Configure(c, nullptr);
   }
+  // Frame set n of the sweep, every camera stamped t_ns, through the loop into *rec; counts a
+  // wrong pose in *wrong and returns the beacons in view.
+  int StepStamped(int n, std::uint64_t t_ns, PoseRecord* rec, int* wrong) {
+    const int visible = sweep.Render(n);
+    for (int k = 0; k < rig.num_cameras; ++k) EXPECT_TRUE(source.Push(k, sweep.View(k, t_ns, static_cast<std::uint32_t>(n))));
+    EXPECT_EQ(loop.Step(rec), StepStatus::kOk);
+    *wrong += rec->status != NavStatus::kLost && !FixIsRight(*rec, sweep.pose());
+    return visible;
+  }
   const Rig rig = SmallRig();
   SweepRenderer sweep;
   InProcessSource source;
@@ -333,8 +342,8 @@ TEST(NavLoop, SoakWithFaultsAndEveryOutput) {
     const int visible = sweep.Render(n);
     const SoakFaults f = FaultsAt(n);
     // A repeated stamp: this frame set carries the previous one's (the stamps after it are
-    // right again; a clock that stays one period behind is not covered yet, see
-    // docs/reliability.md).
+    // right again; a clock that stays one period behind after it:
+    // AClockThatStaysOnePeriodBehindAfterARepeatKeepsTheTrack).
     t += kFrameNs;
     const std::uint64_t stamp = f.repeat_time && n > 0 ? t - kFrameNs : t;
     injected_repeat += f.repeat_time && n > 0;
@@ -544,10 +553,7 @@ TEST(NavLoop, ARepeatedOrBackwardTimestampKeepsTheTrack) {
   int wrong = 0, sets_3plus = 0, posed_3plus = 0;
   std::uint64_t last_t = 0;
   for (int n = 0; n < 70; ++n) {
-    const int visible = s.sweep.Render(n);
-    for (int k = 0; k < s.rig.num_cameras; ++k) ASSERT_TRUE(s.source.Push(k, s.sweep.View(k, stamp(n), static_cast<std::uint32_t>(n))));
-    ASSERT_EQ(s.loop.Step(&rec), StepStatus::kOk);
-    wrong += rec.status != NavStatus::kLost && !FixIsRight(rec, s.sweep.pose());
+    const int visible = s.StepStamped(n, stamp(n), &rec, &wrong);
     if (n == 20 || n == 30 || n == 40 || n == 41) {
       EXPECT_EQ(rec.reason, NavReason::kClockFault) << n;
       EXPECT_NE(rec.status, NavStatus::kFix) << n;
@@ -583,10 +589,7 @@ TEST(NavLoop, AClockThatStaysOnePeriodBehindAfterARepeatKeepsTheTrack) {
   int wrong = 0, sets_3plus = 0, fixes_3plus = 0;
   std::uint64_t last_t = 0;
   for (int n = 0; n < 60; ++n) {
-    const int visible = s.sweep.Render(n);
-    for (int k = 0; k < s.rig.num_cameras; ++k) ASSERT_TRUE(s.source.Push(k, s.sweep.View(k, stamp(n), static_cast<std::uint32_t>(n))));
-    ASSERT_EQ(s.loop.Step(&rec), StepStatus::kOk);
-    wrong += rec.status != NavStatus::kLost && !FixIsRight(rec, s.sweep.pose());
+    const int visible = s.StepStamped(n, stamp(n), &rec, &wrong);
     if (n > 20) {
       const double dt_ms = static_cast<double>(rec.t_capture_ns - last_t) * 1e-6;
       EXPECT_NEAR(dt_ms, kFrameNs * 1e-6, 0.1) << n << ": one period after the last frame set";
