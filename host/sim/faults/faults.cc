@@ -244,9 +244,9 @@ int Rank(fw::NavStatus s) { return s == fw::NavStatus::kFix ? 0 : s == fw::NavSt
 
 }  // namespace
 
-std::string FaultSpec::Describe() const {
+std::string FaultSpec::Describe(const std::string& camera_name) const {
   const std::string span = "frame sets " + std::to_string(first) + "-" + std::to_string(last);
-  const std::string cam = "camera " + std::to_string(camera);
+  const std::string cam = "camera " + camera_name;
   char jump[32];
   std::snprintf(jump, sizeof(jump), "%.1f s", jump_s);
   switch (kind) {
@@ -337,6 +337,7 @@ FaultCampaign RunFaultCampaign(const FaultRunOptions& o, const std::vector<Fault
   const std::vector<FrameTruth> truth = SimulateTrajectory(s);
   FaultCampaign c;
   c.period_s = 1.0 / s.frame_rate_hz;
+  for (int k = 0; k < s.rig.num_cameras; ++k) c.camera_names.emplace_back(s.rig.cameras[static_cast<std::size_t>(k)].name.data());
   const FrameImages base = RenderAll(s, truth, progress);
   c.baseline = RunFault(s, truth, base, nullptr, FaultSpec{"baseline"}, o.known_start);
   if (cold) {

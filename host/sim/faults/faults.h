@@ -54,7 +54,7 @@ struct FaultSpec {
   int camera = 1;
   int first = 0, last = 0;  // frame sets, inclusive
   double jump_s = 0.0;
-  std::string Describe() const;  // one line for the table
+  std::string Describe(const std::string& camera_name) const;  // one line for the table
 };
 
 struct FaultRunOptions {
@@ -115,6 +115,7 @@ struct FaultCampaign {
   std::vector<FaultResult> results;
   int cold_first_fix = -1;  // the baseline without a start pose: first fix (frame set)
   double period_s = 0.0;
+  std::vector<std::string> camera_names;  // by index
 };
 FaultCampaign RunFaultCampaign(const FaultRunOptions& o, const std::vector<FaultSpec>& faults, bool cold,
                                const std::function<void(const std::string&)>& progress);

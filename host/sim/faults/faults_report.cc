@@ -46,7 +46,7 @@ std::string FormatFaultTable(const FaultCampaign& c) {
   o << "| fault | injected | degraded vs baseline | lost vs baseline | recovery: frame sets to the next fix (s) | wrong fixes | wrong degraded | health reported (vs baseline) |\n";
   o << "|---|---|---|---|---|---|---|---|\n";
   for (const FaultResult& r : c.results)
-    o << "| " << r.run.fault.name << " | " << r.run.fault.Describe() << " | " << r.degraded_vs_baseline << " | "
+    o << "| " << r.run.fault.name << " | " << r.run.fault.Describe(c.camera_names.at(static_cast<std::size_t>(r.run.fault.camera))) << " | " << r.degraded_vs_baseline << " | "
       << r.lost_vs_baseline << " | " << Recovery(r, c.period_s) << " | " << r.wrong_fixes << " | " << r.wrong_degraded
       << " | " << HealthMoved(r) << " |\n";
   return o.str();
