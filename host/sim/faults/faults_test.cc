@@ -11,18 +11,16 @@ namespace {
 
 // The campaign, reduced: the shrunk station-box preset (320 x 256), faults from frame set 30
 // (stall 20 frame sets, reflections and occlusion 37), fewer frame sets under the sanitizers.
-const FaultCampaign& Campaign() {
-  static const FaultCampaign c = [] {
-    FaultRunOptions o;
-    o.frames = fw::testing::Trials(90, 80);
-    o.fault_at = 30;
-    return RunFaultCampaign(o, IssueFaults(o), false, [](const std::string& line) { std::fprintf(stderr, "%s\n", line.c_str()); });
-  }();
-  return c;
+// Run once (one test: ctest runs each gtest test in its own process) and checked below.
+FaultCampaign ReducedCampaign() {
+  FaultRunOptions o;
+  o.frames = fw::testing::Trials(90, 80);
+  o.fault_at = 30;
+  return RunFaultCampaign(o, IssueFaults(o), false, [](const std::string& line) { std::fprintf(stderr, "%s\n", line.c_str()); });
 }
 
-const FaultResult& Result(const std::string& name) {
-  for (const FaultResult& r : Campaign().results)
+const FaultResult& Result(const FaultCampaign& c, const std::string& name) {
+  for (const FaultResult& r : c.results)
     if (r.run.fault.name == name) return r;
   static const FaultResult none;
   ADD_FAILURE() << "no fault " << name;
@@ -36,17 +34,19 @@ const FaultResult& Result(const std::string& name) {
 // stepped 1 s forward; 0-2 for the others).
 constexpr int kRetryEvery = 19, kSettle = 10, kAfterClockStep = 20;
 
-TEST(Faults, NoFaultEverGivesAWrongFix) {
-  std::printf("%s", FormatFaultTable(Campaign()).c_str());
-  ASSERT_EQ(Campaign().results.size(), IssueFaults(FaultRunOptions{}).size());
-  for (const FaultResult& r : Campaign().results) EXPECT_EQ(r.wrong_fixes, 0) << r.run.fault.name;
+// 0 wrong fixes in every fault; the baseline fixes.
+void CheckNoWrongFix(const FaultCampaign& c) {
+  std::printf("%s", FormatFaultTable(c).c_str());
+  ASSERT_EQ(c.results.size(), IssueFaults(FaultRunOptions{}).size());
+  for (const FaultResult& r : c.results) EXPECT_EQ(r.wrong_fixes, 0) << r.run.fault.name;
   int base_fixes = 0;
-  for (const FaultFrame& f : Campaign().baseline.frames) base_fixes += f.status == fw::NavStatus::kFix;
-  EXPECT_GE(base_fixes, static_cast<int>(Campaign().baseline.frames.size()) * 8 / 10) << "the baseline navigates";
+  for (const FaultFrame& f : c.baseline.frames) base_fixes += f.status == fw::NavStatus::kFix;
+  EXPECT_GE(base_fixes, static_cast<int>(c.baseline.frames.size()) * 8 / 10) << "the baseline navigates";
 }
 
-TEST(Faults, ACameraStalledIsSetAsideAndBackWithinARetryPeriod) {
-  const FaultResult& r = Result("stall");
+// A stalled camera: timeouts counted, set aside, back, the next fix within a retry period.
+void CheckStall(const FaultCampaign& c) {
+  const FaultResult& r = Result(c, "stall");
   EXPECT_GE(r.Moved("y.timeouts"), 3);
   EXPECT_GE(r.Moved("y.set_asides"), 1);
   EXPECT_GE(r.recovery_sets, 0);
@@ -54,8 +54,9 @@ TEST(Faults, ACameraStalledIsSetAsideAndBackWithinARetryPeriod) {
   EXPECT_EQ(r.Moved("y.set_aside_at_end"), 0) << "back";
 }
 
-TEST(Faults, AnUnpluggedCameraIsCountedAndTheOthersGoOn) {
-  const FaultResult& r = Result("unplug");
+// An unplugged camera: errors counted, set aside at the end; the others go on.
+void CheckUnplug(const FaultCampaign& c) {
+  const FaultResult& r = Result(c, "unplug");
   EXPECT_GE(r.Moved("y.errors"), 3);
   EXPECT_GE(r.Moved("y.set_asides"), 1);
   EXPECT_EQ(r.Moved("y.set_aside_at_end"), 1);
@@ -64,9 +65,10 @@ TEST(Faults, AnUnpluggedCameraIsCountedAndTheOthersGoOn) {
   EXPECT_GT(posed_after, 0) << "cameras x and z still navigate";
 }
 
-TEST(Faults, CorruptFramesAreCountedAndRecoveredAtOnce) {
+// Zero and white frames: bad_frames +3 (the injected 3); the track back at once.
+void CheckCorruptFrames(const FaultCampaign& c) {
   for (const char* name : {"zero-frames", "white-frames"}) {
-    const FaultResult& r = Result(name);
+    const FaultResult& r = Result(c, name);
     EXPECT_EQ(r.Moved("x.bad_frames"), 3) << name << ": the three blank frames";
     EXPECT_GE(r.recovery_sets, 0) << name;
     EXPECT_LE(r.recovery_sets, kSettle) << name;
@@ -74,39 +76,53 @@ TEST(Faults, CorruptFramesAreCountedAndRecoveredAtOnce) {
   // A frame cut short with the rest zero is not blank: nothing counts it (the V4L2 driver
   // counts a short bytesused, firmware/drivers/v4l2); the beacons missing from its lower half
   // lose the track for a while, never with a wrong fix.
-  const FaultResult& cut = Result("truncated-frames");
+  const FaultResult& cut = Result(c, "truncated-frames");
   EXPECT_EQ(cut.wrong_fixes, 0);
   EXPECT_GE(cut.recovery_sets, 0);
   EXPECT_LE(cut.recovery_sets, kSettle);
 }
 
-TEST(Faults, ReflectionsAndAnOcclusionRecover) {
+// Reflections and an occlusion: the next fix within kSettle.
+void CheckSceneFaults(const FaultCampaign& c) {
   for (const char* name : {"reflections", "occlusion"}) {
-    const FaultResult& r = Result(name);
+    const FaultResult& r = Result(c, name);
     EXPECT_GE(r.recovery_sets, 0) << name;
     EXPECT_LE(r.recovery_sets, kSettle) << name;
   }
 }
 
-TEST(Faults, ClockJumpsAreCountedAndTheTrackKept) {
-  const FaultResult& repeat = Result("time-repeat");
+// Clock faults counted as injected; the track kept or back within the bounds.
+void CheckClockJumps(const FaultCampaign& c) {
+  const FaultResult& repeat = Result(c, "time-repeat");
   EXPECT_EQ(repeat.Moved("clock_faults"), 1);
   EXPECT_EQ(repeat.Moved("clock_offsets"), 1);
   EXPECT_EQ(repeat.recovery_sets, 0);
-  const FaultResult& back = Result("time-backward");
+  const FaultResult& back = Result(c, "time-backward");
   EXPECT_EQ(back.Moved("clock_faults"), 3) << "three in a row, then the clock is taken as it is";
   EXPECT_GE(back.recovery_sets, 0);
   EXPECT_LE(back.recovery_sets, kSettle);
-  const FaultResult& forward = Result("time-forward");
+  const FaultResult& forward = Result(c, "time-forward");
   EXPECT_EQ(forward.Moved("clock_faults"), 0) << "a forward step is not told from dropped frames";
   EXPECT_GE(forward.recovery_sets, 0);
   EXPECT_LE(forward.recovery_sets, kAfterClockStep);
 }
 
-TEST(Faults, AWrongRigReloadIsRefusedAndChangesNothing) {
-  const FaultResult& r = Result("wrong-rig-reload");
+// A wrong-rig reload: refused with the loader's reason, no frame set affected.
+void CheckWrongRigReload(const FaultCampaign& c) {
+  const FaultResult& r = Result(c, "wrong-rig-reload");
   EXPECT_EQ(r.run.reload_said.rfind("refused", 0), 0u) << r.run.reload_said;
   EXPECT_EQ(r.degraded_vs_baseline + r.lost_vs_baseline, 0);
+}
+
+TEST(Faults, EveryFaultOfTheIssueThroughNavLoop) {
+  const FaultCampaign c = ReducedCampaign();
+  CheckNoWrongFix(c);
+  CheckStall(c);
+  CheckUnplug(c);
+  CheckCorruptFrames(c);
+  CheckSceneFaults(c);
+  CheckClockJumps(c);
+  CheckWrongRigReload(c);
 }
 
 }  // namespace
