@@ -109,7 +109,8 @@ class NavLoop {
   std::uint64_t last_t_capture_ns_ = 0;  // stamp given to the last frame set with a frame
   std::uint64_t last_driver_t_ns_ = 0;   // the last good driver stamp (0: none yet)
   int consecutive_clock_faults_ = 0;
-  std::uint64_t sets_since_good_stamp_ = 0;  // clock faults since the last good driver stamp
+  std::uint64_t good_stamp_frame_set_ = 0;   // frame set index of the last good driver stamp
+  bool fault_since_good_stamp_ = false;
   std::uint64_t clock_offset_ns_ = 0;        // added to driver stamps: periods the clock lost
   std::uint32_t pose_sequence_ = 0, health_sequence_ = 0;
   std::array<std::uint8_t, kPoseMessageBytes> pose_bytes_{};
