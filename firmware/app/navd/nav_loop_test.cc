@@ -575,9 +575,10 @@ TEST(NavLoop, ARepeatedOrBackwardTimestampKeepsTheTrack) {
 // Found by the soak (docs/reliability.md): after a repeated stamp the driver clock stays one
 // period behind (every later stamp one period early). CheckClock kept those frame sets 1 ns
 // after its estimate, so the navigator saw no motion across one frame set and lost the track
-// (22 of 56 frame sets here before the fix). Now the first good stamp after the fault is compared with the frame sets
-// since the last good one and the missing period is carried as a clock offset: only the
-// repeat is a clock fault, every later frame set is a fix stamped one period after the last.
+// (22 of 56 frame sets here before the fix). Now the first good stamp after the fault is
+// compared with the frame sets since the last good one and the missing period is carried as
+// a clock offset: only the repeat is a clock fault, every later frame set is a fix stamped one
+// period after the last.
 //
 // silent_after: frame set 21, right after the repeat, delivers no frame at all (every camera
 // times out); its time passed all the same, so the periods are counted by frame-set index.
