@@ -2,9 +2,13 @@
 
 #include <gtest/gtest.h>
 
+#include <CLI/CLI.hpp>
+#include <algorithm>
 #include <cstdio>
+#include <filesystem>
 
 #include "firmware/modules/solve/synthetic_scene.h"
+#include "host/util/atomic_file.h"
 
 namespace mfns::host {
 namespace {
@@ -123,6 +127,26 @@ TEST(Faults, EveryFaultOfTheIssueThroughNavLoop) {
   CheckSceneFaults(c);
   CheckClockJumps(c);
   CheckWrongRigReload(c);
+}
+
+// `mfns-sim faults`: the table and one figure per chosen fault, nothing else left in --out (no
+// temp file); an unknown fault name is a user error (one line, exit 1 in mfns-sim).
+TEST(Faults, TheCommandWritesTheTableAndOneFigurePerFault) {
+  namespace fs = std::filesystem;
+  const fs::path dir = fs::path(::testing::TempDir()) / "mfns_faults_command";
+  fs::remove_all(dir);
+  CLI::App app;
+  AddFaultsCommand(app);
+  app.parse("faults --out " + dir.string() + " --only zero-frames,time-repeat --frames 30 --fault-at 10", false);
+  std::vector<std::string> names;
+  for (const auto& e : fs::directory_iterator(dir)) names.push_back(e.path().filename().string());
+  std::sort(names.begin(), names.end());
+  EXPECT_EQ(names, (std::vector<std::string>{"fault-time-repeat.svg", "fault-zero-frames.svg", "faults.md"}));
+  EXPECT_NE(ReadFile(dir / "faults.md").find("| zero-frames | camera x all-zero frames, frame sets 10-12 |"), std::string::npos);
+  CLI::App bad;
+  AddFaultsCommand(bad);
+  EXPECT_THROW(bad.parse("faults --out " + dir.string() + " --only no-such-fault", false), UserError);
+  fs::remove_all(dir);
 }
 
 }  // namespace
