@@ -218,14 +218,39 @@ bool NavLoop::CheckClock(std::uint64_t* t_capture_ns) {
     BodyPose last;
     if (navigator_.LastPose(&last)) navigator_.SetInitialPose(last, config_.reload_sigma_m, config_.reload_sigma_rad);
     last_driver_t_ns_ = driver_t;
+    good_stamp_frame_set_ = counters_.frame_sets;
+    fault_since_good_stamp_ = false;
+    clock_offset_ns_ = 0;  // a new clock: nothing owed to the old one
   } else if (fault) {
     *t_capture_ns = last_t_capture_ns_ + static_cast<std::uint64_t>(config_.deadline_ms * 1e6);
+    fault_since_good_stamp_ = true;
   } else {
+    if (fault_since_good_stamp_) CarryMissingPeriods(driver_t);
     last_driver_t_ns_ = driver_t;
-    if (driver_t <= last_t_capture_ns_) *t_capture_ns = last_t_capture_ns_ + 1;
+    good_stamp_frame_set_ = counters_.frame_sets;
+    fault_since_good_stamp_ = false;
+    *t_capture_ns = driver_t + clock_offset_ns_;
+    if (*t_capture_ns <= last_t_capture_ns_) *t_capture_ns = last_t_capture_ns_ + 1;
   }
   last_t_capture_ns_ = *t_capture_ns;
   return fault;
+}
+
+// The first good stamp after clock faults: a clock that repeated a stamp and stays behind
+// (every later stamp whole periods early) shows as less time since the last good stamp than
+// the frame sets since. Kept as it is, the frame set after the fault would be stamped right
+// after the fault's estimate, no motion across it, and the track lost (found by the soak). The
+// missing whole periods are carried from now on as a clock offset. Frame sets are counted by
+// index, so one in which no camera delivered still counts (its time passed). More time than
+// frame sets (frames dropped meanwhile) is real time and changes nothing.
+void NavLoop::CarryMissingPeriods(std::uint64_t driver_t_ns) {
+  const double period_ns = config_.deadline_ms * 1e6;
+  const double expected_ns = static_cast<double>(counters_.frame_sets - good_stamp_frame_set_) * period_ns;
+  const double elapsed_ns = static_cast<double>(driver_t_ns - last_driver_t_ns_);
+  const long missing = std::lround((expected_ns - elapsed_ns) / period_ns);  // <= frame sets since
+  if (missing < 1) return;
+  clock_offset_ns_ += static_cast<std::uint64_t>(missing) * static_cast<std::uint64_t>(period_ns);
+  ++counters_.clock_offsets;
 }
 
 StepStatus NavLoop::Step(PoseRecord* out) {

@@ -63,6 +63,7 @@ struct LoopCounters {
   std::uint64_t detect_errors = 0;
   std::uint64_t trigger_errors = 0;
   std::uint64_t clock_faults = 0;  // frame sets stamped no later than the previous one
+  std::uint64_t clock_offsets = 0;  // clocks found whole periods behind after a fault (CheckClock)
   std::array<std::uint64_t, static_cast<std::size_t>(NavReason::kCount)> by_reason{};
 };
 
@@ -88,6 +89,7 @@ class NavLoop {
  private:
   bool AcquireAll(std::uint64_t* t_capture_ns, bool* all_ended, std::uint32_t* delivered);
   bool CheckClock(std::uint64_t* t_capture_ns);
+  void CarryMissingPeriods(std::uint64_t driver_t_ns);
   void Publish(const NavOutput& nav, std::uint64_t t_capture_ns, PoseRecord* out);
 
   const Rig* rig_;
@@ -107,6 +109,9 @@ class NavLoop {
   std::uint64_t last_t_capture_ns_ = 0;  // stamp given to the last frame set with a frame
   std::uint64_t last_driver_t_ns_ = 0;   // the last good driver stamp (0: none yet)
   int consecutive_clock_faults_ = 0;
+  std::uint64_t good_stamp_frame_set_ = 0;   // frame set index of the last good driver stamp
+  bool fault_since_good_stamp_ = false;
+  std::uint64_t clock_offset_ns_ = 0;        // added to driver stamps: periods the clock lost
   std::uint32_t pose_sequence_ = 0, health_sequence_ = 0;
   std::array<std::uint8_t, kPoseMessageBytes> pose_bytes_{};
   std::array<std::uint8_t, kHealthMessageBytes> health_bytes_{};

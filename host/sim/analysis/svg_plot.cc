@@ -70,7 +70,9 @@ std::vector<double> NiceTicks(double max, int target) {
 }
 
 std::string RenderSvg(const SvgPlot& plot) {
-  const std::vector<double> xt = NiceTicks(MaxFinite(plot.dots_x, plot.line_x));
+  std::vector<double> span_ends;
+  for (const auto& [x0, x1] : plot.shaded_x) span_ends.push_back(std::max(x0, x1));
+  const std::vector<double> xt = NiceTicks(std::max(MaxFinite(plot.dots_x, plot.line_x), MaxFinite(span_ends, {})));
   const std::vector<double> yt = NiceTicks(MaxFinite(plot.dots_y, plot.line_y));
   const double x_max = xt.back(), y_max = yt.back();
   const double pw = kWidth - kLeft - kRight, ph = kHeight - kTop - kBottom;
@@ -85,6 +87,13 @@ std::string RenderSvg(const SvgPlot& plot) {
   s += "<text x=\"" + Num(kWidth / 2) + "\" y=\"24\" text-anchor=\"middle\" font-size=\"15\">" + XmlEscape(plot.title) +
        "</text>\n";
 
+  // Shaded spans first, under the grid and the data.
+  for (const auto& [x0, x1] : plot.shaded_x) {
+    if (!std::isfinite(x0) || !std::isfinite(x1)) continue;
+    s += "<rect class=\"shaded\" x=\"" + Num(sx(std::min(x0, x1))) + "\" y=\"" + Num(kTop) + "\" width=\"" +
+         Num(std::max(1.0, sx(std::max(x0, x1)) - sx(std::min(x0, x1)))) + "\" height=\"" + Num(ph) +
+         "\" fill=\"#fdd9a8\"/>\n";
+  }
   // Grid, ticks and tick labels.
   s += "<g class=\"axes\" stroke=\"#000\" font-size=\"12\">\n";
   for (const double x : xt) {
@@ -122,21 +131,27 @@ std::string RenderSvg(const SvgPlot& plot) {
   s += "<g class=\"dots\" fill=\"#1f77b4\">\n";
   for (std::size_t i = 0; i < plot.dots_x.size() && i < plot.dots_y.size(); ++i) {
     if (!std::isfinite(plot.dots_x[i]) || !std::isfinite(plot.dots_y[i])) continue;
-    s += "<circle class=\"mc\" cx=\"" + Num(sx(plot.dots_x[i])) + "\" cy=\"" + Num(sy(plot.dots_y[i])) +
-         "\" r=\"4\"/>\n";
+    const bool coloured = i < plot.dots_fill.size() && !plot.dots_fill[i].empty();
+    s += "<circle class=\"mc\" cx=\"" + Num(sx(plot.dots_x[i])) + "\" cy=\"" + Num(sy(plot.dots_y[i])) + "\" r=\"4\"" +
+         (coloured ? " fill=\"" + XmlEscape(plot.dots_fill[i]) + "\"" : std::string()) + "/>\n";
   }
   s += "</g>\n";
 
   // Legend, top left inside the plot area.
   const double lx = kLeft + 14, ly = kTop + 18;
   s += "<g class=\"legend\" font-size=\"12\">\n";
-  s += "<rect x=\"" + Num(lx - 8) + "\" y=\"" + Num(ly - 12) + "\" width=\"236\" height=\"44\" fill=\"white\" "
-       "stroke=\"#888\"/>\n";
+  const bool shaded_entry = !plot.shaded_legend.empty();
+  s += "<rect x=\"" + Num(lx - 8) + "\" y=\"" + Num(ly - 12) + "\" width=\"" + Num(shaded_entry ? 330 : 236) +
+       "\" height=\"" + Num(shaded_entry ? 64 : 44) + "\" fill=\"white\" stroke=\"#888\"/>\n";
   s += "<circle cx=\"" + Num(lx + 10) + "\" cy=\"" + Num(ly) + "\" r=\"4\" fill=\"#1f77b4\"/>\n";
   s += "<text x=\"" + Num(lx + 28) + "\" y=\"" + Num(ly + 4) + "\">" + XmlEscape(plot.dots_legend) + "</text>\n";
   s += "<line x1=\"" + Num(lx) + "\" y1=\"" + Num(ly + 20) + "\" x2=\"" + Num(lx + 20) + "\" y2=\"" + Num(ly + 20) +
        "\" stroke=\"#d62728\" stroke-width=\"2\"/>\n";
   s += "<text x=\"" + Num(lx + 28) + "\" y=\"" + Num(ly + 24) + "\">" + XmlEscape(plot.line_legend) + "</text>\n";
+  if (shaded_entry) {
+    s += "<rect x=\"" + Num(lx) + "\" y=\"" + Num(ly + 34) + "\" width=\"20\" height=\"12\" fill=\"#fdd9a8\"/>\n";
+    s += "<text x=\"" + Num(lx + 28) + "\" y=\"" + Num(ly + 44) + "\">" + XmlEscape(plot.shaded_legend) + "</text>\n";
+  }
   s += "</g>\n";
   s += "</svg>\n";
   return s;

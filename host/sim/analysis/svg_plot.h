@@ -4,6 +4,7 @@
 #pragma once
 
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace mfns::host {
@@ -16,6 +17,11 @@ struct SvgPlot {
   std::string dots_legend = "Monte Carlo";
   std::vector<double> line_x, line_y;  // drawn as one <polyline class="analytic">
   std::string line_legend = "first-order analytic";
+  // Optional: a colour per dot (an SVG colour; missing or empty: the default blue), and x spans
+  // drawn as light bands behind the data (e.g. a fault's duration) with their legend entry.
+  std::vector<std::string> dots_fill;
+  std::vector<std::pair<double, double>> shaded_x;
+  std::string shaded_legend;
 };
 
 // Renders the plot. Axes start at 0 and end at a "nice" value (1, 2, 2.5, 5 x 10^k) at or above

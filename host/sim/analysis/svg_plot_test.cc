@@ -35,6 +35,26 @@ TEST(SvgPlot, IsWellFormedWithOneCirclePerDotAndEscapedText) {
   EXPECT_NE(svg.find("u error &lt;vs&gt; &quot;beacon&quot; &amp; co"), std::string::npos);
 }
 
+// host/sim/faults: dots coloured one by one, a shaded span (a fault) with its legend entry; the
+// x axis reaches the span's end even beyond the data.
+TEST(SvgPlot, ColouredDotsAndAShadedSpan) {
+  SvgPlot p;
+  p.dots_x = {0, 1, 2};
+  p.dots_y = {1, 2, 0};
+  p.dots_fill = {"", "#ff7f0e", "#d62728"};
+  p.shaded_x = {{1.5, 7.0}};
+  p.shaded_legend = "the fault";
+  const std::string svg = RenderSvg(p);
+  const XmlSummary x = CheckXml(svg);
+  ASSERT_TRUE(x.ok) << x.error;
+  EXPECT_EQ(x.mc_circles, 3);
+  EXPECT_NE(svg.find("fill=\"#ff7f0e\""), std::string::npos);
+  EXPECT_NE(svg.find("fill=\"#d62728\""), std::string::npos);
+  EXPECT_NE(svg.find("class=\"shaded\""), std::string::npos);
+  EXPECT_NE(svg.find(">the fault<"), std::string::npos);
+  EXPECT_NE(svg.find(">8<"), std::string::npos) << "x ticks reach the span's end (7 -> 8, step 2)";
+}
+
 TEST(SvgPlot, TheCheckerRejectsBrokenXml) {
   EXPECT_FALSE(CheckXml("<svg><g></svg>").ok);
   EXPECT_FALSE(CheckXml("<svg a=\"1></svg>").ok);

@@ -7,6 +7,7 @@
 //   mfns-sim analyze --out DIR ...  Figures 4-6 of the paper (error analysis)
 //   mfns-sim report | merge-rig | solve-given   replication tables and report (host/report)
 //   mfns-sim navmatrix ...          acquisition test matrix (host/sim/navmatrix)
+//   mfns-sim faults --out DIR ...   fault scenarios through NavLoop (host/sim/faults)
 // Exit 0 on success, 1 on a user error with a one-line reason on stderr.
 #include <CLI/CLI.hpp>
 
@@ -18,6 +19,7 @@
 #include "host/sim/analysis/analyze_command.h"
 #include "host/sim/calibdata/calib_dataset.h"
 #include "host/sim/eval/compare.h"
+#include "host/sim/faults/faults.h"
 #include "host/sim/frames/render_run.h"
 #include "host/sim/navmatrix/matrix.h"
 #include "host/sim/scenario/scenario.h"
@@ -124,6 +126,7 @@ int Run(int argc, char** argv) {
   AddAnalyzeCommand(app);
   AddReportCommands(app);  // report, merge-rig, solve-given (host/report)
   AddNavMatrixCommand(app);
+  AddFaultsCommand(app);
 
   try {
     app.parse(argc, argv);

@@ -84,6 +84,16 @@ cv::Mat RenderCamera(const Scenario& s, const CameraView& view, const LedFrameSp
   return RenderLedFrame(cam, spec, sensor, rng).image;
 }
 
+// Camera k's frame of frame set f from its own random stream (ImageStream); appends the truth
+// of its listed beacons to *blobs. With image false only the truth (an empty image).
+cv::Mat RenderFrame(const Scenario& s, const FrameTruth& f, int k, const SensorModel& sensor, std::vector<BlobRow>* blobs,
+                    bool image) {
+  std::mt19937_64 rng = ImageStream(s, f.frame, k);
+  const CameraView view = ObserveCamera(s, f, k, &rng);
+  const LedFrameSpec spec = FrameSpec(s, view, k, blobs);
+  return image ? RenderCamera(s, view, spec, sensor, k, &rng) : cv::Mat();
+}
+
 // Fixed-point text of v with `digits` decimals ("nan" for NaN).
 std::string Fmt(int digits, double v) {
   char buf[64];
@@ -160,6 +170,11 @@ RenderSummary WriteBoundCsv(const Scenario& s, const std::filesystem::path& path
   return sum;
 }
 
+cv::Mat RenderCameraFrame(const Scenario& s, const FrameTruth& f, int camera) {
+  std::vector<BlobRow> blobs;
+  return RenderFrame(s, f, camera, MakeSensor(s), &blobs, true);
+}
+
 RenderSummary RenderScenario(const Scenario& s, const std::string& scenario_text, const RenderOptions& options) {
   namespace fs = std::filesystem;
   const fs::path& dir = options.out_dir;
@@ -194,11 +209,9 @@ RenderSummary RenderScenario(const Scenario& s, const std::string& scenario_text
     for (int i = next++; i < static_cast<int>(frames.size()); i = next++) {
       try {
         for (int k = 0; k < s.rig.num_cameras; ++k) {
-          std::mt19937_64 rng = ImageStream(s, i, k);
-          const CameraView view = ObserveCamera(s, frames[static_cast<std::size_t>(i)], k, &rng);
-          const LedFrameSpec spec = FrameSpec(s, view, k, &blobs[static_cast<std::size_t>(i)]);
+          const cv::Mat image = RenderFrame(s, frames[static_cast<std::size_t>(i)], k, sensor,
+                                            &blobs[static_cast<std::size_t>(i)], options.write_images);
           if (!options.write_images) continue;
-          const cv::Mat image = RenderCamera(s, view, spec, sensor, k, &rng);
           char name[32];
           std::snprintf(name, sizeof(name), "%06d.pgm", i);
           WritePgm((partial / s.rig.cameras[static_cast<std::size_t>(k)].name.data() / name).string(), image);

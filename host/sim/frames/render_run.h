@@ -25,6 +25,8 @@
 #include <functional>
 #include <string>
 
+#include <opencv2/core.hpp>
+
 #include "host/sim/scenario/scenario.h"
 
 namespace mfns::host {
@@ -50,6 +52,10 @@ struct RenderSummary {
 // untouched, and files of DIR other than the outputs above are left alone. Throws UserError on
 // I/O failure and for a scenario without beacons.
 RenderSummary RenderScenario(const Scenario& s, const std::string& scenario_text, const RenderOptions& options);
+
+// Camera `camera`'s frame of frame set f, the very image `render` writes for it (its own random
+// stream), in memory: for runs that feed the firmware in process (host/sim/faults).
+cv::Mat RenderCameraFrame(const Scenario& s, const FrameTruth& f, int camera);
 
 // Writes crb.csv (see above) for the scenario's trajectory into path, returns visibility
 // statistics.
