@@ -1,7 +1,7 @@
 // libFuzzer target for the calibration dataset's files (host/calib/core/dataset): the input is
-// cut into a target spec (the command line's --target), target.yaml, images.csv, truth.yaml and
-// truth-rig.yaml (fuzz_text.h); the files are written to a scratch directory and read back with
-// ReadCalibDataset. Whatever they hold: a dataset or a UserError of one line; a target spec or
+// cut into a target spec (the command line's --target), target.yaml, images.csv, truth.yaml,
+// truth-rig.yaml (fuzz_text.h), written to a scratch directory and read back with
+// ReadCalibDataset, and a corners CSV (ParseCornersCsv, as `mfns-calib rig --corners` reads it). Whatever they hold: a dataset or a UserError of one line; a target spec or
 // target.yaml that parses gives a target whose corner list is within the detector's limits.
 #include <unistd.h>
 
@@ -46,7 +46,7 @@ void CheckTarget(const mfns::host::CalibrationTarget& target) {
 }  // namespace
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
-  const std::vector<std::string> parts = mfns::fuzz::SplitParts(data, size, 5);
+  const std::vector<std::string> parts = mfns::fuzz::SplitParts(data, size, 6);
   try {
     CheckTarget(mfns::host::ParseTargetSpec(parts[0]));
   } catch (const mfns::host::UserError& e) {
@@ -62,6 +62,12 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     CheckTarget(ds.target);
   } catch (const mfns::host::UserError& e) {
     mfns::fuzz::CheckMessage(e.what(), "");
+  }
+  try {
+    for (const mfns::host::CornerRow& row : mfns::host::ParseCornersCsv(parts[5], "corners.csv", 88))
+      if (row.corner.id < 0 || row.corner.id >= 88 || !row.corner.uv.allFinite()) __builtin_trap();
+  } catch (const mfns::host::UserError& e) {
+    mfns::fuzz::CheckMessage(e.what(), "corners.csv:");
   }
   return 0;
 }

@@ -106,47 +106,9 @@ void Compare(const CalibInput& in, const IntrinsicsStage& stage, RigOptions ro, 
 }  // namespace
 
 CalibInput CornersFromCsv(const CalibDataset& ds, const std::string& path) {
-  const std::string text = ReadFile(path);
-  struct Row {
-    CornerObs corner;
-    int line = 0;
-  };
-  std::map<std::string, std::vector<Row>> by_image;  // "camera/image"
-  const int n_ids = static_cast<int>(TargetPoints(ds.target).size());
-  std::istringstream lines(text);
-  std::string line;
-  int line_no = 0;
-  while (std::getline(lines, line)) {
-    ++line_no;
-    if (!line.empty() && line.back() == '\r') line.pop_back();
-    if (line.empty() || (line_no == 1 && line.rfind("camera,", 0) == 0)) continue;
-    std::vector<std::string> f;
-    std::istringstream fields(line);
-    for (std::string x; std::getline(fields, x, ',');) f.push_back(x);
-    const std::string where = path + ":" + std::to_string(line_no) + ": ";
-    if (f.size() != 5) throw UserError(where + "expected camera,image,corner,u_px,v_px");
-    Row row;
-    row.line = line_no;
-    CornerObs& c = row.corner;
-    char* end = nullptr;
-    errno = 0;
-    const long id = std::strtol(f[2].c_str(), &end, 10);
-    if (f[2].empty() || *end != '\0' || errno != 0 || id < 0 || id >= n_ids)
-      throw UserError(where + "corner id \"" + f[2] + "\" is not one of the target's 0.." + std::to_string(n_ids - 1));
-    c.id = static_cast<int>(id);
-    for (int a = 0; a < 2; ++a) {
-      const std::string& v = f[static_cast<std::size_t>(3 + a)];
-      c.uv[a] = std::strtod(v.c_str(), &end);
-      if (v.empty() || *end != '\0' || !std::isfinite(c.uv[a]))
-        throw UserError(where + (a == 0 ? "u_px" : "v_px") + ": bad pixel coordinate \"" + v + "\"");
-    }
-    std::vector<Row>& rows = by_image[f[0] + "/" + f[1]];
-    for (const Row& other : rows)
-      if (other.corner.id == c.id)
-        throw UserError(where + "corner: id " + f[2] + " of " + f[0] + "/" + f[1] + " repeats line " +
-                        std::to_string(other.line));
-    rows.push_back(row);
-  }
+  std::map<std::string, std::vector<CornerRow>> by_image;  // "camera/image"
+  for (CornerRow& row : ParseCornersCsv(ReadFile(path), path, static_cast<int>(TargetPoints(ds.target).size())))
+    by_image[row.camera + "/" + row.image].push_back(std::move(row));
   CalibInput in;
   in.target_points = TargetPoints(ds.target);
   for (const std::string& name : ds.cameras) in.cameras.push_back({name, 0, 0});
@@ -179,7 +141,7 @@ CalibInput CornersFromCsv(const CalibDataset& ds, const std::string& path) {
     v.kind = im.kind;
     v.main_cmd = im.main_cmd;
     v.aux_cmd = im.aux_cmd;
-    for (const Row& row : it->second) {
+    for (const CornerRow& row : it->second) {
       // Within the image or near it: a finite but absurd coordinate (1e300) must not reach the
       // solvers (it aborted Ceres).
       const double size[2] = {static_cast<double>(cam.width), static_cast<double>(cam.height)};

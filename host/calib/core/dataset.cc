@@ -258,6 +258,40 @@ std::vector<Eigen::Vector3d> TargetPoints(const CalibrationTarget& target) {
   return pts;
 }
 
+std::vector<CornerRow> ParseCornersCsv(const std::string& text, const std::string& source, int num_ids) {
+  std::vector<CornerRow> rows;
+  std::map<std::string, std::map<int, int>> line_of;  // "camera/image" -> corner id -> line
+  std::istringstream lines(text);
+  std::string line;
+  int line_no = 0;
+  while (std::getline(lines, line)) {
+    ++line_no;
+    if (!line.empty() && line.back() == '\r') line.pop_back();
+    if (line.empty() || (line_no == 1 && line.rfind("camera,", 0) == 0)) continue;
+    const std::vector<std::string> f = SplitCsv(line);
+    const std::string where = source + ":" + std::to_string(line_no) + ": ";
+    if (f.size() != 5) throw UserError(where + "expected camera,image,corner,u_px,v_px");
+    CornerRow row;
+    row.camera = f[0];
+    row.image = f[1];
+    row.line = line_no;
+    CornerObs& c = row.corner;
+    if (!ParseInt(f[2], &c.id) || c.id < 0 || c.id >= num_ids)
+      throw UserError(where + "corner id \"" + OneLine(f[2]) + "\" is not one of the target's 0.." +
+                      std::to_string(num_ids - 1));
+    for (int a = 0; a < 2; ++a)
+      if (!ParseDouble(f[static_cast<std::size_t>(3 + a)], &c.uv[a]) || !std::isfinite(c.uv[a]))
+        throw UserError(where + (a == 0 ? "u_px" : "v_px") + ": bad pixel coordinate \"" +
+                        OneLine(f[static_cast<std::size_t>(3 + a)]) + "\"");
+    const auto [it, fresh] = line_of[f[0] + "/" + f[1]].emplace(c.id, line_no);
+    if (!fresh)
+      throw UserError(where + "corner: id " + f[2] + " of " + OneLine(f[0] + "/" + f[1]) + " repeats line " +
+                      std::to_string(it->second));
+    rows.push_back(std::move(row));
+  }
+  return rows;
+}
+
 CalibDataset ReadCalibDataset(const std::filesystem::path& dir) {
   std::error_code ec;
   if (!std::filesystem::is_directory(dir, ec)) throw UserError(dir.string() + ": not a dataset directory");

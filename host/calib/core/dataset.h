@@ -63,6 +63,20 @@ std::string FormatTargetYaml(const CalibrationTarget& target);
 // counts them) or "aprilgrid:COLSxROWS:TAG_MM:SPACING[:FIRST_ID]". Throws UserError.
 CalibrationTarget ParseTargetSpec(const std::string& spec);
 
+// One row of a corners CSV (camera,image,corner,u_px,v_px, as the dataset's corners.csv and
+// `mfns-calib rig --corners`), with its line number.
+struct CornerRow {
+  std::string camera, image;
+  CornerObs corner;
+  int line = 0;
+};
+
+// Parses a corners CSV's text (header line optional, CRLF accepted); `source` names it in
+// errors. Ids must lie in 0..num_ids-1 and not repeat within an image; coordinates must be
+// finite numbers (their range depends on the image: checked by the caller). Throws UserError
+// (one line: source:LINE: field: why).
+std::vector<CornerRow> ParseCornersCsv(const std::string& text, const std::string& source, int num_ids);
+
 // Corner positions by id (target_points[id], m, z = 0).
 std::vector<Eigen::Vector3d> TargetPoints(const CalibrationTarget& target);
 

@@ -168,3 +168,32 @@ TEST(TargetYaml, RoundTripsAndGivesCornerPositions) {
 
 }  // namespace
 }  // namespace mfns::host
+
+namespace {
+std::string CornersError(const std::string& text) {
+  try {
+    mfns::host::ParseCornersCsv(text, "c.csv", 54);
+  } catch (const mfns::host::UserError& e) {
+    return e.what();
+  }
+  return "(no error)";
+}
+}  // namespace
+
+// The corners CSV reader (moved here from mfns-calib so that calib_dataset_fuzz reaches it):
+// rows by camera and image with their lines; every error one line naming the line and field,
+// also when a field holds control characters.
+TEST(CornersCsv, ParsesRowsAndNamesTheLineAndField) {
+  const auto rows = mfns::host::ParseCornersCsv("camera,image,corner,u_px,v_px\r\nx,0001,3,10.5,20\ny,0002,53,1,2\n", "c.csv", 54);
+  ASSERT_EQ(rows.size(), 2u);
+  EXPECT_EQ(rows[0].camera, "x");
+  EXPECT_EQ(rows[0].image, "0001");
+  EXPECT_EQ(rows[0].corner.id, 3);
+  EXPECT_DOUBLE_EQ(rows[0].corner.uv.x(), 10.5);
+  EXPECT_EQ(rows[1].line, 3);
+  EXPECT_EQ(CornersError("x,1,54,1,2\n"), "c.csv:1: corner id \"54\" is not one of the target's 0..53");
+  EXPECT_EQ(CornersError("x,1,2,nan,2\n"), "c.csv:1: u_px: bad pixel coordinate \"nan\"");
+  EXPECT_EQ(CornersError("x,1,2,1\n"), "c.csv:1: expected camera,image,corner,u_px,v_px");
+  EXPECT_EQ(CornersError("x,1,2,1,2\nx,1,2,3,4\n"), "c.csv:2: corner: id 2 of x/1 repeats line 1");
+  EXPECT_EQ(CornersError("x,1,2,1,2\x1b[2J\n"), "c.csv:1: v_px: bad pixel coordinate \"2\\x1b[2J\"");
+}
