@@ -157,7 +157,8 @@ const char* CameraField(RigStatus s) {
 
 Rig ParseRig(const std::string& text, const std::string& source);
 
-// ValidateRig's verdict as a UserError naming the file, the line and the field.
+}  // namespace
+
 void FailIfInvalid(const Rig& rig, const YAML::Node& root, const YamlCtx& ctx) {
   int bad_camera = -1, bad_beacon = -1;
   const RigStatus status = ValidateRig(rig, &bad_camera, &bad_beacon);
@@ -183,8 +184,6 @@ void FailIfInvalid(const Rig& rig, const YAML::Node& root, const YamlCtx& ctx) {
     ctx.Sub("beacon_sigma_mm").Fail(root["beacon_sigma_mm"], ToString(status));
   ctx.Fail(root, ToString(status));
 }
-
-}  // namespace
 
 Rig ParseRigYaml(const std::string& text, const std::string& source) {
   return CatchYamlErrors(source, [&] { return ParseRig(text, source); });

@@ -7,6 +7,7 @@
 #include <array>
 #include <string>
 
+#include "common/rig/rig.h"
 #include "host/util/atomic_file.h"
 
 namespace mfns::host {
@@ -62,6 +63,11 @@ auto CatchYamlErrors(const std::string& source, F&& parse) -> decltype(parse()) 
     throw UserError(source + ":" + std::to_string(e.mark.line + 1) + ": " + OneLine(e.msg));
   }
 }
+
+// ValidateRig's verdict on a rig read from `root` (a rig file, or a scenario's beacons_mm) as a
+// UserError naming the file, the line and the field (cameras[i].intrinsics, beacons_mm[i], ...);
+// returns when the rig is valid. (Defined with the rig reader, host/rigio/rig_yaml.cc.)
+void FailIfInvalid(const Rig& rig, const YAML::Node& root, const YamlCtx& ctx);
 
 // Refuses keys of `map` not in `known` (catches typos such as "frame_rate" for
 // "frame_rate_hz"), naming the first unknown key.

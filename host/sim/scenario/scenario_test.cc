@@ -134,5 +134,13 @@ TEST(Scenario, CalibrationScenariosNeedNoBeacons) {
   }
 }
 
+// Found by scenario_yaml_fuzz (issue 14 item 2): a scenario's own beacons_mm passed unchecked (a
+// beacon 5.9 km out made a rig that ValidateRig refuses); now checked like a rig file's.
+TEST(Scenario, OwnBeaconsAreCheckedLikeARigFile) {
+  EXPECT_EQ(ErrorOf("beacons_mm: [[0, 0, 1000], [-5910000, 0, 0], [0, 100, 1000]]\n"),
+            "s.yaml:1: beacons_mm[1]: beacon position outside +-1e6 mm (1 km) of the world origin");
+  EXPECT_EQ(ErrorOf("beacons_mm: [[0, 0, 1000], [0, 0, 1000.5], [0, 100, 1000]]\n").rfind("s.yaml:1: beacons_mm[1]: same position as beacons_mm[0]", 0), 0u);
+}
+
 }  // namespace
 }  // namespace mfns::host
