@@ -21,8 +21,9 @@
 // is an error ("rig.yaml:40: beacon_facing[3]: normal length 0.5, expected 1"). Written back
 // (normalised, 15 digits) whenever the rig has facing; absent means no facing data.
 //
-// Reading: C_k_b wins; when euler_deg is given too it must describe the same rotation within
-// 1e-6 rad, and when only euler_deg is given C_k_b is computed from it. Sigma is all-or-none
+// Reading: C_k_b wins (within 1e-6 of orthonormal; the nearest exact rotation is kept, so that
+// the euler_deg written from it reads back); when euler_deg is given too it must describe the
+// same rotation within 1e-6 rad, and when only euler_deg is given C_k_b is computed from it. Sigma is all-or-none
 // per file: cameras without a sigma block get zeros (unknown). Every error is a UserError
 // whose one-line message names the file, the line and the field, e.g.
 //   "rig.yaml:12: cameras[1].intrinsics: expected 5 numbers, got 4".
