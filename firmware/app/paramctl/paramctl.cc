@@ -233,9 +233,14 @@ int Install(const Options& o, int stdin_fd, std::FILE* out, std::FILE* err) {
       std::fprintf(err, "%s: install failed: %s (%s); %s\n", kTool, ToString(s), o.store,
                    ActiveSuffix(rep.after, active, sizeof active));
       return 1;
+    case StoreStatus::kTooFewBeacons:
+      std::fprintf(err, "%s: refused: the blob maps %d beacons, mfns-navd needs at least %d; %s\n", kTool,
+                   rep.new_beacons, limits::kMinNavBeacons, ActiveSuffix(rep.after, active, sizeof active));
+      return 1;
     case StoreStatus::kBadPath:
     case StoreStatus::kNoValidBlob:
     case StoreStatus::kNoRollbackTarget:
+    case StoreStatus::kCount:
       break;
   }
   std::fprintf(err, "%s: install failed: %s\n", kTool, ToString(s));

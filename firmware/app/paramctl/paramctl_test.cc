@@ -173,6 +173,8 @@ TEST_F(ParamctlTest, RefusalsAreOneLineWithTheReasonAndLeaveTheOldBlobActive) {
       {Blob(9, "other-rig"), "refused: blob is for rig 'other-rig' but the active blob is for rig 'mfns-paper-2017'"},
       {Blob(4), "refused: generation 4 is not newer than the active generation 5 (--force"},
       {Blob(5, kPaperRigId, 3), "refused: generation 5 is not newer than the active generation 5"},
+      {Blob(9, kPaperRigId, 2), "refused: the blob maps 2 beacons, mfns-navd needs at least 3"},
+      {Blob(9, kPaperRigId, 0), "refused: the blob maps 0 beacons, mfns-navd needs at least 3"},
       {dir_ / "missing.bin", "cannot read blob"},
   };
   for (const Case& c : cases) {

@@ -55,6 +55,8 @@ const char* ToString(StoreStatus s) {
     case StoreStatus::kVerifyFailed: return "read-back verification failed";
     case StoreStatus::kNoRollbackTarget: return "the other slot holds no valid blob";
     case StoreStatus::kBusy: return "another install or rollback holds the store lock";
+    case StoreStatus::kTooFewBeacons: return "the blob maps too few beacons to navigate";
+    case StoreStatus::kCount: break;
   }
   return "unknown store status";
 }
@@ -393,6 +395,13 @@ StoreStatus ParamStore::Install(std::span<const std::uint8_t> blob, const Instal
   if (rep->blob_status != BlobStatus::kOk) {
     Scan(nullptr, &rep->after);
     return Count(StoreStatus::kCorruptBlob);
+  }
+  // A blob the navigator would refuse at its next start never becomes the active one (the
+  // store would then hold nothing navd can fly on until a rollback).
+  rep->new_beacons = scratch_.num_beacons;
+  if (scratch_.num_beacons < limits::kMinNavBeacons) {
+    Scan(nullptr, &rep->after);
+    return Count(StoreStatus::kTooFewBeacons);
   }
   // From the scan that judges the store to the last rename: one writer at a time.
   int lock_fd = -1;

@@ -58,9 +58,12 @@ enum class StoreStatus : unsigned char {
   kVerifyFailed,      // install: the slot read back differs or does not decode
   kNoRollbackTarget,  // rollback: the other slot holds no valid blob
   kBusy,              // install/rollback: another writer held the store lock past the timeout
+  kTooFewBeacons,     // install: the blob decodes but maps fewer than limits::kMinNavBeacons
+                      // beacons (mfns-navd would refuse it at its next start)
+  kCount,
 };
 const char* ToString(StoreStatus s);
-inline constexpr int kNumStoreStatuses = static_cast<int>(StoreStatus::kBusy) + 1;
+inline constexpr int kNumStoreStatuses = static_cast<int>(StoreStatus::kCount);
 
 enum class SlotState : unsigned char {
   kMissing = 0,  // no such file
@@ -119,6 +122,7 @@ struct InstallOptions {
 struct InstallReport {
   BlobStatus blob_status = BlobStatus::kOk;  // the new blob's decode status (kCorruptBlob: why)
   BlobInfo new_info;      // the new blob's header, when it decoded that far
+  int new_beacons = 0;    // beacons the new blob maps, when it decoded
   bool had_active = false;
   BlobInfo old_info;      // the blob active before the install (had_active)
   int old_slot = -1;

@@ -173,6 +173,30 @@ TEST(ParamStore, RefusesACorruptBlobAndKeepsTheOldOneActive) {
   EXPECT_EQ(store.counters().by_status[static_cast<int>(StoreStatus::kCorruptBlob)], 4u);
 }
 
+// A blob that decodes but maps fewer beacons than the navigator needs would leave the store
+// with nothing mfns-navd can start on: refused like a corrupt one, force or not.
+TEST(ParamStore, RefusesABlobWithTooFewBeaconsToNavigate) {
+  TempDir dir;
+  ParamStore store;
+  store.SetDirectory(dir.path().c_str());
+  const auto good = MakeBlob(5);
+  ASSERT_EQ(InstallBlob(&store, good), StoreStatus::kOk);
+  for (int beacons = 0; beacons < limits::kMinNavBeacons; ++beacons) {
+    InstallReport rep;
+    EXPECT_EQ(InstallBlob(&store, MakeBlob(6, kPaperRigId, beacons), InstallOptions{true, true}, &rep),
+              StoreStatus::kTooFewBeacons)
+        << beacons;
+    EXPECT_EQ(rep.blob_status, BlobStatus::kOk);
+    EXPECT_EQ(rep.new_beacons, beacons);
+    EXPECT_EQ(testing::ActiveGeneration(rep.after), 5u);
+  }
+  EXPECT_EQ(InstallBlob(&store, MakeBlob(6, kPaperRigId, limits::kMinNavBeacons)), StoreStatus::kOk);
+  EXPECT_EQ(Entries(dir.path()), (std::set<std::string>{"slot-a.bin", "slot-b.bin"}));
+  EXPECT_EQ(ReadBytes(dir / "slot-a.bin"), good);
+  EXPECT_EQ(store.counters().by_status[static_cast<int>(StoreStatus::kTooFewBeacons)],
+            static_cast<std::uint64_t>(limits::kMinNavBeacons));
+}
+
 TEST(ParamStore, RefusesAnotherRigIdUnlessAllowed) {
   TempDir dir;
   ParamStore store;
