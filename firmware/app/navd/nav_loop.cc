@@ -193,7 +193,7 @@ HealthRecord NavLoop::Health() const {
     ch.detect_errors = Saturate32(supervision_[ks].detect_errors);
     ch.blobs_last = supervision_[ks].blobs_last;
   }
-  h.clock_faults = Saturate32(counters_.clock_faults);
+  h.clock_faults = Saturate32(counters_.clock_faults + counters_.stamp_jumps);
   h.log_errors = log_ != nullptr ? Saturate32(log_->counters().log_errors) : 0;
   h.trigger_errors = Saturate32(counters_.trigger_errors);
   return h;
@@ -226,7 +226,9 @@ bool NavLoop::CheckClock(std::uint64_t* t_capture_ns) {
     fault_since_good_stamp_ = true;
   } else {
     if (fault_since_good_stamp_) CarryMissingPeriods(driver_t);
+    else CheckJump(driver_t);
     last_driver_t_ns_ = driver_t;
+    lost_at_good_stamp_ = FramesLost();
     good_stamp_frame_set_ = counters_.frame_sets;
     fault_since_good_stamp_ = false;
     *t_capture_ns = driver_t + clock_offset_ns_;
@@ -251,6 +253,31 @@ void NavLoop::CarryMissingPeriods(std::uint64_t driver_t_ns) {
   if (missing < 1) return;
   clock_offset_ns_ += static_cast<std::uint64_t>(missing) * static_cast<std::uint64_t>(period_ns);
   ++counters_.clock_offsets;
+}
+
+// A good stamp far later than the frame sets since the last one explain, while no camera
+// counted a frame lost: nothing the loop saw accounts for the time (a clock stepped forward, or
+// the loop itself stood still). Counted, not corrected: the time may be real, and a gap only
+// widens the tracker's motion bounds, it never bends a pose. kStampJumpPeriods leaves room for
+// a late frame (jitter of a period or two).
+void NavLoop::CheckJump(std::uint64_t driver_t_ns) {
+  constexpr double kStampJumpPeriods = 3.0;
+  if (last_driver_t_ns_ == 0 || FramesLost() != lost_at_good_stamp_) return;
+  const double period_ns = config_.deadline_ms * 1e6;
+  const double expected_ns = static_cast<double>(counters_.frame_sets - good_stamp_frame_set_) * period_ns;
+  if (static_cast<double>(driver_t_ns - last_driver_t_ns_) > expected_ns + kStampJumpPeriods * period_ns)
+    ++counters_.stamp_jumps;
+}
+
+// Frames the cameras are known to have lost so far (sequence gaps, missing replay files,
+// timeouts): time that passed without a frame set for it.
+std::uint64_t NavLoop::FramesLost() const {
+  std::uint64_t n = 0;
+  for (int k = 0; k < rig_->num_cameras; ++k) {
+    const SourceCounters& c = source_->counters(k);
+    n += c.drops + c.missing_files + c.timeouts;
+  }
+  return n;
 }
 
 StepStatus NavLoop::Step(PoseRecord* out) {

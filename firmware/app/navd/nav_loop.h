@@ -64,6 +64,11 @@ struct LoopCounters {
   std::uint64_t trigger_errors = 0;
   std::uint64_t clock_faults = 0;  // frame sets stamped no later than the previous one
   std::uint64_t clock_offsets = 0;  // clocks found whole periods behind after a fault (CheckClock)
+  // Frame sets stamped more than kStampJumpPeriods periods later than the frame sets since the
+  // last good stamp explain, with no frame counted lost meanwhile (drops, missing files,
+  // timeouts): the driver clock stepped forward, or the loop stood still that long. The time is
+  // kept (it may be real); the health message counts these among its clock_faults.
+  std::uint64_t stamp_jumps = 0;
   std::array<std::uint64_t, static_cast<std::size_t>(NavReason::kCount)> by_reason{};
 };
 
@@ -90,6 +95,8 @@ class NavLoop {
   bool AcquireAll(std::uint64_t* t_capture_ns, bool* all_ended, std::uint32_t* delivered);
   bool CheckClock(std::uint64_t* t_capture_ns);
   void CarryMissingPeriods(std::uint64_t driver_t_ns);
+  void CheckJump(std::uint64_t driver_t_ns);
+  std::uint64_t FramesLost() const;
   void Publish(const NavOutput& nav, std::uint64_t t_capture_ns, PoseRecord* out);
 
   const Rig* rig_;
@@ -111,6 +118,7 @@ class NavLoop {
   int consecutive_clock_faults_ = 0;
   std::uint64_t good_stamp_frame_set_ = 0;   // frame set index of the last good driver stamp
   bool fault_since_good_stamp_ = false;
+  std::uint64_t lost_at_good_stamp_ = 0;     // FramesLost() at the last good driver stamp
   std::uint64_t clock_offset_ns_ = 0;        // added to driver stamps: periods the clock lost
   std::uint32_t pose_sequence_ = 0, health_sequence_ = 0;
   std::array<std::uint8_t, kPoseMessageBytes> pose_bytes_{};

@@ -196,9 +196,11 @@ struct TrackedSweep {
   }
   // Frame set n of the sweep, every camera stamped t_ns, through the loop into *rec; counts a
   // wrong pose in *wrong and returns the beacons in view.
-  int StepStamped(int n, std::uint64_t t_ns, PoseRecord* rec, int* wrong) {
+  // sequence: the driver's frame number (default n; a gap counts as dropped frames).
+  int StepStamped(int n, std::uint64_t t_ns, PoseRecord* rec, int* wrong, int sequence = -1) {
     const int visible = sweep.Render(n);
-    for (int k = 0; k < rig.num_cameras; ++k) EXPECT_TRUE(source.Push(k, sweep.View(k, t_ns, static_cast<std::uint32_t>(n))));
+    const auto seq = static_cast<std::uint32_t>(sequence >= 0 ? sequence : n);
+    for (int k = 0; k < rig.num_cameras; ++k) EXPECT_TRUE(source.Push(k, sweep.View(k, t_ns, seq)));
     EXPECT_EQ(loop.Step(rec), StepStatus::kOk);
     *wrong += rec->status != NavStatus::kLost && !FixIsRight(*rec, sweep.pose());
     return visible;
@@ -616,6 +618,35 @@ void ClockOnePeriodBehind(bool silent_after) {
   EXPECT_EQ(wrong, 0);
   EXPECT_EQ(fixes_3plus, sets_3plus) << "the track is kept: a fix in every frame set with >= 3 beacons";
 }
+
+// Issue 14: a clock that steps forward moved no counter (mfns-sim faults, time-forward). A
+// stamp 1 s ahead of the frame sets since, with no frame lost, is a stamp jump, reported in the
+// health message's clock_faults; the same gap with the frames counted dropped (a sequence gap)
+// is real time and no fault. Never a wrong pose either way.
+void StampJumpsAhead(bool frames_dropped) {
+  TrackedSweep s;
+  ASSERT_TRUE(s.Start());
+  constexpr int kJumpAt = 30;
+  constexpr std::uint64_t kJumpNs = 1'000'000'000ull;
+  const int skipped = static_cast<int>(kJumpNs / kFrameNs);  // frames a real 1 s gap drops
+  PoseRecord rec;
+  int wrong = 0;
+  for (int n = 0; n < 50; ++n) {
+    const std::uint64_t t = 20'000'000'000ull + static_cast<std::uint64_t>(n) * kFrameNs + (n >= kJumpAt ? kJumpNs : 0);
+    const int sequence = frames_dropped && n >= kJumpAt ? n + skipped : n;
+    s.StepStamped(n, t, &rec, &wrong, sequence);
+  }
+  EXPECT_EQ(wrong, 0);
+  EXPECT_EQ(s.loop.counters().clock_faults, 0u);
+  EXPECT_EQ(s.loop.counters().stamp_jumps, frames_dropped ? 0u : 1u);
+  EXPECT_EQ(s.loop.Health().clock_faults, frames_dropped ? 0u : 1u);
+  std::uint64_t drops = 0;
+  for (int k = 0; k < s.rig.num_cameras; ++k) drops += s.source.counters(k).drops;
+  EXPECT_EQ(drops, frames_dropped ? static_cast<std::uint64_t>(skipped * s.rig.num_cameras) : 0u);
+}
+
+TEST(NavLoop, AStampThatJumpsAheadWithNoFrameLostIsCounted) { StampJumpsAhead(false); }
+TEST(NavLoop, AStampGapWithFramesDroppedIsNoFault) { StampJumpsAhead(true); }
 
 TEST(NavLoop, AClockThatStaysOnePeriodBehindAfterARepeatKeepsTheTrack) {
   ClockOnePeriodBehind(false);

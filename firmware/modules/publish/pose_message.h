@@ -113,7 +113,8 @@ struct HealthRecord {
   std::uint32_t worst_frame_set_us = 0;
   std::uint8_t num_cameras = 0;
   std::array<CameraHealth, limits::kMaxCameras> cameras{};
-  std::uint32_t clock_faults = 0;    // frame sets not later than the previous one (kClockFault)
+  std::uint32_t clock_faults = 0;    // frame sets not later than the previous one (kClockFault), and
+                                     // stamps that jumped ahead with no frame lost (NavLoop stamp_jumps)
   std::uint32_t log_errors = 0;      // pose log rows that failed to write
   std::uint32_t trigger_errors = 0;  // trigger pulses that failed
 };

@@ -189,7 +189,8 @@ std::vector<HealthCount> HealthCounts(const fw::NavLoop& loop, const Rig& rig) {
                                   {"degraded", static_cast<std::int64_t>(c.degraded)},
                                   {"lost", static_cast<std::int64_t>(c.lost)},
                                   {"clock_faults", static_cast<std::int64_t>(c.clock_faults)},
-                                  {"clock_offsets", static_cast<std::int64_t>(c.clock_offsets)}};
+                                  {"clock_offsets", static_cast<std::int64_t>(c.clock_offsets)},
+                                  {"stamp_jumps", static_cast<std::int64_t>(c.stamp_jumps)}};
   for (int k = 0; k < rig.num_cameras; ++k) {
     const std::string cam = std::string(rig.cameras[static_cast<std::size_t>(k)].name.data()) + ".";
     const fw::CameraHealth& ch = h.cameras[static_cast<std::size_t>(k)];
