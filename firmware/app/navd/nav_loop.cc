@@ -71,6 +71,7 @@ bool NavLoop::AcquireAll(std::uint64_t* t_capture_ns, bool* all_ended, std::uint
     const auto ks = static_cast<std::size_t>(k);
     CameraSupervision& sup = supervision_[ks];
     lists_[ks].count = 0;
+    stamps_[ks] = 0;
     if (sup.set_aside) {
       // Retry a set-aside camera every camera_retry_every frame sets; the others go on.
       if ((counters_.frame_sets - sup.set_aside_at) % static_cast<std::uint64_t>(config_.camera_retry_every) != 0) continue;
@@ -98,7 +99,7 @@ bool NavLoop::AcquireAll(std::uint64_t* t_capture_ns, bool* all_ended, std::uint
     }
     sup.consecutive_failures = 0;
     ++delivered;
-    *t_capture_ns = (*t_capture_ns == 0) ? view.t_capture_ns : std::min(*t_capture_ns, view.t_capture_ns);
+    stamps_[ks] = view.t_capture_ns;
     const DetectStatus d = detectors_[ks].Detect(view, &rig_->cameras[ks].intrinsics, &lists_[ks]);
     source_->Release(k);
     if (d == DetectStatus::kBlankFrame) {
@@ -124,6 +125,7 @@ bool NavLoop::AcquireAll(std::uint64_t* t_capture_ns, bool* all_ended, std::uint
     }
   }
   *all_ended = ended > 0 && delivered == 0;
+  *t_capture_ns = DropStaleFrames(delivered_set);
   return delivered > 0;
 }
 
@@ -189,7 +191,7 @@ HealthRecord NavLoop::Health() const {
     ch.timeouts = Saturate32(c.timeouts);
     ch.errors = Saturate32(c.driver_errors);
     ch.bad_frames = Saturate32(c.error_buffers + c.short_buffers + c.unknown_clock + c.bad_files +
-                               supervision_[ks].blank_frames);
+                               supervision_[ks].blank_frames + supervision_[ks].stale_frames);
     ch.detect_errors = Saturate32(supervision_[ks].detect_errors);
     ch.blobs_last = supervision_[ks].blobs_last;
   }
@@ -197,6 +199,35 @@ HealthRecord NavLoop::Health() const {
   h.log_errors = log_ != nullptr ? Saturate32(log_->counters().log_errors) : 0;
   h.trigger_errors = Saturate32(counters_.trigger_errors);
   return h;
+}
+
+// The frame set's stamp: the earliest of its cameras'. A camera whose stamp is no later than
+// the last good one while another camera's is later delivered an old frame (a buffer left in
+// its queue, a driver that restamped): its blobs are of another pose, so its frame is dropped
+// for this frame set (the camera counts as silent, stale_frames) and the others go on. When
+// every camera is stale the clock itself went back: CheckClock's clock fault.
+std::uint64_t NavLoop::DropStaleFrames(std::uint32_t* delivered_set) {
+  const auto stale = [&](std::size_t k) { return last_driver_t_ns_ != 0 && stamps_[k] <= last_driver_t_ns_; };
+  std::uint64_t earliest = 0, earliest_fresh = 0;
+  for (std::size_t k = 0; k < static_cast<std::size_t>(rig_->num_cameras); ++k) {
+    if (stamps_[k] == 0) continue;
+    earliest = earliest == 0 ? stamps_[k] : std::min(earliest, stamps_[k]);
+    if (!stale(k)) earliest_fresh = earliest_fresh == 0 ? stamps_[k] : std::min(earliest_fresh, stamps_[k]);
+  }
+  if (earliest_fresh == 0 || earliest_fresh == earliest) return earliest;
+  int kept = 0;
+  for (int i = 0; i < num_obs_; ++i) {
+    const BlobObs& o = obs_[static_cast<std::size_t>(i)];
+    if (!stale(static_cast<std::size_t>(o.camera))) obs_[static_cast<std::size_t>(kept++)] = o;
+  }
+  num_obs_ = kept;
+  for (std::size_t k = 0; k < static_cast<std::size_t>(rig_->num_cameras); ++k) {
+    const std::uint32_t bit = std::uint32_t{1} << k;
+    if (stamps_[k] == 0 || !stale(k) || (*delivered_set & bit) == 0) continue;  // (blank: counted)
+    *delivered_set &= ~bit;
+    ++supervision_[k].stale_frames;
+  }
+  return earliest_fresh;
 }
 
 // A frame set stamped no later than the previous one (a repeated or backward driver clock)

@@ -53,6 +53,8 @@ struct CameraSupervision {
   std::uint16_t blobs_last = 0;
   std::uint64_t detect_errors = 0;  // frames whose detection gave no blob list
   std::uint64_t blank_frames = 0;   // frames with every pixel alike (DetectStatus::kBlankFrame)
+  std::uint64_t stale_frames = 0;   // frames stamped no later than the last frame set while another
+                                    // camera's was later: dropped for the frame set (DropStaleFrames)
 };
 
 struct LoopCounters {
@@ -93,6 +95,7 @@ class NavLoop {
 
  private:
   bool AcquireAll(std::uint64_t* t_capture_ns, bool* all_ended, std::uint32_t* delivered);
+  std::uint64_t DropStaleFrames(std::uint32_t* delivered_set);
   bool CheckClock(std::uint64_t* t_capture_ns);
   void CarryMissingPeriods(std::uint64_t driver_t_ns);
   void CheckJump(std::uint64_t driver_t_ns);
@@ -108,6 +111,7 @@ class NavLoop {
   std::array<BlobDetector, limits::kMaxCameras> detectors_;
   std::array<BlobList, limits::kMaxCameras> lists_{};
   std::array<BlobObs, limits::kMaxObservations> obs_{};
+  std::array<std::uint64_t, limits::kMaxCameras> stamps_{};  // this frame set's, per camera (0: none)
   int num_obs_ = 0;
   Navigator navigator_;
   NavOutput nav_;

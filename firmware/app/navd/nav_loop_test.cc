@@ -645,6 +645,54 @@ void StampJumpsAhead(bool frames_dropped) {
   EXPECT_EQ(drops, frames_dropped ? static_cast<std::uint64_t>(skipped * s.rig.num_cameras) : 0u);
 }
 
+// Issue 14: one camera delivering an old frame (stamped as the previous frame set) made the
+// whole frame set a clock fault (its stamp was the minimum over the cameras). Now that camera's
+// frame is dropped for the frame set (stale_frames, in its health bad_frames), the others are
+// tracked at their own time; only when every camera is stale is it the clock's fault.
+TEST(NavLoop, OneCamerasStaleFrameIsDroppedNotAClockFault) {
+  TrackedSweep s;
+  ASSERT_TRUE(s.Start());
+  constexpr int kAllStaleAt = 60;
+  const auto stamp = [](int n) { return 20'000'000'000ull + static_cast<std::uint64_t>(n) * kFrameNs; };
+  PoseRecord rec;
+  int wrong = 0, stale_camera = -1, stale_at = -1;
+  for (int n = 0; n < 75; ++n) {
+    s.sweep.Render(n);
+    for (int k = 0; k < s.rig.num_cameras; ++k) {
+      const bool stale = (n == stale_at && k == stale_camera) || n == kAllStaleAt;
+      ASSERT_TRUE(s.source.Push(k, s.sweep.View(k, stale ? stamp(n - 1) : stamp(n), static_cast<std::uint32_t>(n))));
+    }
+    ASSERT_EQ(s.loop.Step(&rec), StepStatus::kOk);
+    wrong += rec.status != NavStatus::kLost && !FixIsRight(rec, s.sweep.pose());
+    if (n >= 10 && stale_at < 0 && rec.status == NavStatus::kFix) {
+      // The stale camera: one that sees a beacon while the others see three more (the sweep
+      // turns slowly: the same beacons at the next frame set).
+      for (int k = 0; k < s.rig.num_cameras && stale_camera < 0; ++k) {
+        const int own = rec.beacons_per_camera[static_cast<std::size_t>(k)];
+        if (own > 0 && rec.num_beacons - own >= 3) stale_camera = k;
+      }
+      if (stale_camera >= 0) stale_at = n + 1;
+    }
+    if (n == stale_at) {
+      EXPECT_EQ(rec.t_capture_ns, stamp(n)) << "the fresh cameras' time";
+      EXPECT_NE(rec.reason, NavReason::kClockFault);
+      EXPECT_NE(rec.status, NavStatus::kLost) << ToString(rec.reason);
+      EXPECT_EQ(rec.beacons_per_camera[static_cast<std::size_t>(stale_camera)], 0) << "its blobs are not used";
+    }
+    if (n == kAllStaleAt) {
+      EXPECT_EQ(rec.reason, NavReason::kClockFault);
+    }
+  }
+  ASSERT_GE(stale_at, 0) << "the sweep never had such a frame set";
+  ASSERT_LT(stale_at, kAllStaleAt);
+  EXPECT_EQ(wrong, 0);
+  EXPECT_EQ(s.loop.counters().clock_faults, 1u) << "only the frame set every camera repeated";
+  for (int k = 0; k < s.rig.num_cameras; ++k) {
+    EXPECT_EQ(s.loop.supervision(k).stale_frames, k == stale_camera ? 1u : 0u) << k;
+    EXPECT_EQ(s.loop.Health().cameras[static_cast<std::size_t>(k)].bad_frames, k == stale_camera ? 1u : 0u) << k;
+  }
+}
+
 TEST(NavLoop, AStampThatJumpsAheadWithNoFrameLostIsCounted) { StampJumpsAhead(false); }
 TEST(NavLoop, AStampGapWithFramesDroppedIsNoFault) { StampJumpsAhead(true); }
 
