@@ -6,6 +6,19 @@
 
 namespace mfns {
 
+namespace {
+// x to (-half, half] (half > 0): std::remainder gives [-half, half], -half mapped to +half.
+double WrapTo(double x, double half) {
+  if (!std::isfinite(x)) return x;
+  const double w = std::remainder(x, 2.0 * half);
+  return w <= -half ? w + 2.0 * half : w;
+}
+}  // namespace
+
+double WrapPi(double a) { return WrapTo(a, kPi); }
+double Wrap180Deg(double a_deg) { return WrapTo(a_deg, 180.0); }
+
+
 Eigen::Matrix3d R1(double a) {
   const double c = std::cos(a), s = std::sin(a);
   Eigen::Matrix3d R;

@@ -16,6 +16,12 @@ inline constexpr double kPi = 3.14159265358979323846;
 constexpr double DegToRad(double deg) { return deg * (kPi / 180.0); }
 constexpr double RadToDeg(double rad) { return rad * (180.0 / kPi); }
 
+// The one angle wrap (issue 15): a (rad) to (-pi, pi], a_deg to (-180, 180]. A difference of
+// exactly half a turn reads +pi (+180) whichever side it came from, so that two tools comparing
+// the same angles agree. Non-finite input is returned unchanged (NaN stays NaN).
+double WrapPi(double a);
+double Wrap180Deg(double a_deg);
+
 // The paper's 2-1-3 Euler set, radians. phi in [-pi/2, pi/2] on output of MatrixToEuler.
 struct EulerAngles {
   double phi = 0.0;    // roll, about x

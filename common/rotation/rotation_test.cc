@@ -132,3 +132,36 @@ TEST(Rotation, NearestRotationRepairsNoise) {
 
 }  // namespace
 }  // namespace mfns
+
+namespace mfns {
+namespace {
+
+// The one angle wrap: (-180, 180] and (-pi, pi]; half a turn reads +180 from either side (the
+// three copies it replaced disagreed there: std::remainder alone gives -180 for -180 and for 540).
+TEST(Rotation, WrapIsHalfOpenAtHalfATurn) {
+  EXPECT_EQ(Wrap180Deg(180.0), 180.0);
+  EXPECT_EQ(Wrap180Deg(-180.0), 180.0);
+  EXPECT_EQ(Wrap180Deg(540.0), 180.0);
+  EXPECT_EQ(Wrap180Deg(-540.0), 180.0);
+  EXPECT_EQ(Wrap180Deg(0.0), 0.0);
+  EXPECT_DOUBLE_EQ(Wrap180Deg(-179.5), -179.5);
+  EXPECT_DOUBLE_EQ(Wrap180Deg(359.0), -1.0);
+  EXPECT_DOUBLE_EQ(Wrap180Deg(-359.0), 1.0);
+  EXPECT_DOUBLE_EQ(Wrap180Deg(3600.25), 0.25);
+  EXPECT_EQ(WrapPi(kPi), kPi);
+  EXPECT_EQ(WrapPi(-kPi), kPi);
+  EXPECT_NEAR(WrapPi(0.1 + 4.0 * kPi), 0.1, 1e-12);
+  EXPECT_NEAR(WrapPi(-0.1 - 6.0 * kPi), -0.1, 1e-12);
+  EXPECT_TRUE(std::isnan(WrapPi(std::nan(""))));
+  EXPECT_TRUE(std::isinf(Wrap180Deg(INFINITY)));
+  // Against a reference built from atan2 (a different route to the same wrap), over many turns.
+  for (double a = -20.0; a <= 20.0; a += 0.0137) {
+    const double ref = std::atan2(std::sin(a), std::cos(a));
+    EXPECT_NEAR(WrapPi(a), ref, 1e-12) << a;
+    EXPECT_GT(WrapPi(a), -kPi);
+    EXPECT_LE(WrapPi(a), kPi);
+  }
+}
+
+}  // namespace
+}  // namespace mfns

@@ -9,8 +9,6 @@
 namespace mfns::host {
 namespace {
 
-double Wrap180(double deg) { return std::remainder(deg, 360.0); }
-
 const RigCamera* FindCamera(const Rig& rig, const char* name) {
   for (int i = 0; i < rig.num_cameras; ++i)
     if (std::strcmp(rig.cameras[static_cast<std::size_t>(i)].name.data(), name) == 0)
@@ -29,8 +27,8 @@ std::vector<CameraCalibError> CompareCalibration(const Rig& estimate, const Rig&
     CameraCalibError e;
     e.name = est.name.data();
     const EulerAngles a = MatrixToEuler(est.C_k_b), b = MatrixToEuler(tru->C_k_b);
-    e.euler_error_deg = Eigen::Vector3d(Wrap180(RadToDeg(a.phi - b.phi)), Wrap180(RadToDeg(a.theta - b.theta)),
-                                        Wrap180(RadToDeg(a.psi - b.psi)));
+    e.euler_error_deg = Eigen::Vector3d(Wrap180Deg(RadToDeg(a.phi - b.phi)), Wrap180Deg(RadToDeg(a.theta - b.theta)),
+                                        Wrap180Deg(RadToDeg(a.psi - b.psi)));
     const Eigen::Vector3d w = LogSO3(tru->C_k_b.transpose() * est.C_k_b);
     e.rotation_error_b_deg = w * RadToDeg(1.0);
     e.rotation_deg = e.rotation_error_b_deg.norm();

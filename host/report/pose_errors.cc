@@ -3,16 +3,12 @@
 #include <cmath>
 #include <map>
 
+#include "common/rotation/rotation.h"
 #include "host/report/csv_table.h"
 #include "host/util/atomic_file.h"
 
 namespace mfns::host {
 namespace {
-
-double Wrap180(double deg) {
-  const double w = std::remainder(deg, 360.0);
-  return w == -180.0 ? 180.0 : w;
-}
 
 std::map<long, std::size_t> IndexByFrame(const CsvTable& t) {
   std::map<long, std::size_t> index;
@@ -82,7 +78,7 @@ PoseSeries LoadPoseSeries(const std::filesystem::path& truth_csv, const std::fil
       if (s.status != "lost") {
         for (std::size_t a = 0; a < 6; ++a) {
           const double d = est.Number(e->second, est_col[a]) - truth.Number(t, truth_col[a]);
-          s.error[a] = a >= 3 ? Wrap180(d) : d;
+          s.error[a] = a >= 3 ? Wrap180Deg(d) : d;
         }
       }
     }

@@ -268,10 +268,9 @@ Eigen::Vector3d EulerSigma(const Eigen::Matrix3d& C_k_b, const Eigen::Matrix3d& 
     d[i] = h;
     const EulerAngles ep = MatrixToEuler(C_k_b * ExpSO3(-d));
     const EulerAngles em = MatrixToEuler(C_k_b * ExpSO3(d));
-    const auto wrap = [](double a) { return std::remainder(a, 2.0 * kPi); };
-    J(0, i) = wrap(ep.phi - em.phi) / (2 * h);
-    J(1, i) = wrap(ep.theta - em.theta) / (2 * h);
-    J(2, i) = wrap(ep.psi - em.psi) / (2 * h);
+    J(0, i) = WrapPi(ep.phi - em.phi) / (2 * h);
+    J(1, i) = WrapPi(ep.theta - em.theta) / (2 * h);
+    J(2, i) = WrapPi(ep.psi - em.psi) / (2 * h);
     (void)e0;
   }
   const Eigen::Matrix3d cov = J * cov_phi_b * J.transpose();

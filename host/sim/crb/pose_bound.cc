@@ -10,8 +10,6 @@
 namespace mfns::host {
 namespace {
 
-double WrapPi(double a) { return std::remainder(a, 2.0 * kPi); }
-
 Eigen::Vector3d EulerOfCbw(const BodyPose& pose) {
   const EulerAngles e = MatrixToEuler(pose.C_w_b.transpose());
   return {e.phi, e.theta, e.psi};

@@ -6,6 +6,7 @@
 #include <sstream>
 #include <vector>
 
+#include "common/rotation/rotation.h"
 #include "host/util/atomic_file.h"
 
 namespace mfns::host {
@@ -64,8 +65,6 @@ Csv ReadCsv(const std::filesystem::path& path) {
   return csv;
 }
 
-double Wrap180(double deg) { return std::remainder(deg, 360.0); }
-
 }  // namespace
 
 CompareResult ComparePoses(const std::filesystem::path& sim_dir, const std::filesystem::path& poses_csv) {
@@ -119,7 +118,7 @@ CompareResult ComparePoses(const std::filesystem::path& sim_dir, const std::file
     for (int a = 0; a < 6; ++a) {
       double err = est.Number(e->second, est.Column(truth_cols[static_cast<std::size_t>(a)])) -
                    truth.Number(t, truth.Column(truth_cols[static_cast<std::size_t>(a)]));
-      if (a >= 3) err = Wrap180(err);
+      if (a >= 3) err = Wrap180Deg(err);
       errors[static_cast<std::size_t>(a)].push_back(err);
       const double s = crb.Number(c->second, crb.Column(bound_cols[static_cast<std::size_t>(a)]));
       bound_var[static_cast<std::size_t>(a)] += s * s;
