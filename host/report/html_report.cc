@@ -5,27 +5,14 @@
 #include <cstdio>
 #include <sstream>
 
+#include "host/util/xml_escape.h"
+
 namespace mfns::host {
 namespace {
 
 constexpr double kW = 760, kH = 320, kLeft = 70, kRight = 150, kTop = 36, kBottom = 46;
 constexpr std::array<const char*, 8> kColors = {"#1f77b4", "#d62728", "#2ca02c", "#ff7f0e",
                                                 "#9467bd", "#8c564b", "#e377c2", "#7f7f7f"};
-
-std::string Escape(const std::string& s) {
-  std::string o;
-  for (char c : s) {
-    switch (c) {
-      case '&': o += "&amp;"; break;
-      case '<': o += "&lt;"; break;
-      case '>': o += "&gt;"; break;
-      case '"': o += "&quot;"; break;
-      case '\'': o += "&#39;"; break;
-      default: o += c;
-    }
-  }
-  return o;
-}
 
 std::string Num(double v) {
   char b[32];
@@ -81,9 +68,9 @@ std::string RenderChart(const Chart& c) {
   const auto Y = [&](double y) { return kTop + ph - (y - yr.lo) / (yr.hi - yr.lo) * ph; };
 
   std::ostringstream o;
-  o << "<svg xmlns=\"http://www.w3.org/2000/svg\" id=\"" << Escape(c.id) << "\" width=\"" << kW << "\" height=\"" << kH
+  o << "<svg xmlns=\"http://www.w3.org/2000/svg\" id=\"" << XmlEscape(c.id) << "\" width=\"" << kW << "\" height=\"" << kH
     << "\" viewBox=\"0 0 " << kW << " " << kH << "\" font-family=\"sans-serif\" font-size=\"12\">\n";
-  o << "<text x=\"" << kW / 2 << "\" y=\"20\" text-anchor=\"middle\" font-size=\"14\">" << Escape(c.title) << "</text>\n";
+  o << "<text x=\"" << kW / 2 << "\" y=\"20\" text-anchor=\"middle\" font-size=\"14\">" << XmlEscape(c.title) << "</text>\n";
   o << "<rect x=\"" << kLeft << "\" y=\"" << kTop << "\" width=\"" << pw << "\" height=\"" << ph
     << "\" fill=\"none\" stroke=\"#000\"/>\n";
   for (int axis = 0; axis < 2; ++axis) {
@@ -103,14 +90,14 @@ std::string RenderChart(const Chart& c) {
       }
     }
   }
-  o << "<text x=\"" << kLeft + pw / 2 << "\" y=\"" << kH - 8 << "\" text-anchor=\"middle\">" << Escape(c.x_label)
+  o << "<text x=\"" << kLeft + pw / 2 << "\" y=\"" << kH - 8 << "\" text-anchor=\"middle\">" << XmlEscape(c.x_label)
     << "</text>\n";
   o << "<text transform=\"translate(16," << kTop + ph / 2 << ") rotate(-90)\" text-anchor=\"middle\">"
-    << Escape(c.y_label) << "</text>\n";
+    << XmlEscape(c.y_label) << "</text>\n";
   for (std::size_t k = 0; k < c.series.size(); ++k) {
     const auto& s = c.series[k];
     const char* color = kColors[k % kColors.size()];
-    o << "<g class=\"series\" data-name=\"" << Escape(s.name) << "\" fill=\"" << color << "\" stroke=\"" << color
+    o << "<g class=\"series\" data-name=\"" << XmlEscape(s.name) << "\" fill=\"" << color << "\" stroke=\"" << color
       << "\">\n";
     std::string points;
     for (std::size_t i = 0; i < std::min(s.x.size(), s.y.size()); ++i) {
@@ -128,7 +115,7 @@ std::string RenderChart(const Chart& c) {
     o << "\n</g>\n";
     const double ly = kTop + 14 + 18 * static_cast<double>(k);
     o << "<rect x=\"" << kW - kRight + 12 << "\" y=\"" << ly - 9 << "\" width=\"10\" height=\"10\" fill=\"" << color
-      << "\"/><text x=\"" << kW - kRight + 28 << "\" y=\"" << ly << "\">" << Escape(s.name) << "</text>\n";
+      << "\"/><text x=\"" << kW - kRight + 28 << "\" y=\"" << ly << "\">" << XmlEscape(s.name) << "</text>\n";
   }
   o << "</svg>\n";
   return o.str();
@@ -203,18 +190,18 @@ std::string RenderReportHtml(const ReportInputs& in) {
   }
 
   std::ostringstream o;
-  o << "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n<title>" << Escape(in.title)
+  o << "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n<title>" << XmlEscape(in.title)
     << "</title>\n<style>body{font-family:sans-serif;max-width:1100px;margin:1em auto;padding:0 1em}"
        "pre{background:#f6f6f6;padding:.6em;overflow-x:auto;font-size:12px}</style>\n</head>\n<body>\n";
-  o << "<h1>" << Escape(in.title) << "</h1>\n";
+  o << "<h1>" << XmlEscape(in.title) << "</h1>\n";
   if (!in.notes.empty()) {
     o << "<ul class=\"notes\">\n";
-    for (const std::string& n : in.notes) o << "<li>" << Escape(n) << "</li>\n";
+    for (const std::string& n : in.notes) o << "<li>" << XmlEscape(n) << "</li>\n";
     o << "</ul>\n";
   }
-  if (!in.table5_text.empty()) o << "<h2>Table 5: navigation</h2>\n<pre id=\"table5\">" << Escape(in.table5_text) << "</pre>\n";
+  if (!in.table5_text.empty()) o << "<h2>Table 5: navigation</h2>\n<pre id=\"table5\">" << XmlEscape(in.table5_text) << "</pre>\n";
   if (!in.table3_text.empty())
-    o << "<h2>Table 3: calibration</h2>\n<pre id=\"table3\">" << Escape(in.table3_text) << "</pre>\n";
+    o << "<h2>Table 3: calibration</h2>\n<pre id=\"table3\">" << XmlEscape(in.table3_text) << "</pre>\n";
   o << "<h2>Plots</h2>\n";
   for (const Chart& c : charts) o << "<div class=\"plot\">\n" << RenderChart(c) << "</div>\n";
   o << "</body>\n</html>\n";

@@ -144,35 +144,35 @@ std::string FormatOpenCvCameraYaml(const CameraResult& c, const std::vector<std:
 
 std::string FormatReportHtml(const RigCalibration& rig, const CalibInput& in, const ReportContext& ctx) {
   std::ostringstream h;
-  h << "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\"><title>" << Escape(ctx.title) << "</title>\n"
+  h << "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\"><title>" << XmlEscape(ctx.title) << "</title>\n"
     << "<style>body{font-family:sans-serif;margin:24px;max-width:1400px}table{border-collapse:collapse;margin:8px 0}"
        "td,th{border:1px solid #bbb;padding:3px 8px;text-align:right}th{background:#eee}td.l,th.l{text-align:left}"
        ".fixed{color:#888;font-size:smaller}.charts{display:flex;flex-wrap:wrap;gap:8px}h2{border-bottom:1px solid #ccc}"
        ".bad{color:#b00}</style></head><body>\n";
-  h << "<h1>" << Escape(ctx.title) << "</h1>\n<table>";
+  h << "<h1>" << XmlEscape(ctx.title) << "</h1>\n<table>";
   int n_tt = 0, n_free = 0, n_corners = 0;
   for (const ViewObservation& v : in.views) {
     (v.kind == ImageKind::kTurntable ? n_tt : n_free) += 1;
     n_corners += static_cast<int>(v.corners.size());
   }
   const auto row = [&](const std::string& k, const std::string& v) {
-    h << "<tr><th class=\"l\">" << Escape(k) << "</th><td class=\"l\">" << v << "</td></tr>";
+    h << "<tr><th class=\"l\">" << XmlEscape(k) << "</th><td class=\"l\">" << v << "</td></tr>";
   };
-  row("method", Escape(rig.method));
-  if (!ctx.dataset.empty()) row("dataset", Escape(ctx.dataset));
-  if (!ctx.command_line.empty()) row("command", "<code>" + Escape(ctx.command_line) + "</code>");
-  row("rig id / generation", Escape(ctx.rig_id) + " / " + std::to_string(ctx.generation));
+  row("method", XmlEscape(rig.method));
+  if (!ctx.dataset.empty()) row("dataset", XmlEscape(ctx.dataset));
+  if (!ctx.command_line.empty()) row("command", "<code>" + XmlEscape(ctx.command_line) + "</code>");
+  row("rig id / generation", XmlEscape(ctx.rig_id) + " / " + std::to_string(ctx.generation));
   row("images used", std::to_string(n_tt) + " turntable + " + std::to_string(n_free) + " free, " +
                          std::to_string(n_corners) + " corners");
   row("images skipped", std::to_string(in.skipped.size()));
   row("reprojection RMS", F(rig.rms_px, 4) + " px");
   h << "</table>\n<h2>Notes</h2><ul>";
-  for (const std::string& n : rig.notes) h << "<li>" << Escape(n) << "</li>";
+  for (const std::string& n : rig.notes) h << "<li>" << XmlEscape(n) << "</li>";
   h << "</ul>\n";
 
   // Parameters.
   h << "<h2>Parameters (1-sigma)</h2>\n<table><tr><th class=\"l\">parameter</th>";
-  for (const CameraResult& c : rig.cameras) h << "<th>camera " << Escape(c.name) << "</th>";
+  for (const CameraResult& c : rig.cameras) h << "<th>camera " << XmlEscape(c.name) << "</th>";
   h << "</tr>\n";
   for (int i = 0; i < kNumCameraParams; ++i) {
     h << "<tr><td class=\"l\">" << kParamNames[i] << "</td>";
@@ -228,14 +228,14 @@ std::string FormatReportHtml(const RigCalibration& rig, const CalibInput& in, co
     h << "<h2>Against the simulation truth</h2><table><tr><th class=\"l\">camera</th><th>C_k_b error (deg)</th>"
          "<th>r_b_bk error (mm)</th></tr>";
     for (const CameraError& c : e.cameras)
-      h << "<tr><td class=\"l\">" << Escape(c.name) << "</td><td>" << F(c.rotation_deg, 4) << "</td><td>"
+      h << "<tr><td class=\"l\">" << XmlEscape(c.name) << "</td><td>" << F(c.rotation_deg, 4) << "</td><td>"
         << F(c.position_mm, 4) << "</td></tr>";
     if (ctx.truth_mount != nullptr)
       h << "<tr><td class=\"l\">turntable</td><td>" << F(e.C_w_t_deg, 4) << "</td><td>" << F(e.r_w_wt_mm, 4) << "</td></tr>";
     h << "</table><table><tr><th class=\"l\">parameter</th><th>estimate - truth</th><th>1-sigma</th><th>|error| / sigma</th></tr>";
     for (const ParamError& p : e.params) {
       const double z = p.sigma > 0 ? std::abs(p.error) / p.sigma : std::nan("");
-      h << "<tr><td class=\"l\">" << Escape(p.name) << " (" << p.unit << ")</td><td>" << F(p.error, 4) << "</td><td>"
+      h << "<tr><td class=\"l\">" << XmlEscape(p.name) << " (" << p.unit << ")</td><td>" << F(p.error, 4) << "</td><td>"
         << F(p.sigma, 3) << "</td><td" << (z > 3 ? " class=\"bad\"" : "") << ">" << (std::isfinite(z) ? F(z, 3) : "-")
         << "</td></tr>";
     }
@@ -268,7 +268,7 @@ std::string FormatReportHtml(const RigCalibration& rig, const CalibInput& in, co
       rms.push_back(r.rms_px);
     }
     scatter.series = {tt, fr};
-    h << "<h3>camera " << Escape(rig.cameras[k].name) << " (RMS " << F(rig.cameras[k].rms_px, 4)
+    h << "<h3>camera " << XmlEscape(rig.cameras[k].name) << " (RMS " << F(rig.cameras[k].rms_px, 4)
       << " px)</h3><div class=\"charts\">\n"
       << ScatterSvg(scatter)
       << HistogramSvg(comps, 30, "camera " + rig.cameras[k].name + ": residual components", "px")
@@ -297,7 +297,7 @@ std::string FormatReportHtml(const RigCalibration& rig, const CalibInput& in, co
       m.y.push_back(dm);
       a.x.push_back(static_cast<double>(i));
       a.y.push_back(da);
-      table << "<tr><td class=\"l\">" << Escape(in.cameras[static_cast<std::size_t>(v.camera)].name + "/" + v.image) << "</td><td>"
+      table << "<tr><td class=\"l\">" << XmlEscape(in.cameras[static_cast<std::size_t>(v.camera)].name + "/" + v.image) << "</td><td>"
             << Fixed(RadToDeg(ar.main_cmd), 4) << "</td><td>" << Fixed(dm, 2) << "</td><td>"
             << Fixed(RadToDeg(ar.main_sigma) * 3600, 2) << "</td><td>" << Fixed(RadToDeg(ar.aux_cmd), 4) << "</td><td>"
             << Fixed(da, 2) << "</td><td>" << Fixed(RadToDeg(ar.aux_sigma) * 3600, 2) << "</td></tr>";
@@ -314,8 +314,8 @@ std::string FormatReportHtml(const RigCalibration& rig, const CalibInput& in, co
   } else {
     h << "<table><tr><th class=\"l\">camera</th><th class=\"l\">image</th><th class=\"l\">reason</th></tr>";
     for (const SkippedImage& s : in.skipped)
-      h << "<tr><td class=\"l\">" << Escape(s.camera) << "</td><td class=\"l\">" << Escape(s.image) << "</td><td class=\"l\">"
-        << Escape(s.reason) << "</td></tr>";
+      h << "<tr><td class=\"l\">" << XmlEscape(s.camera) << "</td><td class=\"l\">" << XmlEscape(s.image) << "</td><td class=\"l\">"
+        << XmlEscape(s.reason) << "</td></tr>";
     h << "</table>\n";
   }
   h << "</body></html>\n";

@@ -59,7 +59,7 @@ class Frame {
     o << "<svg xmlns=\"http://www.w3.org/2000/svg\" class=\"chart\" width=\"" << kW << "\" height=\"" << kH
       << "\" viewBox=\"0 0 " << kW << " " << kH << "\">\n<rect x=\"0\" y=\"0\" width=\"" << kW << "\" height=\"" << kH
       << "\" fill=\"white\"/>\n<text x=\"" << kW / 2 << "\" y=\"18\" text-anchor=\"middle\" font-size=\"13\">"
-      << Escape(title) << "</text>\n";
+      << XmlEscape(title) << "</text>\n";
     for (double t : y_.ticks)
       o << "<line x1=\"" << Fmt(kLeft) << "\" x2=\"" << Fmt(kW - kRight) << "\" y1=\"" << Fmt(Y(t)) << "\" y2=\"" << Fmt(Y(t))
         << "\" stroke=\"#ddd\"/><text x=\"" << Fmt(kLeft - 4) << "\" y=\"" << Fmt(Y(t) + 4)
@@ -72,9 +72,9 @@ class Frame {
     o << "<rect x=\"" << Fmt(kLeft) << "\" y=\"" << Fmt(kTop) << "\" width=\"" << Fmt(kW - kLeft - kRight) << "\" height=\""
       << Fmt(kH - kTop - kBottom) << "\" fill=\"none\" stroke=\"#444\"/>\n";
     o << "<text x=\"" << Fmt((kLeft + kW - kRight) / 2) << "\" y=\"" << Fmt(kH - 8)
-      << "\" text-anchor=\"middle\" font-size=\"11\">" << Escape(xl) << "</text>\n";
+      << "\" text-anchor=\"middle\" font-size=\"11\">" << XmlEscape(xl) << "</text>\n";
     o << "<text x=\"14\" y=\"" << Fmt((kTop + kH - kBottom) / 2) << "\" text-anchor=\"middle\" font-size=\"11\" transform=\"rotate(-90 14 "
-      << Fmt((kTop + kH - kBottom) / 2) << ")\">" << Escape(yl) << "</text>\n";
+      << Fmt((kTop + kH - kBottom) / 2) << ")\">" << XmlEscape(yl) << "</text>\n";
     return o.str();
   }
 
@@ -83,19 +83,6 @@ class Frame {
 };
 
 }  // namespace
-
-std::string Escape(const std::string& s) {
-  std::string o;
-  for (char c : s) switch (c) {
-      case '&': o += "&amp;"; break;
-      case '<': o += "&lt;"; break;
-      case '>': o += "&gt;"; break;
-      case '"': o += "&quot;"; break;
-      case '\'': o += "&#39;"; break;
-      default: o += c;
-    }
-  return o;
-}
 
 std::string ScatterSvg(const SvgChart& c) {
   double xlo = 1e300, xhi = -1e300, ylo = 1e300, yhi = -1e300;
@@ -121,12 +108,12 @@ std::string ScatterSvg(const SvgChart& c) {
   for (const SvgSeries& s : c.series) {
     for (std::size_t i = 0; i < s.x.size() && i < s.y.size(); ++i) {
       if (!std::isfinite(s.x[i]) || !std::isfinite(s.y[i])) continue;
-      o << "<circle class=\"" << Escape(s.css_class) << "\" cx=\"" << Fmt(f.X(s.x[i])) << "\" cy=\"" << Fmt(f.Y(s.y[i]))
+      o << "<circle class=\"" << XmlEscape(s.css_class) << "\" cx=\"" << Fmt(f.X(s.x[i])) << "\" cy=\"" << Fmt(f.Y(s.y[i]))
         << "\" r=\"2\" fill=\"" << s.color << "\" fill-opacity=\"0.6\"/>\n";
     }
     if (c.series.size() > 1) {
       o << "<circle cx=\"" << Fmt(kW - kRight - 90) << "\" cy=\"" << Fmt(ly - 4) << "\" r=\"4\" fill=\"" << s.color
-        << "\"/><text x=\"" << Fmt(kW - kRight - 82) << "\" y=\"" << Fmt(ly) << "\" font-size=\"10\">" << Escape(s.name)
+        << "\"/><text x=\"" << Fmt(kW - kRight - 82) << "\" y=\"" << Fmt(ly) << "\" font-size=\"10\">" << XmlEscape(s.name)
         << "</text>\n";
       ly += 14;
     }
@@ -180,11 +167,11 @@ std::string BarSvg(const std::vector<std::string>& labels, const std::vector<dou
     const double v = std::isfinite(values[i]) ? values[i] : 0.0;
     const double x0 = f.X(static_cast<double>(i) + 0.1), x1 = f.X(static_cast<double>(i) + 0.9), y = f.Y(v);
     o << "<rect class=\"bar\" x=\"" << Fmt(x0) << "\" y=\"" << Fmt(y) << "\" width=\"" << Fmt(x1 - x0) << "\" height=\""
-      << Fmt(f.Y(0.0) - y) << "\" fill=\"#55a868\"><title>" << Escape(i < labels.size() ? labels[i] : "") << ": " << Num(v)
+      << Fmt(f.Y(0.0) - y) << "\" fill=\"#55a868\"><title>" << XmlEscape(i < labels.size() ? labels[i] : "") << ": " << Num(v)
       << "</title></rect>\n";
     if (values.size() <= 32 && i < labels.size())
       o << "<text x=\"" << Fmt((x0 + x1) / 2) << "\" y=\"" << Fmt(kH - kBottom + 12)
-        << "\" text-anchor=\"middle\" font-size=\"8\">" << Escape(labels[i]) << "</text>\n";
+        << "\" text-anchor=\"middle\" font-size=\"8\">" << XmlEscape(labels[i]) << "</text>\n";
   }
   o << "</svg>\n";
   return o.str();

@@ -5,6 +5,8 @@
 #include <string>
 #include <vector>
 
+#include "host/util/xml_escape.h"  // XmlEscape, for callers writing text into a page
+
 namespace mfns::host {
 
 struct SvgSeries {
@@ -29,7 +31,5 @@ std::string HistogramSvg(const std::vector<double>& values, int bins, const std:
 std::string BarSvg(const std::vector<std::string>& labels, const std::vector<double>& values, const std::string& title,
                    const std::string& y_label);
 
-// Escapes & < > " ' for XML and HTML.
-std::string Escape(const std::string& s);
 
 }  // namespace mfns::host

@@ -1,4 +1,5 @@
 #include "host/sim/analysis/svg_plot.h"
+#include "host/util/xml_escape.h"
 
 #include <algorithm>
 #include <cmath>
@@ -36,21 +37,6 @@ double MaxFinite(const std::vector<double>& a, const std::vector<double>& b) {
 }
 
 }  // namespace
-
-std::string XmlEscape(const std::string& s) {
-  std::string out;
-  for (const char c : s) {
-    switch (c) {
-      case '&': out += "&amp;"; break;
-      case '<': out += "&lt;"; break;
-      case '>': out += "&gt;"; break;
-      case '"': out += "&quot;"; break;
-      case '\'': out += "&apos;"; break;
-      default: out += c;
-    }
-  }
-  return out;
-}
 
 std::vector<double> NiceTicks(double max, int target) {
   if (!(max > 0.0) || !std::isfinite(max)) return {0.0, 1.0};

@@ -7,6 +7,8 @@
 #include <utility>
 #include <vector>
 
+#include "host/util/xml_escape.h"  // XmlEscape, for callers writing text into a plot
+
 namespace mfns::host {
 
 struct SvgPlot {
@@ -32,7 +34,5 @@ std::string RenderSvg(const SvgPlot& plot);
 // 1, 2, 2.5 or 5 times a power of ten; the last tick is >= max. max <= 0 gives {0, 1}.
 std::vector<double> NiceTicks(double max, int target = 5);
 
-// Escapes & < > " ' for XML text and attribute values.
-std::string XmlEscape(const std::string& s);
 
 }  // namespace mfns::host

@@ -63,7 +63,6 @@ TEST(SvgPlot, TheCheckerRejectsBrokenXml) {
   EXPECT_TRUE(CheckXml("<?xml version=\"1.0\"?>\n<svg><circle class=\"mc\"/></svg>\n").ok);
 }
 
-TEST(SvgPlot, XmlEscapeEscapesAllFive) { EXPECT_EQ(XmlEscape("&<>\"'a"), "&amp;&lt;&gt;&quot;&apos;a"); }
 
 }  // namespace
 }  // namespace mfns::host
