@@ -7,7 +7,7 @@
 
 #include "firmware/modules/params/param_store.h"
 #include "host/flash/process.h"
-#include "host/util/atomic_file.h"
+#include "host/util/user_error.h"
 
 namespace mfns::host {
 namespace {

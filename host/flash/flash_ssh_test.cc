@@ -25,7 +25,7 @@
 #include "firmware/modules/params/testing/test_blobs.h"
 #include "host/flash/flash.h"
 #include "host/flash/process.h"
-#include "host/util/atomic_file.h"
+#include "host/util/user_error.h"
 
 namespace mfns::host {
 namespace {

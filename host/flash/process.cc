@@ -10,7 +10,7 @@
 #include <chrono>
 #include <cstring>
 
-#include "host/util/atomic_file.h"
+#include "host/util/user_error.h"
 
 namespace mfns::host {
 namespace {

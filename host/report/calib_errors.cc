@@ -4,7 +4,7 @@
 #include <cstring>
 
 #include "common/rotation/rotation.h"
-#include "host/util/atomic_file.h"
+#include "host/util/user_error.h"
 
 namespace mfns::host {
 namespace {

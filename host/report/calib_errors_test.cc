@@ -4,7 +4,7 @@
 
 #include "common/rig/paper_rig.h"
 #include "common/rotation/rotation.h"
-#include "host/util/atomic_file.h"
+#include "host/util/user_error.h"
 
 namespace mfns::host {
 namespace {

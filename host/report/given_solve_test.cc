@@ -8,7 +8,7 @@
 #include "common/rotation/rotation.h"
 #include "host/report/pose_errors.h"
 #include "host/report/report_test_util.h"
-#include "host/util/atomic_file.h"
+#include "host/util/user_error.h"
 
 namespace mfns::host {
 namespace {

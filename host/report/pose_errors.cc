@@ -5,7 +5,7 @@
 
 #include "common/rotation/rotation.h"
 #include "host/report/csv_table.h"
-#include "host/util/atomic_file.h"
+#include "host/util/user_error.h"
 
 namespace mfns::host {
 namespace {

@@ -5,7 +5,7 @@
 #include <cmath>
 
 #include "host/report/report_test_util.h"
-#include "host/util/atomic_file.h"
+#include "host/util/user_error.h"
 
 namespace mfns::host {
 namespace {

@@ -8,6 +8,7 @@
 
 #include "common/rotation/rotation.h"
 #include "host/rigio/yaml_fields.h"
+#include "host/util/atomic_file.h"
 
 namespace mfns::host {
 namespace {

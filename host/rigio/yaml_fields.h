@@ -8,7 +8,7 @@
 #include <string>
 
 #include "common/rig/rig.h"
-#include "host/util/atomic_file.h"
+#include "host/util/user_error.h"
 
 namespace mfns::host {
 

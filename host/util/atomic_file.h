@@ -6,18 +6,12 @@
 #include <cstdint>
 #include <filesystem>
 #include <span>
-#include <stdexcept>
 #include <string>
 #include <string_view>
 
-namespace mfns::host {
+#include "host/util/user_error.h"  // the UserError these functions throw
 
-// A user-facing error: what() is one line naming the file and what is wrong. Tools print it
-// as "<tool>: <what>" and exit 1.
-class UserError : public std::runtime_error {
- public:
-  using std::runtime_error::runtime_error;
-};
+namespace mfns::host {
 
 // Writes bytes to path atomically. Creates no directories. Throws UserError on failure.
 void WriteFileAtomic(const std::filesystem::path& path, std::span<const std::uint8_t> bytes);

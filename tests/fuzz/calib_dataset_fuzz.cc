@@ -14,7 +14,7 @@
 #include <vector>
 
 #include "host/calib/core/dataset.h"
-#include "host/util/atomic_file.h"
+#include "host/util/user_error.h"
 #include "tests/fuzz/fuzz_text.h"
 
 namespace {

@@ -7,7 +7,7 @@
 #include <string>
 
 #include "host/report/csv_table.h"
-#include "host/util/atomic_file.h"
+#include "host/util/user_error.h"
 #include "tests/fuzz/fuzz_text.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {

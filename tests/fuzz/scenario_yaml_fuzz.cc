@@ -8,7 +8,7 @@
 
 #include "common/rig/rig.h"
 #include "host/sim/scenario/scenario.h"
-#include "host/util/atomic_file.h"
+#include "host/util/user_error.h"
 #include "tests/fuzz/fuzz_text.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {

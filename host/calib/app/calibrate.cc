@@ -16,7 +16,7 @@
 #include "host/calib/ml/joint.h"
 #include "host/calib/ml/orientation.h"
 #include "host/sim/render/image.h"
-#include "host/util/atomic_file.h"
+#include "host/util/user_error.h"
 
 namespace mfns::host {
 namespace {

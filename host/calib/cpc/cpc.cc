@@ -6,7 +6,7 @@
 
 #include "common/rotation/rotation.h"
 #include "host/calib/ml/joint.h"
-#include "host/util/atomic_file.h"
+#include "host/util/user_error.h"
 
 namespace mfns::host {
 namespace {

@@ -8,7 +8,7 @@
 #include "host/calib/app/calibrate.h"
 #include "host/calib/report/compare.h"
 #include "host/calib/testing/synth_calib.h"
-#include "host/util/atomic_file.h"
+#include "host/util/user_error.h"
 
 namespace mfns::host {
 namespace {

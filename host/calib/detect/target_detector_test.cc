@@ -10,7 +10,7 @@
 #include "common/rotation/rotation.h"
 #include "host/sim/render/sensor.h"
 #include "host/sim/render/target_renderer.h"
-#include "host/util/atomic_file.h"
+#include "host/util/user_error.h"
 
 namespace mfns::host {
 namespace {

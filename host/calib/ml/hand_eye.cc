@@ -6,7 +6,7 @@
 #include <opencv2/core/eigen.hpp>
 
 #include "common/rotation/rotation.h"
-#include "host/util/atomic_file.h"
+#include "host/util/user_error.h"
 
 namespace mfns::host {
 namespace {

@@ -10,7 +10,7 @@
 #include <sstream>
 
 #include "common/rotation/rotation.h"
-#include "host/util/atomic_file.h"
+#include "host/util/user_error.h"
 
 namespace mfns::host {
 namespace {

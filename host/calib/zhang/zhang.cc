@@ -5,7 +5,7 @@
 #include <opencv2/core/eigen.hpp>
 #include <string>
 
-#include "host/util/atomic_file.h"
+#include "host/util/user_error.h"
 
 namespace mfns::host {
 

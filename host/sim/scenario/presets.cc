@@ -1,7 +1,7 @@
 #include <map>
 
 #include "host/sim/scenario/scenario.h"
-#include "host/util/atomic_file.h"
+#include "host/util/user_error.h"
 
 // Built-in scenarios (DESIGN.md, "Simulator"). Each is plain scenario YAML, so
 // `mfns-sim preset NAME > my.yaml` is the way to start a custom one.

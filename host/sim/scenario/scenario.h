@@ -18,7 +18,7 @@
 #include "common/rig/rig.h"
 #include "host/sim/scenario/module.h"
 #include "host/sim/scenario/wander.h"
-#include "host/util/atomic_file.h"
+#include "host/util/user_error.h"
 
 namespace mfns::host {
 
