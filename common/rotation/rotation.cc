@@ -18,7 +18,6 @@ double WrapTo(double x, double half) {
 double WrapPi(double a) { return WrapTo(a, kPi); }
 double Wrap180Deg(double a_deg) { return WrapTo(a_deg, 180.0); }
 
-
 Eigen::Matrix3d R1(double a) {
   const double c = std::cos(a), s = std::sin(a);
   Eigen::Matrix3d R;
