@@ -7,7 +7,18 @@
 
 namespace mfns::fw {
 
+PoseFilterNoise PoseFilterNoiseOf(const MotionLimits& lim) {
+  PoseFilterNoise n;
+  n.accel_psd = lim.max_accel_m_s2 * lim.max_accel_m_s2 * 1.0;
+  n.angular_accel_psd = lim.max_angular_accel_rad_s2 * lim.max_angular_accel_rad_s2 * 1.0;
+  n.initial_speed_sigma = lim.max_speed_m_s;
+  n.initial_rate_sigma = lim.max_rate_rad_s;
+  return n;
+}
+
 void MotionModel::Forget() {
+  filter_.Forget();
+  filter_pending_ = false;
   known_ = has_velocity_ = false;
   hist_n_ = 0;
 }
@@ -23,11 +34,19 @@ void MotionModel::Start(const BodyPose& pose, std::uint64_t t_ns, double sigma_m
   hist_n_ = last_sigma_m_ == 0.0 && last_sigma_rad_ == 0.0 ? 1 : 0;
   hist_[0] = pose;
   hist_t_ns_[0] = t_ns;
+  // The filter starts from this pose at the next Add, which brings the motion bounds.
+  filter_.Forget();
+  filter_pending_ = true;
 }
 
 void MotionModel::Add(const BodyPose& pose, std::uint64_t t_ns, double sigma_m, double sigma_rad, double map_ratio,
-                      const MotionLimits& lim) {
-  if (!known_) hist_n_ = 0;
+                      const MotionLimits& lim, const Matrix6d* cov) {
+  if (!known_) {
+    hist_n_ = 0;
+    filter_.Forget();
+    filter_pending_ = false;
+  }
+  AddToFilter(pose, t_ns, sigma_m, sigma_rad, map_ratio, lim, cov);
   // The oldest pose within the window: a longer baseline averages the noise of single poses;
   // across a gap bridged by the prediction, the newest is all there is.
   int from = -1;
@@ -59,6 +78,23 @@ void MotionModel::Add(const BodyPose& pose, std::uint64_t t_ns, double sigma_m, 
   last_sigma_rad_ = sigma_rad;
   last_map_sigma_m_ = map_ratio * last_sigma_m_;
   last_map_sigma_rad_ = map_ratio * last_sigma_rad_;
+}
+
+void MotionModel::AddToFilter(const BodyPose& pose, std::uint64_t t_ns, double sigma_m, double sigma_rad,
+                              double map_ratio, const MotionLimits& lim, const Matrix6d* cov) {
+  const PoseFilterNoise noise = PoseFilterNoiseOf(lim);
+  if (filter_pending_) {
+    Matrix6d P0 = Matrix6d::Zero();
+    P0.diagonal() << Eigen::Vector3d::Constant(last_sigma_m_ * last_sigma_m_),
+        Eigen::Vector3d::Constant(last_sigma_rad_ * last_sigma_rad_);
+    filter_.Start(last_pose_, last_t_ns_, P0, noise);
+    filter_pending_ = false;
+  }
+  Matrix6d R = Matrix6d::Zero();
+  if (cov != nullptr) R = *cov;
+  else R.diagonal() << Eigen::Vector3d::Constant(sigma_m * sigma_m), Eigen::Vector3d::Constant(sigma_rad * sigma_rad);
+  R *= 1.0 + map_ratio * map_ratio;
+  if (!filter_.Update(pose, t_ns, R)) filter_.Start(pose, t_ns, R, noise);
 }
 
 BodyPose MotionModel::Predict(std::uint64_t t_ns) const {

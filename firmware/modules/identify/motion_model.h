@@ -14,6 +14,7 @@
 
 #include "common/limits.h"
 #include "common/rig/rig.h"
+#include "firmware/modules/identify/pose_filter.h"
 
 namespace mfns::fw {
 
@@ -41,6 +42,11 @@ struct PoseBounds {
   double max_rad = 0.0;
 };
 
+// The filter's noise for these bounds: white accelerations of spectral density max_accel^2 x 1 s
+// (an acceleration at the bound sustained for about a second is a 1-sigma event), the initial
+// velocity's 1-sigma the speed bounds.
+PoseFilterNoise PoseFilterNoiseOf(const MotionLimits& lim);
+
 class MotionModel {
  public:
   // No pose, no velocity, no history (the track is lost or was never found).
@@ -53,8 +59,16 @@ class MotionModel {
   // (NoiseModel::MapToCentroidRatio: its 1-sigma for the map's error over that). The velocity is
   // taken from the oldest pose of the history within lim.velocity_window_s, else the newest;
   // a history this pose does not continue (after Forget) is dropped first.
+  // cov (optional): the pose's 6x6 covariance for the centroid noise (PoseDelta order), which
+  // the Kalman filter (filter()) takes, grown by the map's share; without it, sigma_m / sigma_rad
+  // on the diagonal.
   void Add(const BodyPose& pose, std::uint64_t t_ns, double sigma_m, double sigma_rad, double map_ratio,
-           const MotionLimits& lim);
+           const MotionLimits& lim, const Matrix6d* cov = nullptr);
+
+  // The constant-velocity Kalman filter over the same poses (pose_filter.h; process noise from
+  // the acceleration bounds, PoseFilterNoiseOf): the prediction with a covariance, for weighing
+  // trial poses against each other. Started by Start and by an Add after Forget.
+  const PoseFilter& filter() const { return filter_; }
 
   bool known() const { return known_; }                // a last pose exists (may seed a search)
   bool has_velocity() const { return has_velocity_; }  // else the prediction holds the last pose
@@ -88,6 +102,11 @@ class MotionModel {
   double velocity_baseline_s_ = 1.0;                          // span the velocity was taken over
   Eigen::Vector3d v_w_ = Eigen::Vector3d::Zero();      // m/s, world
   Eigen::Vector3d omega_b_ = Eigen::Vector3d::Zero();  // rad/s, body
+  void AddToFilter(const BodyPose& pose, std::uint64_t t_ns, double sigma_m, double sigma_rad, double map_ratio,
+                   const MotionLimits& lim, const Matrix6d* cov);
+
+  PoseFilter filter_;
+  bool filter_pending_ = false;  // Start's pose starts the filter at the next Add
   int hist_n_ = 0;                                     // recent accepted poses, newest first
   std::array<BodyPose, limits::kMaxTrackHistory> hist_{};
   std::array<std::uint64_t, limits::kMaxTrackHistory> hist_t_ns_{};

@@ -33,6 +33,30 @@ struct Trajectory {
 double PositionError(const BodyPose& a, const BodyPose& b) { return (a.r_w_wb - b.r_w_wb).norm(); }
 double AttitudeError(const BodyPose& a, const BodyPose& b) { return LogSO3(a.C_w_b.transpose() * b.C_w_b).norm(); }
 
+// The Kalman filter beside the model (pose_filter.h) follows the same poses: a start pose with
+// its 1-sigma starts it at the next Add (which brings the motion bounds), accepted poses update
+// it, and its prediction covers the truth; Forget drops it.
+TEST(MotionModelTest, FilterFollowsTheAcceptedPoses) {
+  const Trajectory truth;
+  const MotionLimits lim;
+  MotionModel m;
+  m.Start(truth.At(kT0), kT0, 0.002, 0.001);
+  EXPECT_FALSE(m.filter().started());
+  Matrix6d cov = Matrix6d::Identity() * 1e-6;
+  for (int i = 1; i < 10; ++i) {
+    const std::uint64_t t = kT0 + static_cast<std::uint64_t>(i) * kFrameNs;
+    m.Add(truth.At(t), t, 1e-3, 1e-3, 0.5, lim, &cov);
+    ASSERT_TRUE(m.filter().started());
+    EXPECT_EQ(m.filter().t_ns(), t);
+  }
+  const std::uint64_t later = kT0 + 9 * kFrameNs + 500'000'000;
+  const double m2 = m.filter().Distance2(truth.At(later), Matrix6d::Zero(), later);
+  EXPECT_LT(m2, 1.0);  // a constant velocity, well inside a prediction sized for accelerations
+  EXPECT_LT((m.filter().v_w() - truth.v_w).norm(), 0.02);
+  m.Forget();
+  EXPECT_FALSE(m.filter().started());
+}
+
 TEST(MotionModelTest, ConstantVelocityPredictionFollowsTheTrajectory) {
   const Trajectory truth;
   const MotionLimits lim;

@@ -171,6 +171,11 @@ bool Tracker::TrackPredicted(std::uint64_t t_ns, double since_s, const TrackOpti
         return true;
       }
       if (ambiguity_refused_ && PublishAmbiguous(o, r)) return true;
+      if (ambiguity_refused_ && DecideByMotion(predicted, bounds, o, r)) {
+        ++counters_.ambiguous_decided;
+        Publish(TrackSource::kTracked, t_ns, o, r, TrackReason::kAmbiguous);
+        return true;
+      }
     }
   }
   if (refuted) {
@@ -207,7 +212,8 @@ bool Tracker::TrackFrom(const BodyPose& predicted, const PoseBounds& bounds, dou
     // may lie just beyond the motion bounds: then the one inside them is not the truth).
     if (!ok && !(n > 0 && innovation > 0.0 && innovation <= o.ambiguity_innovation_factor)) continue;
     trials_[static_cast<std::size_t>(competitors++)] =
-        Trial{trial_.pose, trial_.matches.num_beacons, trial_.solve.cost};
+        Trial{trial_.pose, trial_.matches.num_beacons, trial_.solve.cost, choice,
+              trial_.solve.has_covariance ? trial_.solve.covariance : Matrix6d::Zero()};
     if (!ok) continue;
     const int nb = trial_.matches.num_beacons;
     const bool better = consistent == 0 || nb > r->matches.num_beacons ||
@@ -220,6 +226,7 @@ bool Tracker::TrackFrom(const BodyPose& predicted, const PoseBounds& bounds, dou
     }
   }
   *refuted = tried > 0 && refutations == tried;
+  num_trials_ = competitors;
   if (consistent == 0) return false;
   if (!AgreeWith(*r, competitors, o)) {
     ++counters_.ambiguous_refused;
@@ -232,10 +239,13 @@ bool Tracker::TrackFrom(const BodyPose& predicted, const PoseBounds& bounds, dou
 // How far another pose may lie from b and be the same: gate_sigmas of b's 1-sigma (centroid
 // noise and the map's error), or 1 mm / 1 mrad when that is larger.
 void Tracker::SameTolerance(const TrackResult& b, const TrackOptions& o, double* tol_m, double* tol_rad) const {
+  SameTolerance(b.solve.has_covariance ? &b.solve.covariance : nullptr, o, tol_m, tol_rad);
+}
+
+void Tracker::SameTolerance(const Matrix6d* cov, const TrackOptions& o, double* tol_m, double* tol_rad) const {
   const double total = noise_.TotalToCentroid();
-  const bool cov = b.solve.has_covariance;
-  *tol_m = std::max(1e-3, cov ? o.gate_sigmas * total * PositionSigma(b.solve.covariance) : 0.0);
-  *tol_rad = std::max(1e-3, cov ? o.gate_sigmas * total * AttitudeSigma(b.solve.covariance) : 0.0);
+  *tol_m = std::max(1e-3, cov != nullptr ? o.gate_sigmas * total * PositionSigma(*cov) : 0.0);
+  *tol_rad = std::max(1e-3, cov != nullptr ? o.gate_sigmas * total * AttitudeSigma(*cov) : 0.0);
 }
 
 bool Tracker::SamePoseWithin(const TrackResult& a, const TrackResult& b, const TrackOptions& o) const {
@@ -335,6 +345,46 @@ bool Tracker::PublishAmbiguous(const TrackOptions& o, TrackResult* r) {
   ++counters_.ambiguous_published;
   CountOutcome(*r);
   return true;
+}
+
+// Tracking's trials disagreed by more than PublishAmbiguous covers: the motion decides when one
+// trial lies near the Kalman filter's prediction (squared Mahalanobis distance, its covariance
+// plus the trial's for the centroid noise and the map's error, at most ambiguity_accept_m2) and
+// every trial that is not the same pose lies far from it (ambiguity_reject_m2 or more). *r is
+// then that trial, solved again; the caller publishes it degraded and follows it.
+bool Tracker::DecideByMotion(const BodyPose& predicted, const PoseBounds& bounds, const TrackOptions& o,
+                             TrackResult* r) {
+  const PoseFilter& f = motion_.filter();
+  if (!(o.ambiguity_accept_m2 > 0.0) || !f.started() || num_trials_ < 2) return false;
+  const double k2 = noise_.TotalToCentroid() * noise_.TotalToCentroid();
+  int nearest = -1;
+  double best = 0.0;
+  std::array<double, kMaxTrials> m2{};
+  for (int i = 0; i < num_trials_; ++i) {
+    const Trial& t = trials_[static_cast<std::size_t>(i)];
+    m2[static_cast<std::size_t>(i)] = f.Distance2(t.pose, k2 * t.cov, now_ns_);
+    if (nearest < 0 || m2[static_cast<std::size_t>(i)] < best) {
+      nearest = i;
+      best = m2[static_cast<std::size_t>(i)];
+    }
+  }
+  if (!(best <= o.ambiguity_accept_m2)) return false;
+  const Trial& chosen = trials_[static_cast<std::size_t>(nearest)];
+  double tol_m = 0.0, tol_rad = 0.0;
+  SameTolerance(&chosen.cov, o, &tol_m, &tol_rad);
+  for (int i = 0; i < num_trials_; ++i) {
+    const Trial& t = trials_[static_cast<std::size_t>(i)];
+    const bool same = (t.pose.r_w_wb - chosen.pose.r_w_wb).norm() <= tol_m &&
+                      LogSO3(chosen.pose.C_w_b.transpose() * t.pose.C_w_b).norm() <= tol_rad;
+    if (!same && !(m2[static_cast<std::size_t>(i)] >= o.ambiguity_reject_m2)) return false;
+  }
+  // The chosen trial again, for its matches and solve (trials_ keeps only the pose).
+  bool refuted = false;
+  double innovation = -1.0;
+  if (!ChooseAmbiguous(chosen.choice, std::min(ambiguous_.num, o.max_ambiguous_tried))) return false;
+  SolveTracked(predicted, bounds, o, r, &refuted, &innovation);
+  return r->solve.has_covariance && innovation >= 0.0 && innovation <= o.ambiguity_innovation_factor &&
+         (r->pose.r_w_wb - chosen.pose.r_w_wb).norm() <= tol_m;
 }
 
 // One trial: solve from the prediction with the identities in set_, then the innovation test.
@@ -487,10 +537,11 @@ void Tracker::KeepBlobs(std::uint64_t t_ns) {
 
 // The pose in *r is accepted: it feeds the motion model, ends the acquisition, and is judged
 // fix or degraded.
-void Tracker::Accept(std::uint64_t t_ns, const TrackOptions& o, TrackResult* r) {
+void Tracker::Accept(std::uint64_t t_ns, const TrackOptions& o, TrackResult* r, TrackReason degrade) {
   const double sigma_m = r->solve.has_covariance ? PositionSigma(r->solve.covariance) : 0.0;
   const double sigma_rad = r->solve.has_covariance ? AttitudeSigma(r->solve.covariance) : 0.0;
-  motion_.Add(r->pose, t_ns, sigma_m, sigma_rad, noise_.MapToCentroidRatio(), limits_.motion);
+  motion_.Add(r->pose, t_ns, sigma_m, sigma_rad, noise_.MapToCentroidRatio(), limits_.motion,
+              r->solve.has_covariance ? &r->solve.covariance : nullptr);
   has_pose_ = true;
   acquisition_.Clear();
   // Fix or degraded, judged on the pose's whole 1-sigma: centroid noise and the map's error
@@ -498,7 +549,8 @@ void Tracker::Accept(std::uint64_t t_ns, const TrackOptions& o, TrackResult* r) 
   const double total = noise_.TotalToCentroid();
   const double sigma_r = total * sigma_m, sigma_a = total * sigma_rad;
   r->status = TrackStatus::kDegraded;
-  if (r->matches.num_beacons < o.fix_min_beacons) r->reason = TrackReason::kFewBeacons;
+  if (degrade != TrackReason::kNone) r->reason = degrade;
+  else if (r->matches.num_beacons < o.fix_min_beacons) r->reason = TrackReason::kFewBeacons;
   else if (r->solve.rms_px > o.degraded_rms_px || r->solve.rms_px > o.fix_rms_sigmas * noise_.ResidualSigmaPx())
     r->reason = TrackReason::kLargeResidual;
   else if (!r->solve.has_covariance || sigma_r > o.max_position_sigma_m || sigma_a > o.max_attitude_sigma_rad)
@@ -516,9 +568,10 @@ void Tracker::Accept(std::uint64_t t_ns, const TrackOptions& o, TrackResult* r) 
   }
 }
 
-TrackStatus Tracker::Publish(TrackSource source, std::uint64_t t_ns, const TrackOptions& o, TrackResult* r) {
+TrackStatus Tracker::Publish(TrackSource source, std::uint64_t t_ns, const TrackOptions& o, TrackResult* r,
+                             TrackReason degrade) {
   r->source = source;
-  Accept(t_ns, o, r);
+  Accept(t_ns, o, r, degrade);
   CountOutcome(*r);
   return r->status;
 }
@@ -614,6 +667,7 @@ LisStatus Tracker::ColdSearch(const BlobObs* blobs, int num_blobs, std::uint64_t
 TrackStatus Tracker::TrackOnce(const BlobObs* blobs, int num_blobs, std::uint64_t t_ns, const TrackOptions& o,
                                TrackResult* r) {
   ++counters_.frames;
+  now_ns_ = t_ns;
   r->t_ns = t_ns;
   r->lis_run = false;
   r->lis_status = LisStatus::kBadInput;

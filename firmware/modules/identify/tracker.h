@@ -14,7 +14,11 @@
 //    re-matched with a tight gate. It is accepted with >= 3 beacons, no missing beacon, a
 //    small residual, within the bounds (innovation test: with three beacons a wrong match
 //    still fits exactly, but jumps) and, with exactly three observations, no other exact
-//    solution (P3P root) consistent with the blobs within the bounds.
+//    solution (P3P root) consistent with the blobs within the bounds. When a reflection beside
+//    a beacon gives trials that disagree, the motion decides if it can: the trial near the
+//    constant-velocity Kalman filter's prediction (pose_filter.h; squared Mahalanobis distance
+//    within ambiguity_accept_m2, every other trial at ambiguity_reject_m2 or more) is published
+//    degraded and followed.
 // 2. Otherwise re-identification by lost-in-space (lost_in_space.h). Without a prior, a fix
 //    with >= lis_fix_min_beacons beacons is accepted. When it lists several consistent poses
 //    (complete list), they are followed over the next frame sets through motion bounds: a
@@ -125,6 +129,17 @@ struct TrackOptions {
   // still let a flyer hold its course until the reflection parts from the beacon. 0: never.
   double ambiguity_max_spread_m = 0.01;
   double ambiguity_max_spread_rad = 0.005;
+  // Beyond that spread, the motion decides when it can: each trial's squared Mahalanobis
+  // distance from the constant-velocity filter's prediction (MotionModel::filter(), its
+  // covariance plus the trial's own). The nearest trial is published degraded (reason
+  // kAmbiguous) and followed when its distance is at most ambiguity_accept_m2 and every trial
+  // that is not the same pose lies at ambiguity_reject_m2 or more. The filter's process noise
+  // takes the acceleration bounds as 1-sigma over a second, so it is wide: on the acquisition
+  // matrix the truth's distance stayed under 4 in 99.9 % of the tracked frame sets (chi-square
+  // with 6 degrees of freedom would put its median at 5.3), and a reflection's trial lay at tens
+  // to hundreds. 0: never decided by the motion.
+  double ambiguity_accept_m2 = 4.0;
+  double ambiguity_reject_m2 = 16.0;
   double max_coast_s = 2.0;          // tracking goes on this long without an accepted frame
   double max_seed_s = 5.0;           // and the last pose seeds re-acquisition this long
   // Degraded when:
@@ -240,6 +255,7 @@ struct TrackCounters {
   std::uint32_t ambiguous_tried = 0;    // tracked frame sets with a beacon tried with two blobs
   std::uint32_t ambiguous_refused = 0;  // ... whose consistent trials disagreed: not tracked
   std::uint32_t ambiguous_published = 0;  // ... of which published degraded (within the spread)
+  std::uint32_t ambiguous_decided = 0;    // ... of which decided by the motion (ambiguity_accept_m2)
   std::uint32_t lis_runs = 0, track_refuted = 0, innovation_refused = 0;
   std::uint32_t previous_refused = 0;  // an acquired pose that does not explain the previous frame set
   std::uint32_t chain_restarts = 0;    // an unseeded acquisition's survivor outscored: restarted
@@ -284,6 +300,8 @@ class Tracker {
     BodyPose pose;
     int beacons = 0;    // beacons its solve used
     double cost = 0.0;  // its solve's cost: 0.5 * sum of squared inlier residuals, px^2
+    std::uint32_t choice = 0;  // which blob each ambiguous beacon took (ChooseAmbiguous)
+    Matrix6d cov = Matrix6d::Zero();  // its solve's covariance for the centroid noise
   };
   // Tracking (tracker.cc): from the motion model's prediction, with its ambiguity trials.
   bool TrackPredicted(std::uint64_t t_ns, double since_s, const TrackOptions& o, TrackResult* r);
@@ -294,8 +312,10 @@ class Tracker {
   bool ChooseAmbiguous(std::uint32_t choice, int n);
   bool AgreeWith(const TrackResult& best, int num_trials, const TrackOptions& o);
   bool PublishAmbiguous(const TrackOptions& o, TrackResult* r);
+  bool DecideByMotion(const BodyPose& predicted, const PoseBounds& bounds, const TrackOptions& o, TrackResult* r);
   bool Unambiguous(const TrackOptions& o, TrackResult* r);
   void SameTolerance(const TrackResult& b, const TrackOptions& o, double* tol_m, double* tol_rad) const;
+  void SameTolerance(const Matrix6d* cov, const TrackOptions& o, double* tol_m, double* tol_rad) const;
   bool SamePoseWithin(const TrackResult& a, const TrackResult& b, const TrackOptions& o) const;
   bool SolveAt(const BodyPose& start, const TwinRegion& twin, const TrackOptions& o, TrackResult* r);
   bool NearbyTwin(const TwinRegion& region, const TrackOptions& o, const TrackResult* r);
@@ -310,8 +330,10 @@ class Tracker {
   void KeepBlobs(std::uint64_t t_ns);
   TrackStatus TrackOnce(const BlobObs* blobs, int num_blobs, std::uint64_t t_ns, const TrackOptions& o,
                         TrackResult* result);
-  void Accept(std::uint64_t t_ns, const TrackOptions& o, TrackResult* r);
-  TrackStatus Publish(TrackSource source, std::uint64_t t_ns, const TrackOptions& o, TrackResult* r);
+  void Accept(std::uint64_t t_ns, const TrackOptions& o, TrackResult* r, TrackReason degrade);
+  // degrade: kNone, or the reason an accepted pose is published degraded whatever its quality.
+  TrackStatus Publish(TrackSource source, std::uint64_t t_ns, const TrackOptions& o, TrackResult* r,
+                      TrackReason degrade = TrackReason::kNone);
   TrackStatus Lost(TrackReason why, TrackResult* r);
   void CountOutcome(const TrackResult& r);  // by status and reason
   // Lost-in-space within the frame set's budget (lis_budget_per_frame).
@@ -322,6 +344,7 @@ class Tracker {
   LisStatus ColdSearch(const BlobObs* blobs, int num_blobs, std::uint64_t t_ns, const TrackOptions& o, bool* old);
 
   const Rig* rig_ = nullptr;
+  std::uint64_t now_ns_ = 0;  // this frame set's capture time
   // Built at Reset from the rig (px/rad); Track completes it with its options' image noise.
   NoiseModel noise_;
   AcquisitionLimits limits_;  // the motion and acquisition bounds of Track's options
@@ -339,6 +362,7 @@ class Tracker {
   MatchSet base_;
   AmbiguityList ambiguous_;
   bool ambiguity_refused_ = false;  // this frame set's trials disagreed
+  int num_trials_ = 0;              // competitors in trials_ (TrackFrom)
   double ambiguity_spread_m_ = 0.0, ambiguity_spread_rad_ = 0.0;  // by this much (AgreeWith)
   TrackResult trial_, trial_result_;
   static constexpr int kMaxTrials = 1 << limits::kMaxAmbiguousMatches;
