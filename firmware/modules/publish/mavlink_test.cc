@@ -183,13 +183,18 @@ std::size_t Ut(int i, int j) { return static_cast<std::size_t>(i * 6 - i * (i - 
 // The body yawed +90 deg: its x axis along the world's y (p_w = C_w_b p_b).
 const Eigen::Matrix3d kYaw90 = (Eigen::Matrix3d() << 0, -1, 0, 1, 0, 0, 0, 0, 1).finished();
 
-TEST(MavlinkOdometry, OfAPoseRecordFrd) {
+// A fix of the yawed body at (1, -2, 3.5) m with variances of dr_w (1, 2, 3) and of dtheta_b about
+// the body axes (4, 5, 6) (1e-6 m^2, rad^2), and one cross term 0.5e-6 at (i, j).
+PoseRecord YawedFix(int i, int j) {
   PoseRecord r = Fix(kYaw90, Eigen::Vector3d(1.0, -2.0, 3.5));
-  // Variances of dr_w (1, 2, 3) mm^2-ish and of dtheta_b about the body axes (4, 5, 6), and
-  // one cross term: dr_w x with dtheta_b x.
   r.covariance.setZero();
   r.covariance.diagonal() << 1e-6, 2e-6, 3e-6, 4e-6, 5e-6, 6e-6;
-  r.covariance(0, 3) = r.covariance(3, 0) = 0.5e-6;
+  r.covariance(i, j) = r.covariance(j, i) = 0.5e-6;
+  return r;
+}
+
+TEST(MavlinkOdometry, OfAPoseRecordFrd) {
+  PoseRecord r = YawedFix(0, 3);  // the cross term: dr_w x with dtheta_b x
   const mavlink::Odometry m = OdometryOf(r, MavlinkAxes::kFrd, 7);
   EXPECT_EQ(m.time_usec, 1'234'567'891ull);
   EXPECT_EQ(m.position[0], 1.0f);
@@ -222,10 +227,7 @@ TEST(MavlinkOdometry, OfAPoseRecordFrd) {
 
 // flu: x forward, y left, z up, turned half a turn about x into FRD.
 TEST(MavlinkOdometry, OfAPoseRecordFlu) {
-  PoseRecord r = Fix(kYaw90, Eigen::Vector3d(1.0, -2.0, 3.5));
-  r.covariance.setZero();
-  r.covariance.diagonal() << 1e-6, 2e-6, 3e-6, 4e-6, 5e-6, 6e-6;
-  r.covariance(1, 2) = r.covariance(2, 1) = 0.5e-6;
+  const PoseRecord r = YawedFix(1, 2);  // the cross term: dr_w y with dr_w z
   const mavlink::Odometry m = OdometryOf(r, MavlinkAxes::kFlu, 0);
   EXPECT_EQ(m.position[0], 1.0f);
   EXPECT_EQ(m.position[1], 2.0f);
