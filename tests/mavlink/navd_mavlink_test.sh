@@ -47,6 +47,16 @@ grep -q '^frame_rate_hz: 5$' "$work/scenario.yaml" && grep -q 'main_step_deg: 2$
 "$calib" blob "$work/render/rig.yaml" --out "$work/true.bin" >/dev/null 2>&1 || fail "mfns-calib blob"
 start=$(awk -F, 'NR == 2 {printf "%.4f,%.4f,%.4f,%.6f,%.6f,%.6f", $3, $4, $5, $6, $7, $8}' "$work/render/truth.csv")
 
+# A bad --output is refused in one line naming the option, exit 1: an unknown scheme (options)
+# and a host that does not resolve (at start, after the parameters).
+for bad in tcp://127.0.0.1:14540 mavlink://127.0.0.1:14540 mavlink+udp://no.such.host.invalid:14540; do
+  rc=0
+  err=$("$navd" --params "$work/true.bin" --source "replay:$work/render" --output "$bad" --pid-file "" --quiet \
+        --frames 1 2>&1) || rc=$?
+  [[ $rc == 1 && $(printf '%s\n' "$err" | grep -c .) -le 2 && $err == *"--output"*"$bad"* ]] ||
+    fail "--output $bad: exit $rc, expected 1 and a line naming --output: $err"
+done
+
 NODE_PATH="$prefix/node_modules" node "$here/check_mavlink.cjs" "$work/poses.csv" -- \
   "$navd" --params "$work/true.bin" --source "replay:$work/render" --rate-hz 5 --initial-pose "$start" \
   --output 'mavlink+udp://127.0.0.1:{MAV_PORT}' --output 'udp://127.0.0.1:{MFNS_PORT}' \

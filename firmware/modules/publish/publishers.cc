@@ -19,7 +19,7 @@ namespace mfns::fw {
 const char* ToString(PublishStatus s) {
   switch (s) {
     case PublishStatus::kOk: return "ok";
-    case PublishStatus::kBadAddress: return "bad address (expected udp://HOST:PORT with an IPv4 host)";
+    case PublishStatus::kBadAddress: return "bad address (expected [mavlink+]udp://HOST:PORT, HOST IPv4, PORT 1..65535)";
     case PublishStatus::kSocketError: return "socket error";
     case PublishStatus::kWouldBlock: return "socket buffer full, datagram dropped";
     case PublishStatus::kSendError: return "send failed";

@@ -17,7 +17,7 @@ namespace mfns::fw {
 
 enum class PublishStatus : unsigned char {
   kOk = 0,
-  kBadAddress,   // not udp://HOST:PORT, or HOST does not resolve to IPv4, or port 0 / > 65535
+  kBadAddress,   // not udp://HOST:PORT (after mavlink+), or HOST does not resolve to IPv4, or port 0 / > 65535
   kSocketError,  // socket() or connect() failed
   kWouldBlock,   // the socket buffer is full: the datagram is dropped
   kSendError,    // sendto failed otherwise
