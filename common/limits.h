@@ -62,6 +62,10 @@ inline constexpr int kMaxReplayFrames = 1000000;  // <frame:06d>.pgm: six digits
 inline constexpr int kMaxPgmHeaderBytes = 1024;   // PGM magic, size, maxval and comments
 inline constexpr std::int64_t kMaxTriggerPulseNs = 100000000;  // 100 ms exposure trigger pulse
 
+// Outputs (firmware/modules/publish): --output destinations of mfns-navd at once (e.g. the
+// MFNS datagrams to the ground and MAVLink to the autopilot).
+inline constexpr int kMaxOutputs = 4;
+
 // Iterative solvers: every loop has one of these as its bound.
 inline constexpr int kMaxUnprojectIterations = 20;
 inline constexpr int kMaxSolverIterations = 30;

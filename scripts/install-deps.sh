@@ -15,6 +15,11 @@ HOST_PKGS=(
   chromium  # headless check of report.html (host/calib/app/rig_command_test)
 )
 ARM64_PKGS=(libgpiod-dev:arm64 libgpiod2:arm64 libbenchmark-dev:arm64)  # benchmark: aarch64 benchmarks (scripts/bench.sh)
+# COMMAND:PACKAGE pairs installed from Debian only when the command is missing: node and npm for
+# the ctest navd_mavlink (tests/mavlink installs node-mavlink from the npm registry). A machine
+# may have them from elsewhere (NodeSource's nodejs bundles npm and conflicts with Debian's npm
+# package, which apt would resolve by removing it).
+CMD_PKGS=(node:nodejs npm:npm)
 
 SUDO=""
 if [ "$(id -u)" -ne 0 ]; then SUDO="sudo"; fi
@@ -24,6 +29,9 @@ for p in "${HOST_PKGS[@]}" "${ARM64_PKGS[@]}"; do
   if ! dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed"; then
     missing+=("$p")
   fi
+done
+for cp in "${CMD_PKGS[@]}"; do
+  command -v "${cp%%:*}" >/dev/null || missing+=("${cp#*:}")
 done
 
 if [ ${#missing[@]} -eq 0 ]; then

@@ -12,8 +12,8 @@ namespace {
 std::uint32_t Saturate32(std::uint64_t n) { return static_cast<std::uint32_t>(std::min<std::uint64_t>(n, 0xFFFFFFFFu)); }
 }  // namespace
 
-NavLoop::NavLoop(const Rig& rig, FrameSource* source, GpioTrigger* trigger, UdpPublisher* udp, PoseLog* log)
-    : rig_(&rig), source_(source), trigger_(trigger), udp_(udp), log_(log) {}
+NavLoop::NavLoop(const Rig& rig, FrameSource* source, GpioTrigger* trigger, Outputs* outputs, PoseLog* log)
+    : rig_(&rig), source_(source), trigger_(trigger), outputs_(outputs), log_(log) {}
 
 bool NavLoop::Configure(const NavLoopConfig& config, const char** why) {
   const char* reason = nullptr;
@@ -161,10 +161,7 @@ void NavLoop::Publish(const NavOutput& nav, std::uint64_t t_capture_ns, PoseReco
     r.covariance = nav.covariance;
   }
   r.t_publish_ns = MonotonicNs();
-  if (udp_ != nullptr && udp_->is_open()) {
-    EncodePose(r, pose_bytes_);
-    udp_->Send(pose_bytes_);
-  }
+  if (outputs_ != nullptr) outputs_->Pose(r);
   if (log_ != nullptr && log_->is_open()) log_->Write(r);
   if (out != nullptr) *out = r;
 }
@@ -352,10 +349,10 @@ StepStatus NavLoop::Step(PoseRecord* out) {
   counters_.worst_frame_set_ns = std::max(counters_.worst_frame_set_ns, elapsed);
   if (static_cast<double>(elapsed) > config_.deadline_ms * 1e6) ++counters_.deadline_slips;
   ++counters_.frame_sets;
-  if (counters_.frame_sets % static_cast<std::uint64_t>(config_.health_every) == 0 && udp_ != nullptr && udp_->is_open()) {
-    EncodeHealth(Health(), health_bytes_);
+  if (counters_.frame_sets % static_cast<std::uint64_t>(config_.health_every) == 0 && outputs_ != nullptr &&
+      outputs_->wants_health()) {
+    outputs_->Health(Health());
     ++health_sequence_;
-    udp_->Send(health_bytes_);
   }
   return StepStatus::kOk;
 }

@@ -76,8 +76,9 @@ struct LoopCounters {
 
 class NavLoop {
  public:
-  // rig must outlive the loop. source is driven by the loop; trigger, udp and log may be null.
-  NavLoop(const Rig& rig, FrameSource* source, GpioTrigger* trigger, UdpPublisher* udp, PoseLog* log);
+  // rig must outlive the loop. source is driven by the loop; trigger, outputs (every --output:
+  // MFNS datagrams, MAVLink) and log may be null.
+  NavLoop(const Rig& rig, FrameSource* source, GpioTrigger* trigger, Outputs* outputs, PoseLog* log);
 
   // Checks the configuration and sizes everything; *why names a problem.
   bool Configure(const NavLoopConfig& config, const char** why);
@@ -105,7 +106,7 @@ class NavLoop {
   const Rig* rig_;
   FrameSource* source_;
   GpioTrigger* trigger_;
-  UdpPublisher* udp_;
+  Outputs* outputs_;
   PoseLog* log_;
   NavLoopConfig config_;
   std::array<BlobDetector, limits::kMaxCameras> detectors_;
@@ -125,8 +126,6 @@ class NavLoop {
   std::uint64_t lost_at_good_stamp_ = 0;     // FramesLost() at the last good driver stamp
   std::uint64_t clock_offset_ns_ = 0;        // added to driver stamps: periods the clock lost
   std::uint32_t pose_sequence_ = 0, health_sequence_ = 0;
-  std::array<std::uint8_t, kPoseMessageBytes> pose_bytes_{};
-  std::array<std::uint8_t, kHealthMessageBytes> health_bytes_{};
 };
 
 

@@ -185,10 +185,10 @@ TEST(NavLoop, NoAllocationAfterStartAndFixesFromImages) {
 }
 
 // The shrunk sweep feeding a loop that starts at the sweep's first pose exactly (no
-// acquisition); trigger, UDP and log as given (null: none). Start() before use.
+// acquisition); trigger, outputs and log as given (null: none). Start() before use.
 struct TrackedSweep {
-  explicit TrackedSweep(GpioTrigger* trigger = nullptr, UdpPublisher* udp = nullptr, PoseLog* log = nullptr)
-      : sweep(rig), source(rig.num_cameras), loop(rig, &source, trigger, udp, log) {}
+  explicit TrackedSweep(GpioTrigger* trigger = nullptr, Outputs* outputs = nullptr, PoseLog* log = nullptr)
+      : sweep(rig), source(rig.num_cameras), loop(rig, &source, trigger, outputs, log) {}
   bool Start() {
     NavLoopConfig c = Config();
     c.has_initial_pose = true;
@@ -211,10 +211,25 @@ struct TrackedSweep {
   NavLoop loop;
 };
 
+// A UDP socket on loopback for the outputs to send to; *url gets its address in scheme.
+int LoopbackReceiver(const char* scheme, std::string* url) {
+  const int rx = ::socket(AF_INET, SOCK_DGRAM, 0);
+  sockaddr_in addr{};
+  addr.sin_family = AF_INET;
+  addr.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  socklen_t len = sizeof(addr);
+  if (rx < 0 || ::bind(rx, reinterpret_cast<sockaddr*>(&addr), sizeof(addr)) != 0 ||
+      ::getsockname(rx, reinterpret_cast<sockaddr*>(&addr), &len) != 0)
+    return -1;
+  *url = std::string(scheme) + "127.0.0.1:" + std::to_string(ntohs(addr.sin_port));
+  return rx;
+}
+
 // Issue 14 item 6: no heap after start also with every output on: the trigger pulsing a line
 // (the fake gpiod seam, its call record reserved beforehand), UDP pose and health datagrams to
 // a local socket, and the poses log. Each output is checked to have worked every frame set.
-TEST(NavLoop, NoAllocationAfterStartWithTriggerUdpAndLog) {
+// Issue 17: and MAVLink (HEARTBEAT, ODOMETRY) to a second socket at the same time.
+TEST(NavLoop, NoAllocationAfterStartWithTriggerUdpMavlinkAndLog) {
   const Rig rig = SmallRig();
   SweepRenderer sweep(rig);
   InProcessSource source(rig.num_cameras);
@@ -228,40 +243,52 @@ TEST(NavLoop, NoAllocationAfterStartWithTriggerUdpAndLog) {
   tc.line_offset = 17;
   GpioTrigger trigger(&gpio, tc);
   ASSERT_EQ(trigger.Start(), TriggerStatus::kOk);
-  const int rx = ::socket(AF_INET, SOCK_DGRAM, 0);
+  std::string url, mav_url;
+  const int rx = LoopbackReceiver("udp://", &url);
+  const int mav_rx = LoopbackReceiver("mavlink+udp://", &mav_url);
   ASSERT_GE(rx, 0);
-  sockaddr_in addr{};
-  addr.sin_family = AF_INET;
-  addr.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-  socklen_t len = sizeof(addr);
-  ASSERT_EQ(::bind(rx, reinterpret_cast<sockaddr*>(&addr), sizeof(addr)), 0);
-  ASSERT_EQ(::getsockname(rx, reinterpret_cast<sockaddr*>(&addr), &len), 0);
-  UdpPublisher udp;
-  const std::string url = "udp://127.0.0.1:" + std::to_string(ntohs(addr.sin_port));
-  ASSERT_EQ(udp.Open(url.c_str()), PublishStatus::kOk);
+  ASSERT_GE(mav_rx, 0);
+  Outputs outputs;
+  ASSERT_EQ(outputs.Add(url.c_str()), PublishStatus::kOk);
+  ASSERT_EQ(outputs.Add(mav_url.c_str()), PublishStatus::kOk);
   const std::string path = ::testing::TempDir() + "nav_loop_outputs.csv";
   PoseLog log;
   ASSERT_EQ(log.Open(path.c_str()), PublishStatus::kOk);
-  auto loop = std::make_unique<NavLoop>(rig, &source, &trigger, &udp, &log);
+  auto loop = std::make_unique<NavLoop>(rig, &source, &trigger, &outputs, &log);
   ASSERT_TRUE(loop->Configure(Config(), nullptr));
 
   const std::uint64_t before = testing::AllocationCount();
   std::array<std::uint8_t, 512> datagram{};
-  long received = 0;
+  long received = 0, heartbeats = 0, odometry = 0, posed = 0;
+  PoseRecord rec;
   for (long n = 0; n < sets; ++n) {
     sweep.Render(n);
     for (int k = 0; k < rig.num_cameras; ++k)
       ASSERT_TRUE(source.Push(k, sweep.View(k, 1'000'000'000ull + static_cast<std::uint64_t>(n) * kFrameNs,
                                             static_cast<std::uint32_t>(n))));
-    ASSERT_EQ(loop->Step(), StepStatus::kOk);
+    ASSERT_EQ(loop->Step(&rec), StepStatus::kOk);
+    posed += rec.status != NavStatus::kLost;
     while (::recv(rx, datagram.data(), datagram.size(), MSG_DONTWAIT) > 0) ++received;  // (keeps the queue short)
+    while (::recv(mav_rx, datagram.data(), datagram.size(), MSG_DONTWAIT) > 10) {
+      const std::uint32_t id = datagram[7] | datagram[8] << 8 | datagram[9] << 16;
+      heartbeats += id == mavlink::kHeartbeatId;
+      odometry += id == mavlink::kOdometryId;
+    }
   }
   EXPECT_EQ(testing::AllocationCount() - before, 0u) << "heap allocations after start";
   ::close(rx);
+  ::close(mav_rx);
   EXPECT_EQ(trigger.counters().pulses, static_cast<std::uint64_t>(sets));
-  EXPECT_EQ(udp.counters().send_errors, 0u);
-  EXPECT_EQ(udp.counters().sent, static_cast<std::uint64_t>(sets + sets / Config().health_every));
+  EXPECT_EQ(outputs.counters(0).send_errors, 0u);
+  EXPECT_EQ(outputs.counters(0).sent, static_cast<std::uint64_t>(sets + sets / Config().health_every));
   EXPECT_GE(received, sets / 2) << "datagrams reached the socket";
+  // MAVLink: an ODOMETRY per frame set with a pose, a HEARTBEAT per second of sample time.
+  const double seconds = static_cast<double>(sets - 1) * static_cast<double>(kFrameNs) * 1e-9;
+  EXPECT_EQ(outputs.counters(1).send_errors, 0u);
+  EXPECT_EQ(odometry, posed);
+  EXPECT_GE(heartbeats, static_cast<long>(seconds));
+  EXPECT_LE(heartbeats, static_cast<long>(seconds) + 1);
+  EXPECT_EQ(outputs.counters(1).sent, static_cast<std::uint64_t>(heartbeats + odometry));
   EXPECT_EQ(log.counters().log_rows, static_cast<std::uint64_t>(sets));
   ASSERT_EQ(log.Close(), PublishStatus::kOk);
   std::remove(path.c_str());
@@ -302,7 +329,7 @@ SoakFaults FaultsAt(long n) {
 }
 
 // Issue 14 item 4, the soak: frame sets through NavLoop with every output on (trigger, UDP,
-// log) and faults mixed in (blank and saturated frames, timeouts, a camera stalled for 30 frame
+// MAVLink, log) and faults mixed in (blank and saturated frames, timeouts, a camera stalled for 30 frame
 // sets every 1009, repeated timestamps): no heap after start, resident memory flat, every
 // fault counted as injected, never a wrong fix, and the sweep posed almost throughout. CI runs
 // 3000 frame sets (fewer under qemu and the sanitizers); scripts/soak.sh runs 10^5
@@ -324,14 +351,15 @@ TEST(NavLoop, SoakWithFaultsAndEveryOutput) {
   tc.chip = "gpiochip0";
   GpioTrigger trigger(&gpio, tc);
   ASSERT_EQ(trigger.Start(), TriggerStatus::kOk);
-  UdpPublisher udp;
-  ASSERT_EQ(udp.Open("udp://127.0.0.1:9"), PublishStatus::kOk);  // discard port: sent, not read
+  Outputs outputs;  // discard port: sent, not read
+  ASSERT_EQ(outputs.Add("udp://127.0.0.1:9"), PublishStatus::kOk);
+  ASSERT_EQ(outputs.Add("mavlink+udp://127.0.0.1:9"), PublishStatus::kOk);
   const std::string path = ::testing::TempDir() + "nav_loop_soak.csv";
   PoseLog log;
   ASSERT_EQ(log.Open(path.c_str()), PublishStatus::kOk);
   NavLoopConfig c = Config();
   c.has_initial_pose = true;
-  auto loop = std::make_unique<NavLoop>(rig, &source, &trigger, &udp, &log);
+  auto loop = std::make_unique<NavLoop>(rig, &source, &trigger, &outputs, &log);
   ASSERT_TRUE(loop->Configure(c, nullptr));
   std::vector<std::uint8_t> black(static_cast<std::size_t>(320 * 256), 0), white(black.size(), 255);
 

@@ -136,12 +136,13 @@ int Run(int argc, char** argv) {
   }
 
   // Outputs.
-  static UdpPublisher udp;
+  static Outputs outputs;
   static PoseLog log;
-  if (opt.output[0] != '\0') {
-    const PublishStatus ps = udp.Open(opt.output.data());
+  for (int i = 0; i < opt.num_outputs; ++i) {
+    const char* url = opt.outputs[static_cast<std::size_t>(i)].data();
+    const PublishStatus ps = outputs.Add(url, opt.mavlink);
     if (ps != PublishStatus::kOk) {
-      std::fprintf(stderr, "mfns-navd: --output %s: %s\n", opt.output.data(), ToString(ps));
+      std::fprintf(stderr, "mfns-navd: --output %s: %s\n", url, ToString(ps));
       return 1;
     }
   }
@@ -156,7 +157,7 @@ int Run(int argc, char** argv) {
   config.has_initial_pose = InitialPoseOf(opt, &config.initial_pose);
   config.initial_sigma_m = opt.initial_sigma_mm * 1e-3;
   config.initial_sigma_rad = DegToRad(opt.initial_sigma_deg);
-  auto loop = std::make_unique<NavLoop>(rig, source.get(), &trigger, &udp, &log);
+  auto loop = std::make_unique<NavLoop>(rig, source.get(), &trigger, &outputs, &log);
   const char* reason = nullptr;
   if (!loop->Configure(config, &reason)) {
     std::fprintf(stderr, "mfns-navd: --params %s (rig %s, generation %llu): %s\n", opt.params.data(), rig.rig_id.data(),

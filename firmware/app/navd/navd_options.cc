@@ -10,13 +10,15 @@
 #include <cstring>
 
 #include "common/rotation/rotation.h"
+#include "firmware/modules/publish/publishers.h"
 
 namespace mfns::fw {
 namespace {
 
 enum : int {
   kParams = 1000, kRealtime, kSource, kDevice, kY16, kBuffers, kRate, kTrigger, kPulse, kOutput, kLog, kFrames, kTimeout,
-  kDeadline, kSigma, kHealthEvery, kRetryEvery, kSetAside, kInitialPose, kInitialSigma, kPidFile, kQuiet, kHelp
+  kDeadline, kSigma, kHealthEvery, kRetryEvery, kSetAside, kInitialPose, kInitialSigma, kPidFile, kQuiet, kHelp,
+  kMavlinkSysid, kMavlinkCompid, kMavlinkFrame
 };
 
 const option kLongOptions[] = {
@@ -33,6 +35,9 @@ const option kLongOptions[] = {
     {"initial-pose", required_argument, nullptr, kInitialPose},
     {"initial-sigma", required_argument, nullptr, kInitialSigma},
     {"pid-file", required_argument, nullptr, kPidFile},
+    {"mavlink-sysid", required_argument, nullptr, kMavlinkSysid},
+    {"mavlink-compid", required_argument, nullptr, kMavlinkCompid},
+    {"mavlink-frame", required_argument, nullptr, kMavlinkFrame},
     {"realtime", no_argument, nullptr, kRealtime},         {"quiet", no_argument, nullptr, kQuiet},               {"help", no_argument, nullptr, kHelp},
     {nullptr, 0, nullptr, 0},
 };
@@ -111,6 +116,12 @@ const char* NavdUsage() {
          "  --trigger CHIP:LINE     pulse GPIO LINE of CHIP (e.g. gpiochip0:17) once per frame set\n"
          "  --trigger-pulse-us N    trigger pulse width, default 1000\n"
          "  --output udp://HOST:PORT  pose and health datagrams (docs/navd.md)\n"
+         "  --output mavlink+udp://HOST:PORT  MAVLink 2 ODOMETRY + HEARTBEAT for an autopilot (docs/navd.md);\n"
+         "                          --output may be given up to 4 times, any mix\n"
+         "  --mavlink-sysid N       MAVLink system id, 1..255, default 1 (the autopilot's)\n"
+         "  --mavlink-compid N      MAVLink component id, 1..255, default 197 (VISUAL_INERTIAL_ODOMETRY)\n"
+         "  --mavlink-frame frd|flu axes of the world and body frames: frd (default) sent as they are;\n"
+         "                          flu turned half a turn about x into MAVLink's FRD\n"
          "  --log FILE              poses CSV (written to FILE.partial, renamed at exit)\n"
          "  --frames N              stop after N frame sets (default: at end of stream or SIGINT/SIGTERM)\n"
          "  --timeout-ms N          wait per camera per frame set (default: 3 frame periods)\n"
@@ -192,9 +203,28 @@ OptionsStatus ParseNavdOptions(int argc, char** argv, NavdOptions* opt, char* wh
         if (!ParseLong(a, 1, 100000, &n)) return Fail(why, why_size, "--trigger-pulse-us: expected 1..100000, got '%s'", a);
         opt->trigger_pulse_us = static_cast<int>(n);
         break;
-      case kOutput:
-        if (std::strncmp(a, "udp://", 6) != 0 || !CopyText(a, &opt->output))
-          return Fail(why, why_size, "--output: expected udp://HOST:PORT, got '%s'", a);
+      case kOutput: {
+        OutputProtocol protocol = OutputProtocol::kMfns;
+        const char* udp_url = nullptr;
+        if (ParseOutputUrl(a, &protocol, &udp_url) != PublishStatus::kOk)
+          return Fail(why, why_size, "--output: expected udp://HOST:PORT or mavlink+udp://HOST:PORT, got '%s'", a);
+        if (opt->num_outputs >= limits::kMaxOutputs)
+          return Fail(why, why_size, "--output: at most %d outputs, '%s' is one more", limits::kMaxOutputs, a);
+        if (!CopyText(a, &opt->outputs[static_cast<std::size_t>(opt->num_outputs)]))
+          return Fail(why, why_size, "--output: too long: '%s'", a);
+        ++opt->num_outputs;
+        break;
+      }
+      case kMavlinkSysid:
+      case kMavlinkCompid:
+        if (!ParseLong(a, 1, 255, &n))
+          return Fail(why, why_size, "--mavlink-%s: expected 1..255, got '%s'", c == kMavlinkSysid ? "sysid" : "compid", a);
+        (c == kMavlinkSysid ? opt->mavlink.system_id : opt->mavlink.component_id) = static_cast<std::uint8_t>(n);
+        break;
+      case kMavlinkFrame:
+        if (std::strcmp(a, ToString(MavlinkAxes::kFrd)) == 0) opt->mavlink.axes = MavlinkAxes::kFrd;
+        else if (std::strcmp(a, ToString(MavlinkAxes::kFlu)) == 0) opt->mavlink.axes = MavlinkAxes::kFlu;
+        else return Fail(why, why_size, "--mavlink-frame: expected frd or flu, got '%s'", a);
         break;
       case kLog:
         if (!CopyText(a, &opt->log)) return Fail(why, why_size, "--log: path empty or too long: '%s'", a);

@@ -1,6 +1,6 @@
 // mfns-navd command line (DESIGN.md, "Firmware"):
-//   mfns-navd --params FILE|DIR --source v4l2|replay:DIR [--output udp://HOST:PORT]
-//             [--log poses.csv] [--frames N] [options]
+//   mfns-navd --params FILE|DIR --source v4l2|replay:DIR [--output udp://HOST:PORT]...
+//             [--output mavlink+udp://HOST:PORT]... [--log poses.csv] [--frames N] [options]
 // Parsed into fixed storage (no heap); a bad argument gives a one-line reason.
 #pragma once
 
@@ -9,6 +9,7 @@
 
 #include "common/limits.h"
 #include "common/rig/rig.h"
+#include "firmware/modules/publish/mavlink.h"
 
 namespace mfns::fw {
 
@@ -30,7 +31,13 @@ struct NavdOptions {
   Path trigger_chip{};           // --trigger CHIP:LINE ("" = no trigger)
   int trigger_line = -1;
   int trigger_pulse_us = 1000;
-  Path output{};                 // udp://HOST:PORT ("" = none)
+  // --output, up to limits::kMaxOutputs of them: udp://HOST:PORT (the MFNS datagrams) or
+  // mavlink+udp://HOST:PORT (MAVLink 2 HEARTBEAT and ODOMETRY).
+  int num_outputs = 0;
+  std::array<Path, limits::kMaxOutputs> outputs{};
+  // --mavlink-sysid N (default 1), --mavlink-compid N (default 197,
+  // MAV_COMP_ID_VISUAL_INERTIAL_ODOMETRY), --mavlink-frame frd|flu (default frd).
+  MavlinkConfig mavlink;
   Path log{};                    // poses CSV ("" = none)
   std::int64_t frames = 0;       // frame sets to process (0 = until the source ends or SIGINT)
   int timeout_ms = 0;            // per camera per frame set (0 = 3 frame periods)

@@ -42,7 +42,8 @@ TEST(NavdOptions, TheDesignCommandLine) {
   EXPECT_STREQ(o.params.data(), "/var/lib/mfns/params");
   EXPECT_EQ(o.source, SourceKind::kReplay);
   EXPECT_STREQ(o.replay_dir.data(), "/data/run1");
-  EXPECT_STREQ(o.output.data(), "udp://127.0.0.1:14550");
+  ASSERT_EQ(o.num_outputs, 1);
+  EXPECT_STREQ(o.outputs[0].data(), "udp://127.0.0.1:14550");
   EXPECT_STREQ(o.log.data(), "poses.csv");
   EXPECT_EQ(o.frames, 360);
   // Rate-derived defaults: 18.6 Hz -> 53.8 ms period.
@@ -112,6 +113,42 @@ TEST(NavdOptions, V4l2DevicesAndTrigger) {
   EXPECT_EQ(o.timeout_ms, 100);
 }
 
+// Issue 17: several outputs at once, any mix, up to limits::kMaxOutputs; the MAVLink ids and axes.
+TEST(NavdOptions, OutputsAndMavlink) {
+  NavdOptions o;
+  std::string why;
+  ASSERT_EQ(Parse({"--params", "p", "--source", "v4l2"}, &o, &why), OptionsStatus::kOk) << why;
+  EXPECT_EQ(o.num_outputs, 0);
+  EXPECT_EQ(o.mavlink.system_id, 1);
+  EXPECT_EQ(o.mavlink.component_id, 197);  // MAV_COMP_ID_VISUAL_INERTIAL_ODOMETRY
+  EXPECT_EQ(o.mavlink.axes, MavlinkAxes::kFrd);
+  ASSERT_EQ(Parse({"--params", "p", "--source", "v4l2", "--output", "udp://10.0.0.1:5600", "--output",
+                   "mavlink+udp://127.0.0.1:14540", "--mavlink-sysid", "2", "--mavlink-compid", "191",
+                   "--mavlink-frame", "flu"},
+                  &o, &why),
+            OptionsStatus::kOk)
+      << why;
+  ASSERT_EQ(o.num_outputs, 2);
+  EXPECT_STREQ(o.outputs[0].data(), "udp://10.0.0.1:5600");
+  EXPECT_STREQ(o.outputs[1].data(), "mavlink+udp://127.0.0.1:14540");
+  EXPECT_EQ(o.mavlink.system_id, 2);
+  EXPECT_EQ(o.mavlink.component_id, 191);
+  EXPECT_EQ(o.mavlink.axes, MavlinkAxes::kFlu);
+  std::vector<std::string> five = {"--params", "p", "--source", "v4l2"};
+  for (int i = 0; i <= limits::kMaxOutputs; ++i) {
+    five.push_back("--output");
+    five.push_back("mavlink+udp://127.0.0.1:" + std::to_string(14540 + i));
+  }
+  EXPECT_EQ(Parse(five, &o, &why), OptionsStatus::kError);
+  EXPECT_EQ(why, "--output: at most 4 outputs, 'mavlink+udp://127.0.0.1:14544' is one more");
+  EXPECT_EQ(Parse({"--params", "p", "--source", "v4l2", "--mavlink-sysid", "0"}, &o, &why), OptionsStatus::kError);
+  EXPECT_EQ(why, "--mavlink-sysid: expected 1..255, got '0'");
+  EXPECT_EQ(Parse({"--params", "p", "--source", "v4l2", "--mavlink-compid", "256"}, &o, &why), OptionsStatus::kError);
+  EXPECT_EQ(why, "--mavlink-compid: expected 1..255, got '256'");
+  EXPECT_EQ(Parse({"--params", "p", "--source", "v4l2", "--mavlink-frame", "ned"}, &o, &why), OptionsStatus::kError);
+  EXPECT_EQ(why, "--mavlink-frame: expected frd or flu, got 'ned'");
+}
+
 TEST(NavdOptions, OneLineReasons) {
   NavdOptions o;
   std::string why;
@@ -124,7 +161,9 @@ TEST(NavdOptions, OneLineReasons) {
   EXPECT_EQ(Parse({"--params", "p", "--source", "v4l2", "--frames", "-3"}, &o, &why), OptionsStatus::kError);
   EXPECT_EQ(why, "--frames: expected a positive count, got '-3'");
   EXPECT_EQ(Parse({"--params", "p", "--source", "v4l2", "--output", "tcp://x:1"}, &o, &why), OptionsStatus::kError);
-  EXPECT_EQ(why, "--output: expected udp://HOST:PORT, got 'tcp://x:1'");
+  EXPECT_EQ(why, "--output: expected udp://HOST:PORT or mavlink+udp://HOST:PORT, got 'tcp://x:1'");
+  EXPECT_EQ(Parse({"--params", "p", "--source", "v4l2", "--output", "mavlink://x:1"}, &o, &why), OptionsStatus::kError);
+  EXPECT_EQ(why, "--output: expected udp://HOST:PORT or mavlink+udp://HOST:PORT, got 'mavlink://x:1'");
   EXPECT_EQ(Parse({"--params", "p", "--source", "v4l2", "--trigger", "gpiochip0"}, &o, &why), OptionsStatus::kError);
   EXPECT_EQ(Parse({"--params", "p", "--source", "v4l2", "--bogus"}, &o, &why), OptionsStatus::kError);
   EXPECT_EQ(why, "unknown option or missing value: '--bogus' (see --help)");

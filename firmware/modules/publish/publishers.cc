@@ -19,12 +19,14 @@ namespace mfns::fw {
 const char* ToString(PublishStatus s) {
   switch (s) {
     case PublishStatus::kOk: return "ok";
-    case PublishStatus::kBadAddress: return "bad address (expected udp://HOST:PORT with an IPv4 host)";
+    case PublishStatus::kBadAddress: return "bad address (expected [mavlink+]udp://HOST:PORT, HOST IPv4, PORT 1..65535)";
     case PublishStatus::kSocketError: return "socket error";
     case PublishStatus::kWouldBlock: return "socket buffer full, datagram dropped";
     case PublishStatus::kSendError: return "send failed";
     case PublishStatus::kNotOpen: return "not open";
     case PublishStatus::kFileError: return "log file error";
+    case PublishStatus::kBadScheme: return "unknown scheme (expected udp://HOST:PORT or mavlink+udp://HOST:PORT)";
+    case PublishStatus::kTooMany: return "too many outputs";
   }
   return "unknown";
 }
@@ -85,6 +87,74 @@ PublishStatus UdpPublisher::Send(std::span<const std::uint8_t> datagram) {
 void UdpPublisher::Close() {
   if (fd_ >= 0) ::close(fd_);
   fd_ = -1;
+}
+
+const char* ToString(OutputProtocol p) {
+  switch (p) {
+    case OutputProtocol::kMfns: return "udp";
+    case OutputProtocol::kMavlink: return "mavlink+udp";
+    case OutputProtocol::kCount: break;
+  }
+  return "unknown";
+}
+
+PublishStatus ParseOutputUrl(const char* url, OutputProtocol* protocol, const char** udp_url) {
+  constexpr char kMavlink[] = "mavlink+";
+  constexpr std::size_t kMavlinkChars = sizeof(kMavlink) - 1;
+  if (url == nullptr) return PublishStatus::kBadScheme;
+  const bool mavlink = std::strncmp(url, kMavlink, kMavlinkChars) == 0;
+  const char* udp = mavlink ? url + kMavlinkChars : url;
+  if (std::strncmp(udp, "udp://", 6) != 0) return PublishStatus::kBadScheme;
+  *protocol = mavlink ? OutputProtocol::kMavlink : OutputProtocol::kMfns;
+  *udp_url = udp;
+  return PublishStatus::kOk;
+}
+
+PublishStatus Outputs::Add(const char* url, const MavlinkConfig& mavlink) {
+  OutputProtocol protocol = OutputProtocol::kMfns;
+  const char* udp_url = nullptr;
+  const PublishStatus s = ParseOutputUrl(url, &protocol, &udp_url);
+  if (s != PublishStatus::kOk) return s;
+  if (count_ >= limits::kMaxOutputs) return PublishStatus::kTooMany;
+  Slot& slot = slots_[static_cast<std::size_t>(count_)];
+  const PublishStatus o = slot.udp.Open(udp_url);
+  if (o != PublishStatus::kOk) return o;
+  slot.protocol = protocol;
+  slot.mavlink = MavlinkStream(mavlink);
+  ++count_;
+  return PublishStatus::kOk;
+}
+
+void Outputs::Pose(const PoseRecord& r) {
+  bool encoded = false;  // the MFNS datagram once for every output that takes it
+  for (int i = 0; i < count_; ++i) {
+    Slot& slot = slots_[static_cast<std::size_t>(i)];
+    if (slot.protocol == OutputProtocol::kMavlink) {
+      const int n = slot.mavlink.Next(r);
+      for (int p = 0; p < n; ++p) slot.udp.Send(slot.mavlink.packet(p));
+      continue;
+    }
+    if (!encoded) EncodePose(r, pose_bytes_);
+    encoded = true;
+    slot.udp.Send(pose_bytes_);
+  }
+}
+
+void Outputs::Health(const HealthRecord& h) {
+  bool encoded = false;
+  for (int i = 0; i < count_; ++i) {
+    Slot& slot = slots_[static_cast<std::size_t>(i)];
+    if (slot.protocol != OutputProtocol::kMfns) continue;
+    if (!encoded) EncodeHealth(h, health_bytes_);
+    encoded = true;
+    slot.udp.Send(health_bytes_);
+  }
+}
+
+bool Outputs::wants_health() const {
+  for (int i = 0; i < count_; ++i)
+    if (slots_[static_cast<std::size_t>(i)].protocol == OutputProtocol::kMfns) return true;
+  return false;
 }
 
 // Not Close: a PoseLog destroyed while open belongs to a run that did not finish (a failed

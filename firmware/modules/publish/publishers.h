@@ -1,25 +1,30 @@
-// Where navigation output goes: a UDP socket (pose and health datagrams, pose_message.h) and
-// the poses CSV of DESIGN.md. Both are opened at start; after that, sending and logging use
-// no heap and never block the frame loop: a failed send is counted and dropped.
+// Where navigation output goes: UDP sockets (the MFNS pose and health datagrams of
+// pose_message.h, or MAVLink 2, mavlink.h) and the poses CSV of DESIGN.md. All are opened at
+// start; after that, sending and logging use no heap and never block the frame loop: a failed
+// send is counted and dropped.
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <cstdio>
 #include <span>
 
 #include "common/limits.h"
+#include "firmware/modules/publish/mavlink.h"
 #include "firmware/modules/publish/pose_message.h"
 
 namespace mfns::fw {
 
 enum class PublishStatus : unsigned char {
   kOk = 0,
-  kBadAddress,   // not udp://HOST:PORT, or HOST does not resolve to IPv4, or port 0 / > 65535
+  kBadAddress,   // not udp://HOST:PORT (after mavlink+), or HOST does not resolve to IPv4, or port 0 / > 65535
   kSocketError,  // socket() or connect() failed
   kWouldBlock,   // the socket buffer is full: the datagram is dropped
   kSendError,    // sendto failed otherwise
   kNotOpen,
   kFileError,    // the log could not be opened, written or renamed
+  kBadScheme,    // an output that is neither udp:// nor mavlink+udp://
+  kTooMany,      // more outputs than limits::kMaxOutputs
 };
 const char* ToString(PublishStatus s);
 
@@ -49,6 +54,45 @@ class UdpPublisher {
  private:
   int fd_ = -1;
   PublishCounters counters_;
+};
+
+// What an output speaks, from its URL's scheme: udp:// the MFNS datagrams, mavlink+udp://
+// MAVLink 2 (HEARTBEAT and ODOMETRY, mavlink.h).
+enum class OutputProtocol : unsigned char { kMfns = 0, kMavlink, kCount };
+const char* ToString(OutputProtocol p);  // "udp", "mavlink+udp"
+// kOk with *protocol and *udp_url (the "udp://HOST:PORT" part of url, for UdpPublisher::Open);
+// kBadScheme for any other scheme.
+PublishStatus ParseOutputUrl(const char* url, OutputProtocol* protocol, const char** udp_url);
+
+// Every --output of mfns-navd (up to limits::kMaxOutputs, any mix of protocols), each with its
+// socket and, for MAVLink, its stream state. Pose goes to every output in its protocol;
+// Health to the MFNS ones (MAVLink has its HEARTBEAT, sent by the stream).
+class Outputs {
+ public:
+  Outputs() = default;
+  Outputs(const Outputs&) = delete;
+  Outputs& operator=(const Outputs&) = delete;
+
+  // At start: opens one more output. kBadScheme, kTooMany, or UdpPublisher::Open's status.
+  PublishStatus Add(const char* url, const MavlinkConfig& mavlink = {});
+  void Pose(const PoseRecord& r);
+  void Health(const HealthRecord& h);
+  bool wants_health() const;  // an MFNS output is open
+  int count() const { return count_; }
+  OutputProtocol protocol(int i) const { return slots_[static_cast<std::size_t>(i)].protocol; }
+  const PublishCounters& counters(int i) const { return slots_[static_cast<std::size_t>(i)].udp.counters(); }
+  const MavlinkStream& mavlink(int i) const { return slots_[static_cast<std::size_t>(i)].mavlink; }
+
+ private:
+  struct Slot {
+    OutputProtocol protocol = OutputProtocol::kMfns;
+    UdpPublisher udp;
+    MavlinkStream mavlink;
+  };
+  std::array<Slot, limits::kMaxOutputs> slots_{};
+  int count_ = 0;
+  std::array<std::uint8_t, kPoseMessageBytes> pose_bytes_{};
+  std::array<std::uint8_t, kHealthMessageBytes> health_bytes_{};
 };
 
 // The poses CSV (DESIGN.md): frame,t_ns,status,x_mm,y_mm,z_mm,roll_deg,pitch_deg,yaw_deg,
