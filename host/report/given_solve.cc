@@ -9,7 +9,7 @@
 #include "common/camera/camera.h"
 #include "common/rotation/rotation.h"
 #include "firmware/modules/solve/solve.h"
-#include "host/report/csv_table.h"
+#include "host/util/csv_table.h"
 #include "host/util/atomic_file.h"
 
 namespace mfns::host {

@@ -4,7 +4,7 @@
 #include <map>
 
 #include "common/rotation/rotation.h"
-#include "host/report/csv_table.h"
+#include "host/util/csv_table.h"
 #include "host/util/user_error.h"
 
 namespace mfns::host {

@@ -11,27 +11,12 @@
 #include "host/rigio/rig_yaml.h"
 #include "host/rigio/yaml_fields.h"
 #include "host/util/atomic_file.h"
+#include "host/util/csv_table.h"
 
 namespace mfns::host {
 namespace {
 
 constexpr double kMm = 1e-3;
-
-std::string Trim(const std::string& s) {
-  std::size_t b = 0, e = s.size();
-  while (b < e && std::isspace(static_cast<unsigned char>(s[b]))) ++b;
-  while (e > b && std::isspace(static_cast<unsigned char>(s[e - 1]))) --e;
-  return s.substr(b, e - b);
-}
-
-std::vector<std::string> SplitCsv(const std::string& line) {
-  std::vector<std::string> out;
-  std::string cell;
-  std::istringstream in(line);
-  while (std::getline(in, cell, ',')) out.push_back(Trim(cell));
-  if (!line.empty() && line.back() == ',') out.emplace_back();
-  return out;
-}
 
 bool ParseDouble(const std::string& s, double* v) {
   const char* b = s.data();
@@ -59,53 +44,50 @@ Eigen::Vector3d Vector3Mm(const YAML::Node& n, const YamlCtx& ctx) {
   return Eigen::Vector3d(a[0], a[1], a[2]) * kMm;
 }
 
+// One images.csv row; the header is kImagesCsvHeader, checked by the table.
+DatasetImage ImageRow(const CsvTable& table, std::size_t row) {
+  const auto fail = [&](const std::string& what) {
+    throw UserError(table.source() + ":" + std::to_string(table.Line(row)) + ": " + what);
+  };
+  const auto cell = [&](const char* column) -> const std::string& { return table.Cell(row, table.Column(column)); };
+  DatasetImage im;
+  im.camera = cell("camera");
+  im.image = cell("image");
+  if (im.camera.empty() || im.camera.size() > static_cast<std::size_t>(limits::kMaxCameraNameChars))
+    fail("camera: expected a name of 1.." + std::to_string(limits::kMaxCameraNameChars) + " characters");
+  if (im.image.empty() || im.image.find('/') != std::string::npos) fail("image: expected a file stem");
+  const std::string& kind = cell("kind");
+  const std::string& main_deg = cell("main_deg");
+  const std::string& aux_deg = cell("aux_deg");
+  if (kind == "turntable") {
+    im.kind = ImageKind::kTurntable;
+    double m = 0, a = 0;
+    if (!ParseDouble(main_deg, &m)) fail("main_deg: expected a number, got \"" + main_deg + "\"");
+    if (!ParseDouble(aux_deg, &a)) fail("aux_deg: expected a number, got \"" + aux_deg + "\"");
+    im.main_cmd = DegToRad(m);
+    im.aux_cmd = DegToRad(a);
+  } else if (kind == "free") {
+    im.kind = ImageKind::kFree;
+    if (!main_deg.empty() || !aux_deg.empty()) fail("a free image has no turntable angles");
+  } else {
+    fail("kind: expected turntable or free, got \"" + kind + "\"");
+  }
+  return im;
+}
+
 std::vector<DatasetImage> ReadImagesCsv(const std::filesystem::path& path) {
-  const std::string text = ReadFile(path);
-  const std::string src = path.string();
-  std::istringstream in(text);
-  std::string line;
-  int line_no = 0;
-  bool header = false;
+  // Cells trimmed and lines of spaces skipped, as images.csv has always been read.
+  const CsvTable table = CsvTable::Read(path, {.trim = true, .columns = kImagesCsvHeader, .header_optional = false});
   std::vector<DatasetImage> images;
-  const auto fail = [&](const std::string& what) { throw UserError(src + ":" + std::to_string(line_no) + ": " + what); };
-  while (std::getline(in, line)) {
-    ++line_no;
-    if (!line.empty() && line.back() == '\r') line.pop_back();
-    if (Trim(line).empty()) continue;
-    const std::vector<std::string> f = SplitCsv(line);
-    if (!header) {
-      std::string joined;
-      for (std::size_t i = 0; i < f.size(); ++i) joined += (i ? "," : "") + f[i];
-      if (joined != kImagesCsvHeader) fail(std::string("expected the header \"") + kImagesCsvHeader + "\"");
-      header = true;
-      continue;
-    }
-    if (f.size() != 5) fail("expected 5 fields (" + std::string(kImagesCsvHeader) + "), got " + std::to_string(f.size()));
-    DatasetImage im;
-    im.camera = f[0];
-    im.image = f[1];
-    if (im.camera.empty() || im.camera.size() > static_cast<std::size_t>(limits::kMaxCameraNameChars))
-      fail("camera: expected a name of 1.." + std::to_string(limits::kMaxCameraNameChars) + " characters");
-    if (im.image.empty() || im.image.find('/') != std::string::npos) fail("image: expected a file stem");
-    if (f[2] == "turntable") {
-      im.kind = ImageKind::kTurntable;
-      double m = 0, a = 0;
-      if (!ParseDouble(f[3], &m)) fail("main_deg: expected a number, got \"" + f[3] + "\"");
-      if (!ParseDouble(f[4], &a)) fail("aux_deg: expected a number, got \"" + f[4] + "\"");
-      im.main_cmd = DegToRad(m);
-      im.aux_cmd = DegToRad(a);
-    } else if (f[2] == "free") {
-      im.kind = ImageKind::kFree;
-      if (!f[3].empty() || !f[4].empty()) fail("a free image has no turntable angles");
-    } else {
-      fail("kind: expected turntable or free, got \"" + f[2] + "\"");
-    }
+  for (std::size_t row = 0; row < table.size(); ++row) {
+    const DatasetImage im = ImageRow(table, row);
     for (const DatasetImage& other : images)
-      if (other.camera == im.camera && other.image == im.image) fail("image " + im.camera + "/" + im.image + " listed twice");
+      if (other.camera == im.camera && other.image == im.image)
+        throw UserError(table.source() + ":" + std::to_string(table.Line(row)) + ": image " + im.camera + "/" +
+                        im.image + " listed twice");
     images.push_back(im);
   }
-  if (!header) throw UserError(src + ": empty (expected the header \"" + kImagesCsvHeader + "\")");
-  if (images.empty()) throw UserError(src + ": lists no images");
+  if (images.empty()) throw UserError(table.source() + ": lists no images");
   return images;
 }
 
@@ -259,18 +241,16 @@ std::vector<Eigen::Vector3d> TargetPoints(const CalibrationTarget& target) {
 }
 
 std::vector<CornerRow> ParseCornersCsv(const std::string& text, const std::string& source, int num_ids) {
+  // Header optional and cells trimmed, as corners CSVs have always been read.
+  const CsvTable table =
+      CsvTable::Parse(text, source, {.trim = true, .columns = "camera,image,corner,u_px,v_px", .header_optional = true});
   std::vector<CornerRow> rows;
   std::map<std::string, std::map<int, int>> line_of;  // "camera/image" -> corner id -> line
-  std::istringstream lines(text);
-  std::string line;
-  int line_no = 0;
-  while (std::getline(lines, line)) {
-    ++line_no;
-    if (!line.empty() && line.back() == '\r') line.pop_back();
-    if (line.empty() || (line_no == 1 && line.rfind("camera,", 0) == 0)) continue;
-    const std::vector<std::string> f = SplitCsv(line);
+  for (std::size_t r = 0; r < table.size(); ++r) {
+    const std::vector<std::string> f = {table.Cell(r, 0), table.Cell(r, 1), table.Cell(r, 2), table.Cell(r, 3),
+                                        table.Cell(r, 4)};
+    const int line_no = table.Line(r);
     const std::string where = source + ":" + std::to_string(line_no) + ": ";
-    if (f.size() != 5) throw UserError(where + "expected camera,image,corner,u_px,v_px");
     CornerRow row;
     row.camera = f[0];
     row.image = f[1];

@@ -71,10 +71,11 @@ struct CornerRow {
   int line = 0;
 };
 
-// Parses a corners CSV's text (header line optional, CRLF accepted); `source` names it in
-// errors. Ids must lie in 0..num_ids-1 and not repeat within an image; coordinates must be
-// finite numbers (their range depends on the image: checked by the caller). Throws UserError
-// (one line: source:LINE: field: why).
+// Parses a corners CSV's text (host/util/csv_table: header line optional, CRLF accepted, cells
+// trimmed, blank lines and lines of spaces skipped); `source` names it in errors. Ids must lie
+// in 0..num_ids-1 and not repeat within an image; coordinates must be finite numbers (their
+// range depends on the image: checked by the caller). Throws UserError (one line:
+// source:LINE: field: why).
 std::vector<CornerRow> ParseCornersCsv(const std::string& text, const std::string& source, int num_ids);
 
 // Corner positions by id (target_points[id], m, z = 0).

@@ -193,7 +193,7 @@ TEST(CornersCsv, ParsesRowsAndNamesTheLineAndField) {
   EXPECT_EQ(rows[1].line, 3);
   EXPECT_EQ(CornersError("x,1,54,1,2\n"), "c.csv:1: corner id \"54\" is not one of the target's 0..53");
   EXPECT_EQ(CornersError("x,1,2,nan,2\n"), "c.csv:1: u_px: bad pixel coordinate \"nan\"");
-  EXPECT_EQ(CornersError("x,1,2,1\n"), "c.csv:1: expected camera,image,corner,u_px,v_px");
+  EXPECT_EQ(CornersError("x,1,2,1\n"), "c.csv:1: expected 5 cells (camera,image,corner,u_px,v_px), got 4");
   EXPECT_EQ(CornersError("x,1,2,1,2\nx,1,2,3,4\n"), "c.csv:2: corner: id 2 of x/1 repeats line 1");
   EXPECT_EQ(CornersError("x,1,2,1,2\x1b[2J\n"), "c.csv:1: v_px: bad pixel coordinate \"2\\x1b[2J\"");
 }

@@ -10,34 +10,24 @@
 #include <ctime>
 #include <fstream>
 #include <map>
-#include <sstream>
 #include <string>
 #include <tuple>
 #include <vector>
 
+#include "host/calib/core/dataset.h"
 #include "host/calib/detect/corner_refine.h"
 #include "host/sim/render/image.h"
+#include "host/util/atomic_file.h"
 
 namespace {
 
 using Key = std::tuple<std::string, std::string, int>;  // camera, image, corner
 
-std::map<Key, Eigen::Vector2d> ReadCorners(const std::string& path) {
+// A corners CSV (header optional) by camera, image and corner id; ids must lie in 0..num_ids-1.
+std::map<Key, Eigen::Vector2d> ReadCorners(const std::string& path, int num_ids) {
   std::map<Key, Eigen::Vector2d> out;
-  std::ifstream in(path);
-  std::string line;
-  std::getline(in, line);  // header
-  while (std::getline(in, line)) {
-    std::stringstream ss(line);
-    std::string cam, img, id, u, v;
-    std::getline(ss, cam, ',');
-    std::getline(ss, img, ',');
-    std::getline(ss, id, ',');
-    std::getline(ss, u, ',');
-    std::getline(ss, v, ',');
-    if (v.empty()) continue;
-    out[{cam, img, std::stoi(id)}] = Eigen::Vector2d(std::stod(u), std::stod(v));
-  }
+  for (const mfns::host::CornerRow& row : mfns::host::ParseCornersCsv(mfns::host::ReadFile(path), path, num_ids))
+    out[{row.camera, row.image, row.corner.id}] = row.corner.uv;
   return out;
 }
 
@@ -67,9 +57,8 @@ struct Sum {
   }
 };
 
-}  // namespace
-
-int main(int argc, char** argv) {
+// The tool; main adds the error report.
+int Run(int argc, char** argv) {
   if (argc < 3 || argc % 2 == 0) {
     std::fprintf(stderr, "usage: corner_refine_eval DATASET_DIR START_CORNERS_CSV [...]\n");
     return 2;
@@ -79,11 +68,11 @@ int main(int argc, char** argv) {
   double cpu_s = 0.0, iterations = 0.0, radius = 0.0, blur = 0.0;
   for (int a = 1; a + 1 < argc; a += 2) {
     const std::string dir = argv[a];
-    const std::map<Key, Eigen::Vector2d> truth = ReadCorners(dir + "/corners.csv");
-    const std::map<Key, Eigen::Vector2d> start = ReadCorners(argv[a + 1]);
     std::ifstream ty(dir + "/target.yaml");
     const std::string yaml((std::istreambuf_iterator<char>(ty)), std::istreambuf_iterator<char>());
     const int rows = Value(yaml, "rows"), cols = Value(yaml, "cols");
+    const std::map<Key, Eigen::Vector2d> truth = ReadCorners(dir + "/corners.csv", rows * cols);
+    const std::map<Key, Eigen::Vector2d> start = ReadCorners(argv[a + 1], rows * cols);
     std::map<std::pair<std::string, std::string>, int> per_image;
     for (const auto& [k, uv] : start) ++per_image[{std::get<0>(k), std::get<1>(k)}];
     for (const auto& [ci, n] : per_image) {
@@ -117,4 +106,15 @@ int main(int argc, char** argv) {
               stats.Kept(), iterations / n, radius / n, blur / n);
   std::printf("refinement CPU %.2f s (%.3f s per image)\n", cpu_s, cpu_s / std::max(refined_sum.images, 1));
   return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  try {
+    return Run(argc, argv);
+  } catch (const mfns::host::UserError& e) {  // a malformed corners CSV, named by file and line
+    std::fprintf(stderr, "corner_refine_eval: %s\n", e.what());
+    return 1;
+  }
 }

@@ -5,36 +5,24 @@
 
 #include <map>
 #include <opencv2/calib3d.hpp>
-#include <sstream>
 
 #include "common/rotation/rotation.h"
 #include "host/rigio/rig_yaml.h"
 #include "host/sim/render/image.h"
 #include "host/sim/render/target.h"
-#include "host/util/atomic_file.h"
+#include "host/util/csv_table.h"
 
 namespace mfns::host {
 namespace {
+
+// The writer's headers, checked by the reader; the tests read cells by these positions.
+const CsvOptions kCornersCsv{.trim = false, .columns = "camera,image,corner,u_px,v_px", .header_optional = false};
+const CsvOptions kImagesCsv{.trim = false, .columns = "camera,image,kind,main_deg,aux_deg", .header_optional = false};
 
 std::filesystem::path TempDir() {
   std::string tmpl = (std::filesystem::temp_directory_path() / "mfns-calibdata-XXXXXX").string();
   EXPECT_NE(::mkdtemp(tmpl.data()), nullptr);
   return tmpl;
-}
-
-std::vector<std::vector<std::string>> ReadCsv(const std::filesystem::path& path) {
-  std::vector<std::vector<std::string>> rows;
-  std::istringstream in(ReadFile(path));
-  std::string line;
-  while (std::getline(in, line)) {
-    std::vector<std::string> cells;
-    std::stringstream ls(line);
-    std::string cell;
-    while (std::getline(ls, cell, ',')) cells.push_back(cell);
-    if (!line.empty() && line.back() == ',') cells.push_back("");
-    rows.push_back(cells);
-  }
-  return rows;
 }
 
 Scenario SmallSession(bool noise) {
@@ -100,29 +88,31 @@ TEST(CalibDataset, TruthChainIsConsistent) {
   EXPECT_EQ(angles.size(), 9u);
 
   int checked = 0;
-  const auto corners = ReadCsv(dir / "corners.csv");
-  for (std::size_t r = 1; r < corners.size(); ++r) {
-    const auto it = angles.find(corners[r][0] + "/" + corners[r][1]);
+  const CsvTable corners = CsvTable::Read(dir / "corners.csv", kCornersCsv);
+  for (std::size_t r = 0; r < corners.size(); ++r) {
+    const std::string& camera = corners.Cell(r, 0);
+    const auto it = angles.find(camera + "/" + corners.Cell(r, 1));
     if (it == angles.end()) continue;
     int k = 0;
-    while (corners[r][0] != rig.cameras[static_cast<std::size_t>(k)].name.data()) ++k;
+    while (camera != rig.cameras[static_cast<std::size_t>(k)].name.data()) ++k;
     const BodyPose body = TurntablePose(tt, it->second.first, it->second.second);
     Eigen::Vector2d uv;
     ASSERT_EQ(ProjectBeacon(rig.cameras[static_cast<std::size_t>(k)], body,
-                            target.corners()[static_cast<std::size_t>(std::stoi(corners[r][2]))].P_w, &uv),
+                            target.corners()[static_cast<std::size_t>(corners.Number(r, 2))].P_w, &uv),
               ProjectStatus::kOk);
-    EXPECT_NEAR(uv.x(), std::stod(corners[r][3]), 1e-6);
-    EXPECT_NEAR(uv.y(), std::stod(corners[r][4]), 1e-6);
+    EXPECT_NEAR(uv.x(), corners.Number(r, 3), 1e-6);
+    EXPECT_NEAR(uv.y(), corners.Number(r, 4), 1e-6);
     ++checked;
   }
   EXPECT_EQ(checked, 9 * 54);
 
   // Commanded angles differ from the true ones by the turntable's error (8 arcsec).
-  for (const auto& row : ReadCsv(dir / "images.csv")) {
-    if (row[2] != "turntable") continue;
-    const auto& t = angles[row[0] + "/" + row[1]];
-    EXPECT_LT(std::abs(DegToRad(std::stod(row[3])) - t.first), DegToRad(60.0 / 3600.0));
-    EXPECT_LT(std::abs(DegToRad(std::stod(row[4])) - t.second), DegToRad(60.0 / 3600.0));
+  const CsvTable images = CsvTable::Read(dir / "images.csv", kImagesCsv);
+  for (std::size_t r = 0; r < images.size(); ++r) {
+    if (images.Cell(r, 2) != "turntable") continue;
+    const auto& t = angles[images.Cell(r, 0) + "/" + images.Cell(r, 1)];
+    EXPECT_LT(std::abs(DegToRad(images.Number(r, 3)) - t.first), DegToRad(60.0 / 3600.0));
+    EXPECT_LT(std::abs(DegToRad(images.Number(r, 4)) - t.second), DegToRad(60.0 / 3600.0));
   }
   std::filesystem::remove_all(dir);
 }
@@ -135,9 +125,9 @@ TEST(CalibDataset, OpenCvFindsTheCornersWhereTheTruthIs) {
   opt.progress = false;
   WriteCalibDataset(SmallSession(true), "", opt);
   std::map<std::string, std::vector<cv::Point2d>> truth;
-  const auto corners = ReadCsv(dir / "corners.csv");
-  for (std::size_t r = 1; r < corners.size(); ++r)
-    truth[corners[r][0] + "/" + corners[r][1]].emplace_back(std::stod(corners[r][3]), std::stod(corners[r][4]));
+  const CsvTable corners = CsvTable::Read(dir / "corners.csv", kCornersCsv);
+  for (std::size_t r = 0; r < corners.size(); ++r)
+    truth[corners.Cell(r, 0) + "/" + corners.Cell(r, 1)].emplace_back(corners.Number(r, 3), corners.Number(r, 4));
   // findChessboardCornersSB takes seconds per image: one turntable and one free view per camera.
   int images = 0;
   for (const auto& [key, pts] : truth) {

@@ -7,81 +7,25 @@
 #include <vector>
 
 #include "common/rotation/rotation.h"
-#include "host/util/atomic_file.h"
+#include "host/util/csv_table.h"
 
 namespace mfns::host {
-namespace {
-
-// A CSV with a header line; cells by column name.
-struct Csv {
-  std::vector<std::string> header;
-  std::vector<std::vector<std::string>> rows;
-  std::vector<int> lines;
-  std::string source;
-
-  int Column(const std::string& name) const {
-    for (std::size_t i = 0; i < header.size(); ++i)
-      if (header[i] == name) return static_cast<int>(i);
-    throw UserError(source + ":1: no column '" + name + "'");
-  }
-  double Number(std::size_t row, int col) const {
-    const std::string& cell = rows[row].at(static_cast<std::size_t>(col));
-    try {
-      std::size_t used = 0;
-      const double v = std::stod(cell, &used);
-      if (used != cell.size()) throw std::invalid_argument(cell);
-      return v;
-    } catch (const std::exception&) {
-      throw UserError(source + ":" + std::to_string(lines[row]) + ": column '" + header[static_cast<std::size_t>(col)] +
-                      "': expected a number, got '" + cell + "'");
-    }
-  }
-};
-
-Csv ReadCsv(const std::filesystem::path& path) {
-  Csv csv;
-  csv.source = path.string();
-  std::istringstream in(ReadFile(path));
-  std::string line;
-  int n = 0;
-  while (std::getline(in, line)) {
-    ++n;
-    if (line.empty()) continue;
-    std::vector<std::string> cells;
-    std::stringstream ls(line);
-    std::string cell;
-    while (std::getline(ls, cell, ',')) cells.push_back(cell);
-    if (csv.header.empty()) {
-      csv.header = cells;
-      continue;
-    }
-    if (cells.size() != csv.header.size())
-      throw UserError(csv.source + ":" + std::to_string(n) + ": " + std::to_string(cells.size()) + " columns, header has " +
-                      std::to_string(csv.header.size()));
-    csv.rows.push_back(cells);
-    csv.lines.push_back(n);
-  }
-  if (csv.header.empty()) throw UserError(csv.source + ": empty file");
-  return csv;
-}
-
-}  // namespace
 
 CompareResult ComparePoses(const std::filesystem::path& sim_dir, const std::filesystem::path& poses_csv) {
-  const Csv truth = ReadCsv(sim_dir / "truth.csv");
-  const Csv crb = ReadCsv(sim_dir / "crb.csv");
-  const Csv est = ReadCsv(poses_csv);
+  const CsvTable truth = CsvTable::Read(sim_dir / "truth.csv");
+  const CsvTable crb = CsvTable::Read(sim_dir / "crb.csv");
+  const CsvTable est = CsvTable::Read(poses_csv);
   const std::array<const char*, 6> truth_cols = {"x_mm", "y_mm", "z_mm", "roll_deg", "pitch_deg", "yaw_deg"};
   const std::array<const char*, 6> bound_cols = {"sigma_x_mm", "sigma_y_mm", "sigma_z_mm", "sigma_roll_deg",
                                                  "sigma_pitch_deg", "sigma_yaw_deg"};
 
   // Statistics of nothing would print as 0.000 mm, a perfect navigator.
-  if (est.rows.empty()) throw UserError(est.source + ": no poses (only a header); nothing to compare");
-  if (truth.rows.empty()) throw UserError(truth.source + ": no frames (only a header); nothing to compare");
+  if (est.size() == 0) throw UserError(est.source() + ": no poses (only a header); nothing to compare");
+  if (truth.size() == 0) throw UserError(truth.source() + ": no frames (only a header); nothing to compare");
   std::map<long, std::size_t> est_row, crb_row;
   const int est_frame = est.Column("frame"), crb_frame = crb.Column("frame");
-  for (std::size_t i = 0; i < est.rows.size(); ++i) est_row[std::lround(est.Number(i, est_frame))] = i;
-  for (std::size_t i = 0; i < crb.rows.size(); ++i) crb_row[std::lround(crb.Number(i, crb_frame))] = i;
+  for (std::size_t i = 0; i < est.size(); ++i) est_row[std::lround(est.Number(i, est_frame))] = i;
+  for (std::size_t i = 0; i < crb.size(); ++i) crb_row[std::lround(crb.Number(i, crb_frame))] = i;
   const int status_col = est.Column("status");
   const int visible_col = crb.Column("n_visible"), valid_col = crb.Column("valid");
 
@@ -89,7 +33,7 @@ CompareResult ComparePoses(const std::filesystem::path& sim_dir, const std::file
   std::array<std::vector<double>, 6> errors;
   std::array<double, 6> bound_var{};
   const int truth_frame = truth.Column("frame");
-  for (std::size_t t = 0; t < truth.rows.size(); ++t) {
+  for (std::size_t t = 0; t < truth.size(); ++t) {
     const long frame = std::lround(truth.Number(t, truth_frame));
     ++r.frames;
     const auto c = crb_row.find(frame);
@@ -100,7 +44,7 @@ CompareResult ComparePoses(const std::filesystem::path& sim_dir, const std::file
       ++r.missing;
       continue;
     }
-    const std::string& status = est.rows[e->second][static_cast<std::size_t>(status_col)];
+    const std::string& status = est.Cell(e->second, status_col);
     if (status == "fix") {
       ++r.fixes;
       r.fixes_3plus += three;
@@ -110,7 +54,7 @@ CompareResult ComparePoses(const std::filesystem::path& sim_dir, const std::file
       ++r.lost;
       continue;
     } else {
-      throw UserError(est.source + ":" + std::to_string(est.lines[e->second]) + ": unknown status '" + status + "'");
+      throw UserError(est.source() + ":" + std::to_string(est.Line(e->second)) + ": unknown status '" + status + "'");
     }
     if (status != "fix" || c == crb_row.end() || crb.Number(c->second, valid_col) == 0) continue;
     ++r.compared;
@@ -128,7 +72,7 @@ CompareResult ComparePoses(const std::filesystem::path& sim_dir, const std::file
     r.worst_attitude_deg = std::max(r.worst_attitude_deg, std::sqrt(att2));
   }
   if (r.missing == r.frames)
-    throw UserError(est.source + ": none of its " + std::to_string(est.rows.size()) + " frames is in " + truth.source);
+    throw UserError(est.source() + ": none of its " + std::to_string(est.size()) + " frames is in " + truth.source());
   for (std::size_t a = 0; a < 6; ++a) {
     const auto& v = errors[a];
     if (v.empty()) continue;

@@ -70,7 +70,7 @@ TEST(Compare, MalformedInputsNameTheFileAndLine) {
     ComparePoses(dir, dir / "poses.csv");
     FAIL() << "no error";
   } catch (const UserError& e) {
-    EXPECT_EQ(std::string(e.what()), (dir / "crb.csv").string() + ":2: 2 columns, header has 3");
+    EXPECT_EQ(std::string(e.what()), (dir / "crb.csv").string() + ":2: expected 3 cells (frame,n_visible,valid), got 2");
   }
   EXPECT_THROW(ComparePoses(dir / "nope", dir / "poses.csv"), UserError);
   std::filesystem::remove_all(dir);

@@ -3,11 +3,11 @@
 #include <gtest/gtest.h>
 
 #include <fstream>
-#include <sstream>
 
 #include "host/rigio/rig_yaml.h"
 #include "host/sim/render/image.h"
 #include "host/util/atomic_file.h"
+#include "host/util/csv_table.h"
 
 namespace mfns::host {
 namespace {
@@ -16,20 +16,6 @@ std::filesystem::path TempDir() {
   std::string tmpl = (std::filesystem::temp_directory_path() / "mfns-render-XXXXXX").string();
   EXPECT_NE(::mkdtemp(tmpl.data()), nullptr);
   return tmpl;
-}
-
-std::vector<std::vector<std::string>> ReadCsv(const std::filesystem::path& path) {
-  std::vector<std::vector<std::string>> rows;
-  std::istringstream in(ReadFile(path));
-  std::string line;
-  while (std::getline(in, line)) {
-    std::vector<std::string> cells;
-    std::stringstream ls(line);
-    std::string cell;
-    while (std::getline(ls, cell, ',')) cells.push_back(cell);
-    rows.push_back(cells);
-  }
-  return rows;
 }
 
 Scenario Small(int frames, bool noise) {
@@ -57,23 +43,23 @@ TEST(RenderRun, WritesTheDesignLayoutAndTruth) {
       EXPECT_EQ(img.rows, 1024);
       EXPECT_EQ(img.type(), CV_8UC1);
     }
-  const auto truth = ReadCsv(dir / "truth.csv");
-  ASSERT_EQ(truth.size(), 13u);
-  EXPECT_EQ(truth[0][0], "frame");
-  EXPECT_EQ(truth[0].size(), 8u);
-  EXPECT_NEAR(std::stod(truth[4][7]), 90.0, 1e-6);  // frame 3 at 30 deg steps: yaw 90
-  const auto crb = ReadCsv(dir / "crb.csv");
-  ASSERT_EQ(crb.size(), 13u);
+  const CsvTable truth = CsvTable::Read(dir / "truth.csv");
+  ASSERT_EQ(truth.size(), 12u);
+  EXPECT_EQ(truth.header()[0], "frame");
+  EXPECT_EQ(truth.header().size(), 8u);
+  EXPECT_NEAR(truth.Number(3, truth.Column("yaw_deg")), 90.0, 1e-6);  // frame 3 at 30 deg steps: yaw 90
+  const CsvTable crb = CsvTable::Read(dir / "crb.csv");
+  ASSERT_EQ(crb.size(), 12u);
   // rig.yaml is the truth (exact map: no beacon_sigma, whatever the scenario's rig quotes).
   EXPECT_GT(s.rig.beacon_sigma, 0.0);
   EXPECT_EQ(ReadRigYaml(dir / "rig.yaml").beacon_sigma, 0.0);
   EXPECT_TRUE(std::filesystem::exists(dir / "believed-rig.yaml"));
   EXPECT_TRUE(std::filesystem::exists(dir / "turntable.csv"));
   // blobs.csv lists exactly the beacons crb.csv counts as visible.
-  const auto blobs = ReadCsv(dir / "blobs.csv");
+  const CsvTable blobs = CsvTable::Read(dir / "blobs.csv");
   std::vector<int> per_frame(12, 0);
-  for (std::size_t r = 1; r < blobs.size(); ++r) ++per_frame[static_cast<std::size_t>(std::stoi(blobs[r][0]))];
-  for (int i = 0; i < 12; ++i) EXPECT_EQ(per_frame[static_cast<std::size_t>(i)], std::stoi(crb[static_cast<std::size_t>(i + 1)][2]));
+  for (std::size_t r = 0; r < blobs.size(); ++r) ++per_frame[static_cast<std::size_t>(blobs.Number(r, blobs.Column("frame")))];
+  for (std::size_t i = 0; i < 12; ++i) EXPECT_EQ(per_frame[i], static_cast<int>(crb.Number(i, crb.Column("n_visible"))));
   std::filesystem::remove_all(dir);
 }
 
@@ -84,15 +70,17 @@ TEST(RenderRun, SpotsSitOnTheirTruth) {
   opt.out_dir = dir;
   opt.progress = false;
   RenderScenario(Small(12, false), "", opt);
-  const auto blobs = ReadCsv(dir / "blobs.csv");
-  ASSERT_GT(blobs.size(), 10u);
+  const CsvTable blobs = CsvTable::Read(dir / "blobs.csv");
+  ASSERT_GT(blobs.size(), 9u);
+  const int frame = blobs.Column("frame"), camera = blobs.Column("camera");
+  const int u_px = blobs.Column("u_px"), v_px = blobs.Column("v_px"), u_geom_px = blobs.Column("u_geom_px");
   int checked = 0;
-  for (std::size_t r = 1; r < blobs.size(); ++r) {
+  for (std::size_t r = 0; r < blobs.size(); ++r) {
     char name[32];
-    std::snprintf(name, sizeof(name), "%06d.pgm", std::stoi(blobs[r][0]));
-    const cv::Mat img = ReadPgm((dir / "frames" / blobs[r][1] / name).string());
-    const double u = std::stod(blobs[r][3]), v = std::stod(blobs[r][4]);
-    EXPECT_EQ(blobs[r][3], blobs[r][5]);  // no centroid noise: rendered centre = projection
+    std::snprintf(name, sizeof(name), "%06d.pgm", static_cast<int>(blobs.Number(r, frame)));
+    const cv::Mat img = ReadPgm((dir / "frames" / blobs.Cell(r, camera) / name).string());
+    const double u = blobs.Number(r, u_px), v = blobs.Number(r, v_px);
+    EXPECT_EQ(blobs.Cell(r, u_px), blobs.Cell(r, u_geom_px));  // no centroid noise: rendered centre = projection
     const int cu = static_cast<int>(std::lround(u)), cv_ = static_cast<int>(std::lround(v));
     if (cu < 8 || cv_ < 8 || cu > img.cols - 9 || cv_ > img.rows - 9) continue;
     double sw = 0, su = 0, sv = 0;
@@ -188,9 +176,10 @@ TEST(RenderRun, StationPresetWritesItsMapsWithOrWithoutFacing) {
       EXPECT_LT((truth.beacon_normal_w[5] - s.rig.beacon_normal_w[5]).norm(), 1e-9);
     }
     // blobs.csv: true beacons only, as many as crb.csv counts.
-    const auto blobs = ReadCsv(dir / "blobs.csv");
-    const auto crb = ReadCsv(dir / "crb.csv");
-    EXPECT_EQ(static_cast<int>(blobs.size()) - 1, std::stoi(crb[1][2]) + std::stoi(crb[2][2]));
+    const CsvTable blobs = CsvTable::Read(dir / "blobs.csv");
+    const CsvTable crb = CsvTable::Read(dir / "crb.csv");
+    const int n_visible = crb.Column("n_visible");
+    EXPECT_EQ(static_cast<int>(blobs.size()), static_cast<int>(crb.Number(0, n_visible) + crb.Number(1, n_visible)));
     std::filesystem::remove_all(dir);
   }
 }

@@ -6,13 +6,12 @@
 #include <cstdio>
 #include <map>
 #include <set>
-#include <sstream>
 
 #include "common/camera/camera.h"
 #include "host/sim/frames/render_run.h"
 #include "host/sim/render/image.h"
 #include "host/sim/render/visibility.h"
-#include "host/util/atomic_file.h"
+#include "host/util/csv_table.h"
 
 namespace mfns::host {
 namespace {
@@ -47,21 +46,6 @@ int CameraIndex(const Scenario& s, const std::string& name) {
   return -1;
 }
 
-std::vector<std::vector<std::string>> ReadCsv(const std::filesystem::path& path) {
-  std::vector<std::vector<std::string>> rows;
-  std::istringstream in(ReadFile(path));
-  std::string line;
-  std::getline(in, line);  // header
-  while (std::getline(in, line)) {
-    std::vector<std::string> cells;
-    std::stringstream ls(line);
-    std::string cell;
-    while (std::getline(ls, cell, ',')) cells.push_back(cell);
-    rows.push_back(cells);
-  }
-  return rows;
-}
-
 std::filesystem::path TempDir() {
   std::string tmpl = (std::filesystem::temp_directory_path() / "mfns-observe-XXXXXX").string();
   EXPECT_NE(::mkdtemp(tmpl.data()), nullptr);
@@ -90,7 +74,7 @@ TEST(BlobSim, MatchesTheRenderedRun) {
   opt.progress = false;
   opt.threads = 2;
   RenderScenario(s, "", opt);
-  const auto rows = ReadCsv(dir / "blobs.csv");
+  const CsvTable blobs = CsvTable::Read(dir / "blobs.csv");
   const auto truth = SimulateTrajectory(s);
   Scenario unoccluded = s;
   unoccluded.clutter.occlusions.clear();
@@ -100,13 +84,13 @@ TEST(BlobSim, MatchesTheRenderedRun) {
     const BlobFrameSet sim = SimulateBlobs(s, f);
     for (std::size_t j = 0; j < sim.blobs.size(); ++j) {
       if (sim.beacon[j] < 0) continue;
-      ASSERT_LT(row, rows.size());
-      const auto& r = rows[row++];
-      EXPECT_EQ(std::stoi(r[0]), f.frame);
-      EXPECT_EQ(CameraIndex(s, r[1]), sim.blobs[j].camera);
-      EXPECT_EQ(std::stoi(r[2]), sim.beacon[j]);
-      EXPECT_NEAR(std::stod(r[3]), sim.blobs[j].uv_px.x(), 1e-6);
-      EXPECT_NEAR(std::stod(r[4]), sim.blobs[j].uv_px.y(), 1e-6);
+      ASSERT_LT(row, blobs.size());
+      const std::size_t r = row++;
+      EXPECT_EQ(static_cast<int>(blobs.Number(r, blobs.Column("frame"))), f.frame);
+      EXPECT_EQ(CameraIndex(s, blobs.Cell(r, blobs.Column("camera"))), sim.blobs[j].camera);
+      EXPECT_EQ(static_cast<int>(blobs.Number(r, blobs.Column("beacon"))), sim.beacon[j]);
+      EXPECT_NEAR(blobs.Number(r, blobs.Column("u_px")), sim.blobs[j].uv_px.x(), 1e-6);
+      EXPECT_NEAR(blobs.Number(r, blobs.Column("v_px")), sim.blobs[j].uv_px.y(), 1e-6);
     }
     char name[32];
     std::snprintf(name, sizeof(name), "%06d.pgm", f.frame);
@@ -135,7 +119,7 @@ TEST(BlobSim, MatchesTheRenderedRun) {
       EXPECT_TRUE(sim.visible[1].empty());
     }
   }
-  EXPECT_EQ(row, rows.size());
+  EXPECT_EQ(row, blobs.size());
   EXPECT_GT(spots_checked, 20);
   EXPECT_GT(occluded_checked, 0);
   std::filesystem::remove_all(dir);
