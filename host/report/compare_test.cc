@@ -4,6 +4,7 @@
 
 #include <random>
 
+#include "host/report/report_test_util.h"
 #include "host/util/atomic_file.h"
 
 namespace mfns::host {
@@ -12,16 +13,10 @@ namespace {
 constexpr const char* kCrbHeader =
     "frame,n_visible,valid,sigma_x_mm,sigma_y_mm,sigma_z_mm,sigma_roll_deg,sigma_pitch_deg,sigma_yaw_deg\n";
 
-std::filesystem::path TempDir() {
-  std::string tmpl = (std::filesystem::temp_directory_path() / "mfns-compare-XXXXXX").string();
-  EXPECT_NE(::mkdtemp(tmpl.data()), nullptr);
-  return tmpl;
-}
-
 // Estimates = truth + Gaussian errors of known sigma; the bound says that sigma: the statistics
 // must come back (mean ~0, std ~ sigma, ratio ~1), and a frame with a bad status is left out.
 TEST(Compare, RecoversKnownErrorStatistics) {
-  const auto dir = TempDir();
+  const auto dir = FreshTestDir("compare");
   std::mt19937_64 rng(1);
   std::normal_distribution<double> n01(0.0, 1.0);
   const std::array<double, 6> sigma = {0.5, 0.7, 1.1, 0.01, 0.02, 0.03};
@@ -69,7 +64,7 @@ TEST(Compare, RecoversKnownErrorStatistics) {
 // no valid bound (left out of the statistics and of the >= 3 count), frame 3 is degraded,
 // frame 6 has no pose, frame 4's yaw error wraps (359.5 -> -0.4 is +0.1).
 TEST(Compare, TableOfADesignedRun) {
-  const auto dir = TempDir();
+  const auto dir = FreshTestDir("compare");
   WriteFileAtomic(dir / "truth.csv", std::string("frame,t_ns,x_mm,y_mm,z_mm,roll_deg,pitch_deg,yaw_deg\n"
                                                  "0,100,0,0,0,0,0,0\n1,200,0,0,0,0,0,1\n2,300,0,0,0,0,0,2\n"
                                                  "3,400,0,0,0,0,0,3\n4,500,10,0,0,0,0,359.5\n5,600,0,0,0,0,0,5\n"
@@ -100,7 +95,7 @@ TEST(Compare, TableOfADesignedRun) {
 }
 
 TEST(Compare, MalformedInputsNameTheFileAndLine) {
-  const auto dir = TempDir();
+  const auto dir = FreshTestDir("compare");
   WriteFileAtomic(dir / "truth.csv", std::string("frame,t_ns,x_mm,y_mm,z_mm,roll_deg,pitch_deg,yaw_deg\n0,0,0,0,0,0,0,0\n"));
   WriteFileAtomic(dir / "crb.csv", std::string("frame,n_visible,valid\n0,3\n"));
   WriteFileAtomic(dir / "poses.csv", std::string("frame,status\n0,fix\n"));
@@ -118,7 +113,7 @@ TEST(Compare, MalformedInputsNameTheFileAndLine) {
 // set) or one that shares no frame with the truth is an error, not "0.000 mm"; all-lost poses
 // give no error statistics.
 TEST(Compare, EmptyOrDisjointPosesAreErrorsNotPerfectScores) {
-  const auto dir = TempDir();
+  const auto dir = FreshTestDir("compare");
   WriteFileAtomic(dir / "truth.csv", std::string("frame,t_ns,x_mm,y_mm,z_mm,roll_deg,pitch_deg,yaw_deg\n0,0,0,0,0,0,0,0\n"));
   WriteFileAtomic(dir / "crb.csv", std::string(kCrbHeader) + "0,3,0,nan,nan,nan,nan,nan,nan\n");
   const std::string head = "frame,t_ns,status,x_mm,y_mm,z_mm,roll_deg,pitch_deg,yaw_deg,n_beacons,rms_px\n";

@@ -53,6 +53,17 @@ Files Write(const std::filesystem::path& d, const char* poses = kPoses) {
   return f;
 }
 
+// LoadPoseSeries' UserError message with these poses, or "(no error)".
+std::string LoadError(const char* poses) {
+  const Files f = Write(FreshTestDir("pose"), poses);
+  try {
+    LoadPoseSeries(f.truth, f.poses, f.crb);
+  } catch (const UserError& e) {
+    return e.what();
+  }
+  return "(no error)";
+}
+
 TEST(PoseErrors, JoinsFramesAndWrapsAngles) {
   const Files f = Write(FreshTestDir("pose"));
   const PoseSeries s = LoadPoseSeries(f.truth, f.poses, f.crb);
@@ -121,15 +132,9 @@ TEST(PoseErrors, RequireBoundKeepsOnlyFramesWithAValidBound) {
 }
 
 TEST(PoseErrors, RejectsAFrameTwice) {
-  const auto d = FreshTestDir("pose");
-  const Files f = Write(d, "frame,t_ns,status,x_mm,y_mm,z_mm,roll_deg,pitch_deg,yaw_deg,n_beacons,rms_px\n"
-                           "0,100,fix,1,2,3,0,0,0,3,0.1\n0,100,fix,1,2,3,0,0,0,3,0.1\n");
-  try {
-    LoadPoseSeries(f.truth, f.poses, f.crb);
-    FAIL() << "no error";
-  } catch (const UserError& e) {
-    EXPECT_NE(std::string(e.what()).find("poses.csv:3: frame 0 appears twice"), std::string::npos) << e.what();
-  }
+  const std::string error = LoadError("frame,t_ns,status,x_mm,y_mm,z_mm,roll_deg,pitch_deg,yaw_deg,n_beacons,rms_px\n"
+                                      "0,100,fix,1,2,3,0,0,0,3,0.1\n0,100,fix,1,2,3,0,0,0,3,0.1\n");
+  EXPECT_NE(error.find("poses.csv:3: frame 0 appears twice"), std::string::npos) << error;
 }
 
 TEST(PoseErrors, CommonFramesRestrictTheStatisticsNotTheCounts) {
@@ -159,15 +164,9 @@ TEST(PoseErrors, WorksWithoutBound) {
 }
 
 TEST(PoseErrors, RejectsUnknownStatusWithFileAndLine) {
-  const auto d = FreshTestDir("pose");
-  const Files f = Write(d, "frame,t_ns,status,x_mm,y_mm,z_mm,roll_deg,pitch_deg,yaw_deg,n_beacons,rms_px\n"
-                           "0,100,maybe,1,2,3,0,0,0,3,0.1\n");
-  try {
-    LoadPoseSeries(f.truth, f.poses, f.crb);
-    FAIL() << "no error";
-  } catch (const UserError& e) {
-    EXPECT_NE(std::string(e.what()).find("poses.csv:2: unknown status 'maybe'"), std::string::npos) << e.what();
-  }
+  const std::string error = LoadError("frame,t_ns,status,x_mm,y_mm,z_mm,roll_deg,pitch_deg,yaw_deg,n_beacons,rms_px\n"
+                                      "0,100,maybe,1,2,3,0,0,0,3,0.1\n");
+  EXPECT_NE(error.find("poses.csv:2: unknown status 'maybe'"), std::string::npos) << error;
 }
 
 TEST(PoseErrors, RejectsMissingColumnAndRaggedRow) {
