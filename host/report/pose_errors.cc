@@ -1,5 +1,6 @@
 #include "host/report/pose_errors.h"
 
+#include <algorithm>
 #include <cmath>
 #include <map>
 
@@ -28,12 +29,13 @@ constexpr std::array<const char*, 6> kBoundCols = {"sigma_x_mm", "sigma_y_mm", "
 PoseSeries LoadPoseSeries(const std::filesystem::path& truth_csv, const std::filesystem::path& poses_csv,
                           const std::filesystem::path& crb_csv) {
   const CsvTable truth = CsvTable::Read(truth_csv);
-  const CsvTable est = CsvTable::Read(poses_csv);
   const CsvTable crb = crb_csv.empty() ? CsvTable::Parse("frame\n", "<none>") : CsvTable::Read(crb_csv);
+  const CsvTable est = CsvTable::Read(poses_csv);
   const auto est_index = IndexByFrame(est);
   const auto crb_index = IndexByFrame(crb);
 
   PoseSeries series;
+  series.pose_rows = est.size();
   std::vector<int> camera_cols;
   int visible_col = -1, valid_col = -1;
   std::array<int, 6> bound_col{};
@@ -104,7 +106,8 @@ std::set<long> CommonPosedFrames(const std::vector<const PoseSeries*>& series, b
   return common;
 }
 
-PoseSummary SummarizePoses(const PoseSeries& series, bool include_degraded, const std::set<long>* only_frames) {
+PoseSummary SummarizePoses(const PoseSeries& series, bool include_degraded, const std::set<long>* only_frames,
+                           bool require_bound) {
   PoseSummary r;
   std::array<double, 6> sum{}, sum2{}, bound_var{};
   std::array<int, 6> bound_n{};
@@ -122,17 +125,23 @@ PoseSummary SummarizePoses(const PoseSeries& series, bool include_degraded, cons
     }
     (s.status == "fix" ? r.fixes : r.degraded) += 1;
     r.posed_3plus += three;
+    if (s.status == "fix") r.fixes_3plus += three;
     if (!Posed(s, include_degraded)) continue;
     if (only_frames != nullptr && only_frames->count(s.frame) == 0) continue;
+    if (require_bound && !s.bound_valid) continue;
     ++r.used;
+    double pos2 = 0.0, att2 = 0.0;
     for (std::size_t a = 0; a < 6; ++a) {
       sum[a] += s.error[a];
       sum2[a] += s.error[a] * s.error[a];
+      (a < 3 ? pos2 : att2) += s.error[a] * s.error[a];
       if (s.bound_valid) {
         bound_var[a] += s.bound[a] * s.bound[a];
         ++bound_n[a];
       }
     }
+    r.worst_position_mm = std::max(r.worst_position_mm, std::sqrt(pos2));
+    r.worst_attitude_deg = std::max(r.worst_attitude_deg, std::sqrt(att2));
   }
   for (std::size_t a = 0; a < 6; ++a) {
     AxisSummary& x = r.axes[a];

@@ -1,6 +1,7 @@
-// Navigation estimates against the simulator's truth, frame by frame and per axis: the
-// Table-5-style numbers of issue 7 (mean and std of the pose error per axis over a sweep) and
-// the series the HTML report plots.
+// Navigation estimates against the simulator's truth, frame by frame and per axis: the one
+// join of truth, bound and poses. It gives the Table-5-style numbers of issue 7 (mean and std
+// of the pose error per axis over a sweep), the series the HTML report plots, and the
+// statistics `mfns-sim compare` prints (compare.h).
 //
 // Inputs (DESIGN.md / host/sim/frames/render_run.h): truth.csv and crb.csv of `mfns-sim
 // render`, and a poses CSV (`mfns-navd --log`, or `mfns-sim solve-given`), joined on `frame`.
@@ -9,6 +10,7 @@
 #pragma once
 
 #include <array>
+#include <cstddef>
 #include <filesystem>
 #include <set>
 #include <string>
@@ -34,10 +36,13 @@ struct PoseSample {
 struct PoseSeries {
   std::vector<std::string> cameras;  // from crb.csv's n_<camera> columns (empty without crb)
   std::vector<PoseSample> samples;   // one per truth row, in truth order
+  std::size_t pose_rows = 0;         // rows of the poses CSV (also those of frames not in truth)
 };
 
-// Reads and joins the files; crb_csv may be empty (no bound, no visibility). Throws UserError
-// on a missing file, a malformed CSV or an unknown status (naming file and line).
+// Reads (truth, bound, poses, in that order) and joins the files; crb_csv may be empty (no
+// bound, no visibility). A bound is valid when crb.csv says so and all six sigmas are finite.
+// Throws UserError on a missing file, a malformed CSV, a missing column, a frame twice in one
+// file or an unknown status (naming file and line).
 PoseSeries LoadPoseSeries(const std::filesystem::path& truth_csv, const std::filesystem::path& poses_csv,
                           const std::filesystem::path& crb_csv);
 
@@ -48,16 +53,23 @@ struct AxisSummary {
 };
 
 struct PoseSummary {
-  int frames = 0, fixes = 0, degraded = 0, lost = 0, missing = 0;
+  int frames = 0, fixes = 0, degraded = 0, lost = 0, missing = 0;  // missing: no row in the poses
   int frames_3plus = 0;  // >= 3 beacons in view
   int posed_3plus = 0;   // ... of which the estimator gave a pose (fix or degraded)
+  int fixes_3plus = 0;   // ... of which the status is fix
   int used = 0;          // samples in the statistics
   std::array<AxisSummary, 6> axes{};
+  // Over the samples in the statistics: the largest |position error| (mm) and the largest
+  // norm of the three Euler-angle errors (deg); 0 when none.
+  double worst_position_mm = 0.0, worst_attitude_deg = 0.0;
 };
 
-// Statistics over the samples whose status is fix, or fix or degraded when include_degraded,
-// and, when only_frames is given, whose frame is in it (the counts cover every sample).
-PoseSummary SummarizePoses(const PoseSeries& s, bool include_degraded, const std::set<long>* only_frames = nullptr);
+// Statistics over the samples whose status is fix, or fix or degraded when include_degraded;
+// when only_frames is given, whose frame is in it; when require_bound, that have a valid bound
+// (`mfns-sim compare`: then bound_rms is over exactly the frames of the errors). The counts
+// cover every sample.
+PoseSummary SummarizePoses(const PoseSeries& s, bool include_degraded, const std::set<long>* only_frames = nullptr,
+                           bool require_bound = false);
 
 // The frames that have a pose (fix, or degraded when include_degraded) in every series: to
 // compare estimators on the same frame sets.

@@ -53,6 +53,17 @@ Files Write(const std::filesystem::path& d, const char* poses = kPoses) {
   return f;
 }
 
+// LoadPoseSeries' UserError message with these poses, or "(no error)".
+std::string LoadError(const char* poses) {
+  const Files f = Write(FreshTestDir("pose"), poses);
+  try {
+    LoadPoseSeries(f.truth, f.poses, f.crb);
+  } catch (const UserError& e) {
+    return e.what();
+  }
+  return "(no error)";
+}
+
 TEST(PoseErrors, JoinsFramesAndWrapsAngles) {
   const Files f = Write(FreshTestDir("pose"));
   const PoseSeries s = LoadPoseSeries(f.truth, f.poses, f.crb);
@@ -93,6 +104,37 @@ TEST(PoseErrors, KnownMeanAndStd) {
   const PoseSummary fix = SummarizePoses(LoadPoseSeries(f.truth, f.poses, f.crb), false);
   EXPECT_EQ(fix.used, 4);
   EXPECT_NEAR(fix.axes[0].mean, (1 + 2 + 3 + 5) / 4.0, 1e-12);
+  EXPECT_EQ(fix.fixes_3plus, 4);
+  // Worst errors: frame 4, position (5, -2, 0.5), attitude (0.01, 0, 0.1).
+  EXPECT_NEAR(fix.worst_position_mm, std::sqrt(25.0 + 4.0 + 0.25), 1e-12);
+  EXPECT_NEAR(fix.worst_attitude_deg, std::sqrt(0.0001 + 0.01), 1e-9);
+}
+
+// `mfns-sim compare`'s statistics: only frames with a valid bound (a finite one), so that the
+// bound's RMS and the errors' are over the same frames.
+TEST(PoseErrors, RequireBoundKeepsOnlyFramesWithAValidBound) {
+  const auto d = FreshTestDir("pose");
+  const Files f = Write(d);
+  // Frame 2's bound says valid but is not finite: no bound.
+  std::string crb = kCrb;
+  crb.replace(crb.find("2,300,5,2,2,1,1,0.3"), 19, "2,300,5,2,2,1,1,inf");
+  WriteText(f.crb, crb);
+  const PoseSeries s = LoadPoseSeries(f.truth, f.poses, f.crb);
+  EXPECT_FALSE(s.samples[2].bound_valid);
+  const PoseSummary loose = SummarizePoses(s, false);
+  const PoseSummary strict = SummarizePoses(s, false, nullptr, /*require_bound=*/true);
+  EXPECT_EQ(loose.used, 4);
+  EXPECT_EQ(strict.used, 3);
+  EXPECT_EQ(strict.fixes, 4);  // counts cover every sample
+  EXPECT_NEAR(strict.axes[0].mean, (1 + 2 + 5) / 3.0, 1e-12);
+  EXPECT_NEAR(strict.axes[0].bound_rms, std::sqrt((0.09 + 0.16 + 0.09) / 3), 1e-12);
+  EXPECT_EQ(s.pose_rows, 6u);
+}
+
+TEST(PoseErrors, RejectsAFrameTwice) {
+  const std::string error = LoadError("frame,t_ns,status,x_mm,y_mm,z_mm,roll_deg,pitch_deg,yaw_deg,n_beacons,rms_px\n"
+                                      "0,100,fix,1,2,3,0,0,0,3,0.1\n0,100,fix,1,2,3,0,0,0,3,0.1\n");
+  EXPECT_NE(error.find("poses.csv:3: frame 0 appears twice"), std::string::npos) << error;
 }
 
 TEST(PoseErrors, CommonFramesRestrictTheStatisticsNotTheCounts) {
@@ -122,15 +164,9 @@ TEST(PoseErrors, WorksWithoutBound) {
 }
 
 TEST(PoseErrors, RejectsUnknownStatusWithFileAndLine) {
-  const auto d = FreshTestDir("pose");
-  const Files f = Write(d, "frame,t_ns,status,x_mm,y_mm,z_mm,roll_deg,pitch_deg,yaw_deg,n_beacons,rms_px\n"
-                           "0,100,maybe,1,2,3,0,0,0,3,0.1\n");
-  try {
-    LoadPoseSeries(f.truth, f.poses, f.crb);
-    FAIL() << "no error";
-  } catch (const UserError& e) {
-    EXPECT_NE(std::string(e.what()).find("poses.csv:2: unknown status 'maybe'"), std::string::npos) << e.what();
-  }
+  const std::string error = LoadError("frame,t_ns,status,x_mm,y_mm,z_mm,roll_deg,pitch_deg,yaw_deg,n_beacons,rms_px\n"
+                                      "0,100,maybe,1,2,3,0,0,0,3,0.1\n");
+  EXPECT_NE(error.find("poses.csv:2: unknown status 'maybe'"), std::string::npos) << error;
 }
 
 TEST(PoseErrors, RejectsMissingColumnAndRaggedRow) {

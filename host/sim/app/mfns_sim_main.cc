@@ -2,7 +2,7 @@
 //   mfns-sim render --preset NAME|--scenario FILE --out DIR [--frames N] [--seed S] [--map-seed M]
 //   mfns-sim crb    --preset NAME|--scenario FILE --out FILE.csv [--frames N] [--seed S] [--map-seed M]
 //   mfns-sim calib-dataset --preset NAME|--scenario FILE --out DIR [--seed S]
-//   mfns-sim compare DIR POSES.csv  estimates against truth and the bound
+//   mfns-sim compare DIR POSES.csv  estimates against truth and the bound (host/report/compare.h)
 //   mfns-sim preset NAME            print a built-in scenario (to start a custom one)
 //   mfns-sim analyze --out DIR ...  Figures 4-6 of the paper (error analysis)
 //   mfns-sim report | merge-rig | solve-given   replication tables and report (host/report)
@@ -15,10 +15,10 @@
 #include <iostream>
 #include <yaml-cpp/yaml.h>
 
+#include "host/report/compare.h"
 #include "host/report/report_command.h"
 #include "host/sim/analysis/analyze_command.h"
 #include "host/sim/calibdata/calib_dataset.h"
-#include "host/sim/eval/compare.h"
 #include "host/sim/faults/faults.h"
 #include "host/sim/frames/render_run.h"
 #include "host/sim/navmatrix/matrix.h"

@@ -1,24 +1,22 @@
-#include "host/sim/eval/compare.h"
+#include "host/report/compare.h"
 
 #include <gtest/gtest.h>
 
 #include <random>
 
+#include "host/report/report_test_util.h"
 #include "host/util/atomic_file.h"
 
 namespace mfns::host {
 namespace {
 
-std::filesystem::path TempDir() {
-  std::string tmpl = (std::filesystem::temp_directory_path() / "mfns-compare-XXXXXX").string();
-  EXPECT_NE(::mkdtemp(tmpl.data()), nullptr);
-  return tmpl;
-}
+constexpr const char* kCrbHeader =
+    "frame,n_visible,valid,sigma_x_mm,sigma_y_mm,sigma_z_mm,sigma_roll_deg,sigma_pitch_deg,sigma_yaw_deg\n";
 
 // Estimates = truth + Gaussian errors of known sigma; the bound says that sigma: the statistics
 // must come back (mean ~0, std ~ sigma, ratio ~1), and a frame with a bad status is left out.
 TEST(Compare, RecoversKnownErrorStatistics) {
-  const auto dir = TempDir();
+  const auto dir = FreshTestDir("compare");
   std::mt19937_64 rng(1);
   std::normal_distribution<double> n01(0.0, 1.0);
   const std::array<double, 6> sigma = {0.5, 0.7, 1.1, 0.01, 0.02, 0.03};
@@ -47,22 +45,57 @@ TEST(Compare, RecoversKnownErrorStatistics) {
   WriteFileAtomic(dir / "truth.csv", truth);
   WriteFileAtomic(dir / "crb.csv", crb);
   WriteFileAtomic(dir / "poses.csv", poses);
-  const CompareResult r = ComparePoses(dir, dir / "poses.csv");
+  const PoseSummary r = ComparePoses(dir, dir / "poses.csv");
   EXPECT_EQ(r.frames, frames);
   EXPECT_EQ(r.lost, frames / 10);
   EXPECT_EQ(r.frames_3plus, frames - frames / 10);
   EXPECT_EQ(r.fixes_3plus, frames - frames / 10);
-  EXPECT_EQ(r.compared, frames - frames / 10);
+  EXPECT_EQ(r.used, frames - frames / 10);
   for (std::size_t a = 0; a < 6; ++a) {
-    EXPECT_NEAR(r.axes[a].ratio, 1.0, 0.05) << kAxisNames[a];
-    EXPECT_NEAR(r.axes[a].mean, 0.0, 4.0 * sigma[a] / std::sqrt(3600.0)) << kAxisNames[a];
+    EXPECT_NEAR(r.axes[a].rms / r.axes[a].bound_rms, 1.0, 0.05) << kPoseAxes[a];
+    EXPECT_NEAR(r.axes[a].mean, 0.0, 4.0 * sigma[a] / std::sqrt(3600.0)) << kPoseAxes[a];
   }
   EXPECT_NE(FormatCompare(r).find("rms/CRB"), std::string::npos);
   std::filesystem::remove_all(dir);
 }
 
+// The table of a designed run, character for character as `mfns-sim compare` printed it before
+// it became a formatting of pose_errors (issue 15 item 5: output formats stay): fix frame 5 has
+// no valid bound (left out of the statistics and of the >= 3 count), frame 3 is degraded,
+// frame 6 has no pose, frame 4's yaw error wraps (359.5 -> -0.4 is +0.1).
+TEST(Compare, TableOfADesignedRun) {
+  const auto dir = FreshTestDir("compare");
+  WriteFileAtomic(dir / "truth.csv", std::string("frame,t_ns,x_mm,y_mm,z_mm,roll_deg,pitch_deg,yaw_deg\n"
+                                                 "0,100,0,0,0,0,0,0\n1,200,0,0,0,0,0,1\n2,300,0,0,0,0,0,2\n"
+                                                 "3,400,0,0,0,0,0,3\n4,500,10,0,0,0,0,359.5\n5,600,0,0,0,0,0,5\n"
+                                                 "6,700,0,0,0,0,0,6\n"));
+  WriteFileAtomic(dir / "poses.csv", std::string("frame,t_ns,status,x_mm,y_mm,z_mm,roll_deg,pitch_deg,yaw_deg,n_beacons,rms_px\n"
+                                                 "0,100,fix,1,-2,0.5,0.01,0,0.1,4,0.2\n1,200,fix,2,-2,0.5,0.01,0,1.1,3,0.1\n"
+                                                 "2,300,fix,3,-2,0.5,0.01,0,2.1,5,0.3\n3,400,degraded,4,-2,0.5,0.01,0,3.1,3,1.5\n"
+                                                 "4,500,fix,15,-2,0.5,0.01,0,-0.4,4,0.2\n5,600,fix,7,-2,0.5,0.01,0,5,2,0.2\n"));
+  WriteFileAtomic(dir / "crb.csv",
+                  std::string("frame,t_ns,n_visible,n_x,n_y,n_z,valid,sigma_x_mm,sigma_y_mm,sigma_z_mm,sigma_roll_deg,"
+                              "sigma_pitch_deg,sigma_yaw_deg\n"
+                              "0,100,4,1,2,1,1,0.3,0.1,0.1,0.01,0.01,0.01\n1,200,3,1,1,1,1,0.4,0.1,0.1,0.01,0.01,0.01\n"
+                              "2,300,5,2,2,1,1,0.3,0.1,0.1,0.01,0.01,0.01\n3,400,3,0,2,1,1,0.4,0.1,0.1,0.01,0.01,0.01\n"
+                              "4,500,4,1,1,2,1,0.3,0.1,0.1,0.01,0.01,0.01\n5,600,2,0,1,1,0,nan,nan,nan,nan,nan,nan\n"
+                              "6,700,3,1,1,1,1,0.3,0.1,0.1,0.01,0.01,0.01\n"));
+  EXPECT_EQ(FormatCompare(ComparePoses(dir, dir / "poses.csv")),
+            "frame sets 7: >= 3 beacons visible 6, fix in 4 of those (66.7%); fix 5, degraded 1, lost 0, missing 1; "
+            "compared 4\n"
+            "axis          mean        std        rms   CRB rms   rms/CRB\n"
+            "x_mm          2.7500     1.7078     3.1225    0.3279      9.52\n"
+            "y_mm         -2.0000     0.0000     2.0000    0.1000     20.00\n"
+            "z_mm          0.5000     0.0000     0.5000    0.1000      5.00\n"
+            "roll_deg      0.0100     0.0000     0.0100    0.0100      1.00\n"
+            "pitch_deg     0.0000     0.0000     0.0000    0.0100      0.00\n"
+            "yaw_deg       0.1000     0.0000     0.1000    0.0100     10.00\n"
+            "worst position error 5.408 mm, worst attitude error 0.1005 deg\n");
+  std::filesystem::remove_all(dir);
+}
+
 TEST(Compare, MalformedInputsNameTheFileAndLine) {
-  const auto dir = TempDir();
+  const auto dir = FreshTestDir("compare");
   WriteFileAtomic(dir / "truth.csv", std::string("frame,t_ns,x_mm,y_mm,z_mm,roll_deg,pitch_deg,yaw_deg\n0,0,0,0,0,0,0,0\n"));
   WriteFileAtomic(dir / "crb.csv", std::string("frame,n_visible,valid\n0,3\n"));
   WriteFileAtomic(dir / "poses.csv", std::string("frame,status\n0,fix\n"));
@@ -80,9 +113,9 @@ TEST(Compare, MalformedInputsNameTheFileAndLine) {
 // set) or one that shares no frame with the truth is an error, not "0.000 mm"; all-lost poses
 // give no error statistics.
 TEST(Compare, EmptyOrDisjointPosesAreErrorsNotPerfectScores) {
-  const auto dir = TempDir();
+  const auto dir = FreshTestDir("compare");
   WriteFileAtomic(dir / "truth.csv", std::string("frame,t_ns,x_mm,y_mm,z_mm,roll_deg,pitch_deg,yaw_deg\n0,0,0,0,0,0,0,0\n"));
-  WriteFileAtomic(dir / "crb.csv", std::string("frame,n_visible,valid\n0,3,0\n"));
+  WriteFileAtomic(dir / "crb.csv", std::string(kCrbHeader) + "0,3,0,nan,nan,nan,nan,nan,nan\n");
   const std::string head = "frame,t_ns,status,x_mm,y_mm,z_mm,roll_deg,pitch_deg,yaw_deg,n_beacons,rms_px\n";
   const auto error = [&](const std::string& poses) {
     WriteFileAtomic(dir / "poses.csv", poses);
