@@ -15,6 +15,17 @@
 namespace mfns::fw {
 namespace {
 
+bool HasMavlinkOutput(const NavdOptions& o) {
+  for (int i = 0; i < o.num_outputs; ++i) {
+    OutputProtocol protocol{};
+    const char* udp = nullptr;
+    if (ParseOutputUrl(o.outputs[static_cast<std::size_t>(i)].data(), &protocol, &udp) == PublishStatus::kOk &&
+        protocol == OutputProtocol::kMavlink)
+      return true;
+  }
+  return false;
+}
+
 enum : int {
   kParams = 1000, kRealtime, kSource, kDevice, kY16, kBuffers, kRate, kTrigger, kPulse, kOutput, kLog, kFrames, kTimeout,
   kDeadline, kSigma, kHealthEvery, kRetryEvery, kSetAside, kInitialPose, kInitialSigma, kPidFile, kQuiet, kHelp,
@@ -144,6 +155,7 @@ OptionsStatus ParseNavdOptions(int argc, char** argv, NavdOptions* opt, char* wh
   optind = 1;
   opterr = 0;
   bool have_source = false;
+  const char* mavlink_option = nullptr;  // a --mavlink-* option given (it needs a MAVLink output)
   for (int guard = 0; guard <= argc; ++guard) {
     const int c = getopt_long(argc, argv, "", kLongOptions, nullptr);
     if (c == -1) break;
@@ -217,11 +229,13 @@ OptionsStatus ParseNavdOptions(int argc, char** argv, NavdOptions* opt, char* wh
       }
       case kMavlinkSysid:
       case kMavlinkCompid:
+        mavlink_option = c == kMavlinkSysid ? "--mavlink-sysid" : "--mavlink-compid";
         if (!ParseLong(a, 1, 255, &n))
           return Fail(why, why_size, "--mavlink-%s: expected 1..255, got '%s'", c == kMavlinkSysid ? "sysid" : "compid", a);
         (c == kMavlinkSysid ? opt->mavlink.system_id : opt->mavlink.component_id) = static_cast<std::uint8_t>(n);
         break;
       case kMavlinkFrame:
+        mavlink_option = "--mavlink-frame";
         if (std::strcmp(a, ToString(MavlinkAxes::kFrd)) == 0) opt->mavlink.axes = MavlinkAxes::kFrd;
         else if (std::strcmp(a, ToString(MavlinkAxes::kFlu)) == 0) opt->mavlink.axes = MavlinkAxes::kFlu;
         else return Fail(why, why_size, "--mavlink-frame: expected frd or flu, got '%s'", a);
@@ -285,6 +299,9 @@ OptionsStatus ParseNavdOptions(int argc, char** argv, NavdOptions* opt, char* wh
   if (optind < argc) return Fail(why, why_size, "unexpected argument '%s' (see --help)", argv[optind]);
   if (opt->params[0] == '\0') return Fail(why, why_size, "%s", "--params FILE|DIR is required");
   if (!have_source) return Fail(why, why_size, "%s", "--source v4l2|replay:DIR is required");
+  // A MAVLink setting with no MAVLink output would be ignored: say so rather than run without it.
+  if (mavlink_option != nullptr && !HasMavlinkOutput(*opt))
+    return Fail(why, why_size, "%s: no --output mavlink+udp://HOST:PORT to apply it to", mavlink_option);
   // Defaults that depend on the rate.
   const double period_ms = 1000.0 / opt->rate_hz;
   if (opt->timeout_ms == 0) opt->timeout_ms = static_cast<int>(3.0 * period_ms + 0.5);

@@ -141,6 +141,11 @@ TEST(NavdOptions, OutputsAndMavlink) {
   }
   EXPECT_EQ(Parse(five, &o, &why), OptionsStatus::kError);
   EXPECT_EQ(why, "--output: at most 4 outputs, 'mavlink+udp://127.0.0.1:14544' is one more");
+  // A MAVLink setting without a MAVLink output would be ignored: refused, naming the option.
+  EXPECT_EQ(Parse({"--params", "p", "--source", "v4l2", "--output", "udp://10.0.0.1:5600", "--mavlink-frame", "flu"},
+                  &o, &why),
+            OptionsStatus::kError);
+  EXPECT_EQ(why, "--mavlink-frame: no --output mavlink+udp://HOST:PORT to apply it to");
   EXPECT_EQ(Parse({"--params", "p", "--source", "v4l2", "--mavlink-sysid", "0"}, &o, &why), OptionsStatus::kError);
   EXPECT_EQ(why, "--mavlink-sysid: expected 1..255, got '0'");
   EXPECT_EQ(Parse({"--params", "p", "--source", "v4l2", "--mavlink-compid", "256"}, &o, &why), OptionsStatus::kError);

@@ -540,8 +540,12 @@ void Tracker::KeepBlobs(std::uint64_t t_ns) {
 void Tracker::Accept(std::uint64_t t_ns, const TrackOptions& o, TrackResult* r, TrackReason degrade) {
   const double sigma_m = r->solve.has_covariance ? PositionSigma(r->solve.covariance) : 0.0;
   const double sigma_rad = r->solve.has_covariance ? AttitudeSigma(r->solve.covariance) : 0.0;
-  motion_.Add(r->pose, t_ns, sigma_m, sigma_rad, noise_.MapToCentroidRatio(), limits_.motion,
-              r->solve.has_covariance ? &r->solve.covariance : nullptr);
+  // A pose the motion chose between disagreeing trials is published, not followed: were the
+  // choice wrong, tracking from it could later turn it into a fix (seen on aarch64, paper sweep
+  // with two spurious blobs: a fix 16 mm / 1.2 deg off on a reflection). The track coasts on.
+  if (degrade != TrackReason::kAmbiguous)
+    motion_.Add(r->pose, t_ns, sigma_m, sigma_rad, noise_.MapToCentroidRatio(), limits_.motion,
+                r->solve.has_covariance ? &r->solve.covariance : nullptr);
   has_pose_ = true;
   acquisition_.Clear();
   // Fix or degraded, judged on the pose's whole 1-sigma: centroid noise and the map's error
