@@ -18,7 +18,7 @@
 //    a beacon gives trials that disagree, the motion decides if it can: the trial near the
 //    constant-velocity Kalman filter's prediction (pose_filter.h; squared Mahalanobis distance
 //    within ambiguity_accept_m2, every other trial at ambiguity_reject_m2 or more) is published
-//    degraded and followed.
+//    degraded (not followed: the track coasts).
 // 2. Otherwise re-identification by lost-in-space (lost_in_space.h). Without a prior, a fix
 //    with >= lis_fix_min_beacons beacons is accepted. When it lists several consistent poses
 //    (complete list), they are followed over the next frame sets through motion bounds: a
@@ -132,7 +132,7 @@ struct TrackOptions {
   // Beyond that spread, the motion decides when it can: each trial's squared Mahalanobis
   // distance from the constant-velocity filter's prediction (MotionModel::filter(), its
   // covariance plus the trial's own). The nearest trial is published degraded (reason
-  // kAmbiguous) and followed when its distance is at most ambiguity_accept_m2 and every trial
+  // kAmbiguous; not followed: the track coasts) when its distance is at most ambiguity_accept_m2 and every trial
   // that is not the same pose lies at ambiguity_reject_m2 or more. The filter's process noise
   // takes the acceleration bounds as 1-sigma over a second, so it is wide: on the acquisition
   // matrix the truth's distance stayed under 4 in 99.9 % of the tracked frame sets (chi-square
