@@ -351,7 +351,7 @@ bool Tracker::PublishAmbiguous(const TrackOptions& o, TrackResult* r) {
 // trial lies near the Kalman filter's prediction (squared Mahalanobis distance, its covariance
 // plus the trial's for the centroid noise and the map's error, at most ambiguity_accept_m2) and
 // every trial that is not the same pose lies far from it (ambiguity_reject_m2 or more). *r is
-// then that trial, solved again; the caller publishes it degraded and follows it.
+// then that trial, solved again; the caller publishes it degraded (Accept does not follow it).
 bool Tracker::DecideByMotion(const BodyPose& predicted, const PoseBounds& bounds, const TrackOptions& o,
                              TrackResult* r) {
   const PoseFilter& f = motion_.filter();
