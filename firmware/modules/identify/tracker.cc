@@ -11,6 +11,10 @@ namespace {
 
 // The largest 1-sigma of a [position (m); attitude (rad)] covariance's position and attitude.
 double PositionSigma(const Eigen::Matrix<double, 6, 6>& P) { return std::sqrt(std::max({P(0, 0), P(1, 1), P(2, 2)})); }
+// Whether a lies within tol_m / tol_rad of b (position, rotation angle).
+bool PoseWithin(const BodyPose& a, const BodyPose& b, double tol_m, double tol_rad) {
+  return (a.r_w_wb - b.r_w_wb).norm() <= tol_m && LogSO3(b.C_w_b.transpose() * a.C_w_b).norm() <= tol_rad;
+}
 double AttitudeSigma(const Eigen::Matrix<double, 6, 6>& P) { return std::sqrt(std::max({P(3, 3), P(4, 4), P(5, 5)})); }
 
 AcquisitionLimits LimitsOf(const TrackOptions& o) {
@@ -172,8 +176,13 @@ bool Tracker::TrackPredicted(std::uint64_t t_ns, double since_s, const TrackOpti
       }
       if (ambiguity_refused_ && PublishAmbiguous(o, r)) return true;
       if (ambiguity_refused_ && DecideByMotion(predicted, bounds, o, r)) {
+        // Published, not followed: were the choice wrong, tracking from it could later turn it
+        // into a fix (seen on aarch64, paper sweep with two spurious blobs: a fix 16 mm / 1.2 deg
+        // off on a reflection). The track coasts on from the last accepted pose.
         ++counters_.ambiguous_decided;
-        Publish(TrackSource::kTracked, t_ns, o, r, TrackReason::kAmbiguous);
+        ++counters_.tracked;
+        acquisition_.Clear();
+        PublishUnfollowed(r);
         return true;
       }
     }
@@ -251,7 +260,7 @@ void Tracker::SameTolerance(const Matrix6d* cov, const TrackOptions& o, double* 
 bool Tracker::SamePoseWithin(const TrackResult& a, const TrackResult& b, const TrackOptions& o) const {
   double tol_m = 0.0, tol_rad = 0.0;
   SameTolerance(b, o, &tol_m, &tol_rad);
-  return (a.pose.r_w_wb - b.pose.r_w_wb).norm() <= tol_m && LogSO3(b.pose.C_w_b.transpose() * a.pose.C_w_b).norm() <= tol_rad;
+  return PoseWithin(a.pose, b.pose, tol_m, tol_rad);
 }
 
 // A pose from re-identification took each beacon's nearest blob within a tight gate; a
@@ -339,12 +348,17 @@ bool Tracker::PublishAmbiguous(const TrackOptions& o, TrackResult* r) {
     r->solve.covariance(d, d) += ambiguity_spread_m_ * ambiguity_spread_m_;
     r->solve.covariance(d + 3, d + 3) += ambiguity_spread_rad_ * ambiguity_spread_rad_;
   }
+  ++counters_.ambiguous_published;
+  PublishUnfollowed(r);
+  return true;
+}
+
+// A tracked pose published degraded (reason kAmbiguous) without feeding the motion model.
+void Tracker::PublishUnfollowed(TrackResult* r) {
   r->status = TrackStatus::kDegraded;
   r->reason = TrackReason::kAmbiguous;
   r->source = TrackSource::kTracked;
-  ++counters_.ambiguous_published;
   CountOutcome(*r);
-  return true;
 }
 
 // Tracking's trials disagreed by more than PublishAmbiguous covers: the motion decides when one
@@ -374,9 +388,7 @@ bool Tracker::DecideByMotion(const BodyPose& predicted, const PoseBounds& bounds
   SameTolerance(&chosen.cov, o, &tol_m, &tol_rad);
   for (int i = 0; i < num_trials_; ++i) {
     const Trial& t = trials_[static_cast<std::size_t>(i)];
-    const bool same = (t.pose.r_w_wb - chosen.pose.r_w_wb).norm() <= tol_m &&
-                      LogSO3(chosen.pose.C_w_b.transpose() * t.pose.C_w_b).norm() <= tol_rad;
-    if (!same && !(m2[static_cast<std::size_t>(i)] >= o.ambiguity_reject_m2)) return false;
+    if (!PoseWithin(t.pose, chosen.pose, tol_m, tol_rad) && !(m2[static_cast<std::size_t>(i)] >= o.ambiguity_reject_m2)) return false;
   }
   // The chosen trial again, for its matches and solve (trials_ keeps only the pose).
   bool refuted = false;
@@ -537,15 +549,11 @@ void Tracker::KeepBlobs(std::uint64_t t_ns) {
 
 // The pose in *r is accepted: it feeds the motion model, ends the acquisition, and is judged
 // fix or degraded.
-void Tracker::Accept(std::uint64_t t_ns, const TrackOptions& o, TrackResult* r, TrackReason degrade) {
+void Tracker::Accept(std::uint64_t t_ns, const TrackOptions& o, TrackResult* r) {
   const double sigma_m = r->solve.has_covariance ? PositionSigma(r->solve.covariance) : 0.0;
   const double sigma_rad = r->solve.has_covariance ? AttitudeSigma(r->solve.covariance) : 0.0;
-  // A pose the motion chose between disagreeing trials is published, not followed: were the
-  // choice wrong, tracking from it could later turn it into a fix (seen on aarch64, paper sweep
-  // with two spurious blobs: a fix 16 mm / 1.2 deg off on a reflection). The track coasts on.
-  if (degrade != TrackReason::kAmbiguous)
-    motion_.Add(r->pose, t_ns, sigma_m, sigma_rad, noise_.MapToCentroidRatio(), limits_.motion,
-                r->solve.has_covariance ? &r->solve.covariance : nullptr);
+  motion_.Add(r->pose, t_ns, sigma_m, sigma_rad, noise_.MapToCentroidRatio(), limits_.motion,
+              r->solve.has_covariance ? &r->solve.covariance : nullptr);
   has_pose_ = true;
   acquisition_.Clear();
   // Fix or degraded, judged on the pose's whole 1-sigma: centroid noise and the map's error
@@ -553,8 +561,7 @@ void Tracker::Accept(std::uint64_t t_ns, const TrackOptions& o, TrackResult* r, 
   const double total = noise_.TotalToCentroid();
   const double sigma_r = total * sigma_m, sigma_a = total * sigma_rad;
   r->status = TrackStatus::kDegraded;
-  if (degrade != TrackReason::kNone) r->reason = degrade;
-  else if (r->matches.num_beacons < o.fix_min_beacons) r->reason = TrackReason::kFewBeacons;
+  if (r->matches.num_beacons < o.fix_min_beacons) r->reason = TrackReason::kFewBeacons;
   else if (r->solve.rms_px > o.degraded_rms_px || r->solve.rms_px > o.fix_rms_sigmas * noise_.ResidualSigmaPx())
     r->reason = TrackReason::kLargeResidual;
   else if (!r->solve.has_covariance || sigma_r > o.max_position_sigma_m || sigma_a > o.max_attitude_sigma_rad)
@@ -572,10 +579,9 @@ void Tracker::Accept(std::uint64_t t_ns, const TrackOptions& o, TrackResult* r, 
   }
 }
 
-TrackStatus Tracker::Publish(TrackSource source, std::uint64_t t_ns, const TrackOptions& o, TrackResult* r,
-                             TrackReason degrade) {
+TrackStatus Tracker::Publish(TrackSource source, std::uint64_t t_ns, const TrackOptions& o, TrackResult* r) {
   r->source = source;
-  Accept(t_ns, o, r, degrade);
+  Accept(t_ns, o, r);
   CountOutcome(*r);
   return r->status;
 }

@@ -330,10 +330,9 @@ class Tracker {
   void KeepBlobs(std::uint64_t t_ns);
   TrackStatus TrackOnce(const BlobObs* blobs, int num_blobs, std::uint64_t t_ns, const TrackOptions& o,
                         TrackResult* result);
-  void Accept(std::uint64_t t_ns, const TrackOptions& o, TrackResult* r, TrackReason degrade);
-  // degrade: kNone, or the reason an accepted pose is published degraded whatever its quality.
-  TrackStatus Publish(TrackSource source, std::uint64_t t_ns, const TrackOptions& o, TrackResult* r,
-                      TrackReason degrade = TrackReason::kNone);
+  void Accept(std::uint64_t t_ns, const TrackOptions& o, TrackResult* r);
+  TrackStatus Publish(TrackSource source, std::uint64_t t_ns, const TrackOptions& o, TrackResult* r);
+  void PublishUnfollowed(TrackResult* r);
   TrackStatus Lost(TrackReason why, TrackResult* r);
   void CountOutcome(const TrackResult& r);  // by status and reason
   // Lost-in-space within the frame set's budget (lis_budget_per_frame).
