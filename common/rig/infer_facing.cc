@@ -92,9 +92,11 @@ int HullFaces(const Rig& rig, int m, const InferFacingOptions& o, std::array<Fac
   return num;
 }
 
-// The beacon's normal from its hull faces (see the header); false when none, or when they
-// disagree (a beacon at an edge of the hull, between two walls).
-bool HullNormal(const Rig& rig, int m, const InferFacingOptions& o, Eigen::Vector3d* normal_w) {
+// The beacon's normal from its hull faces (see the header) and the largest angle between it and
+// the faces it averages (*cone_rad: the hull's normal cone at the beacon, within which a smooth
+// wall's true normal lies); false when none, or when they disagree (a beacon at an edge of the
+// hull, between two walls).
+bool HullNormal(const Rig& rig, int m, const InferFacingOptions& o, Eigen::Vector3d* normal_w, double* cone_rad) {
   std::array<Face, kMaxFaces> faces;
   const int num = HullFaces(rig, m, o, &faces);
   if (num == 0) return false;
@@ -114,9 +116,17 @@ bool HullNormal(const Rig& rig, int m, const InferFacingOptions& o, Eigen::Vecto
   }
   const Eigen::Vector3d n = sum.normalized();
   // A curved wall: every face around the beacon must agree with their mean.
-  for (int i = 0; i < num; ++i)
-    if (!flat && faces[static_cast<std::size_t>(i)].n_w.dot(n) < cos_near) return false;
+  double min_cos = 1.0;
+  for (int i = 0; i < num; ++i) {
+    const Face& f = faces[static_cast<std::size_t>(i)];
+    if (!flat && f.n_w.dot(n) < cos_near) return false;
+    // On a flat wall the faces with about as many beacons as the wall's (the wall, or the strips
+    // of a curved wall between columns of beacons) bound the normal; faces with fewer cross
+    // an edge and tilt the mean without widening where the wall can face.
+    if (!flat || 2 * f.on >= wall->on) min_cos = std::min(min_cos, f.n_w.dot(n));
+  }
   *normal_w = n;
+  *cone_rad = std::acos(std::clamp(min_cos, -1.0, 1.0));
   return true;
 }
 
@@ -128,11 +138,12 @@ bool InferFacing(const InferFacingOptions& o, Rig* rig, InferFacingResult* resul
     return false;
   InferFacingResult r;
   std::array<Eigen::Vector3d, limits::kMaxBeacons> normal_w{};
+  std::array<double, limits::kMaxBeacons> cone_rad{};
   std::array<bool, limits::kMaxBeacons> on_wall{};
   for (int m = 0; m < rig->num_beacons; ++m) {
     const auto sm = static_cast<std::size_t>(m);
     normal_w[sm] = Eigen::Vector3d::UnitZ();
-    on_wall[sm] = HullNormal(*rig, m, o, &normal_w[sm]);
+    on_wall[sm] = HullNormal(*rig, m, o, &normal_w[sm], &cone_rad[sm]);
     ++(on_wall[sm] ? r.on_planes : r.unknown);
   }
   if (result != nullptr) *result = r;
@@ -142,6 +153,7 @@ bool InferFacing(const InferFacingOptions& o, Rig* rig, InferFacingResult* resul
     const auto sm = static_cast<std::size_t>(m);
     rig->beacon_normal_w[sm] = normal_w[sm];
     rig->beacon_half_angle[sm] = on_wall[sm] ? o.half_angle_rad : kPi;
+    rig->beacon_normal_tolerance[sm] = on_wall[sm] ? cone_rad[sm] : 0.0;
   }
   rig->has_facing = true;
   return true;

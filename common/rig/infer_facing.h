@@ -38,7 +38,12 @@ struct InferFacingResult {
   int unknown = 0;    // beacons left seen from everywhere (half-angle pi)
 };
 
-// Fills rig->beacon_normal_w / beacon_half_angle for every beacon and sets rig->has_facing.
+// Fills rig->beacon_normal_w / beacon_half_angle / beacon_normal_tolerance for every beacon and
+// sets rig->has_facing. The tolerance is the largest angle between the normal and the faces it
+// averages (on a flat wall, the faces with at least half the wall's beacons on them): the hull's
+// normal cone at the beacon, within which a smooth wall's true normal lies (checked: >= 95 % of
+// the beacons within it plus 0.1 rad; a cylinder's normals are off by up to 27 deg, a box's by
+// under 2 deg).
 // A rig that already has facing data, with fewer than 4 beacons or fewer than min_wall_share
 // on walls, or invalid options: false and the rig unchanged (*result still counts the walls'
 // beacons when it got that far). O(beacons * neighbours^2 * beacons), no heap (~10 ms for 256 beacons).

@@ -135,11 +135,11 @@ RigStatus ValidateRig(const Rig& rig, int* camera_index, int* beacon_index) {
   for (int i = 0; rig.has_facing && i < rig.num_beacons; ++i) {
     const auto idx = static_cast<std::size_t>(i);
     const Eigen::Vector3d& n = rig.beacon_normal_w[idx];
-    const double half = rig.beacon_half_angle[idx];
+    const double half = rig.beacon_half_angle[idx], tol = rig.beacon_normal_tolerance[idx];
     RigStatus s = RigStatus::kOk;
-    if (!n.allFinite() || !std::isfinite(half)) {
+    if (!n.allFinite() || !std::isfinite(half) || !std::isfinite(tol)) {
       s = RigStatus::kNonFinite;
-    } else if (std::abs(n.norm() - 1.0) > 1e-6 || !(half > 0.0) || half > kPi) {
+    } else if (std::abs(n.norm() - 1.0) > 1e-6 || !(half > 0.0) || half > kPi || !(tol >= 0.0) || tol > kPi / 2) {
       s = RigStatus::kBadFacing;
     }
     if (s != RigStatus::kOk) {
@@ -152,7 +152,9 @@ RigStatus ValidateRig(const Rig& rig, int* camera_index, int* beacon_index) {
 
 double FacingCosine(const Rig& rig, int m, double margin_rad) {
   if (!rig.has_facing) return -2.0;
-  const double half = rig.beacon_half_angle[static_cast<std::size_t>(m)] + margin_rad;
+  // An inferred normal's tolerance narrows "surely seen" only (rig.h).
+  const double tol = rig.beacon_normal_tolerance[static_cast<std::size_t>(m)];
+  const double half = rig.beacon_half_angle[static_cast<std::size_t>(m)] + margin_rad - (margin_rad < 0.0 ? tol : 0.0);
   if (half >= kPi) return -2.0;
   if (half <= 0.0) return 2.0;
   return std::cos(half);

@@ -47,6 +47,13 @@ struct Rig {
   bool has_facing = false;
   std::array<Eigen::Vector3d, limits::kMaxBeacons> beacon_normal_w{};
   std::array<double, limits::kMaxBeacons> beacon_half_angle{};
+  // How far each normal may be off (rad, in [0, pi/2]): 0 for surveyed facing; InferFacing sets
+  // the angle of the map's hull normal cone at the beacon. FacingCosine narrows a beam by it for
+  // "surely seen" (margin < 0), where a wrong normal would make a missing beacon refute the true
+  // pose; "may be seen" is not widened (a beacon seen outside it only goes unmatched, and wider
+  // beams multiplied lost-in-space's hypotheses: measured, first fixes 2-3x later). Not in rig
+  // files or blobs.
+  std::array<double, limits::kMaxBeacons> beacon_normal_tolerance{};
 };
 
 // Whether beacon m (0 <= m < rig.num_beacons) can be seen from p_w by its facing (always true

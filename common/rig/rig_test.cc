@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <random>
 
 #include "common/rig/paper_rig.h"
@@ -165,6 +166,40 @@ TEST(Rig, ValidateRefusesAbsurdValuesAndRepeatedBeacons) {
   r.cameras[0].intrinsics.kc[0] = limits::kMaxDistortion;
   r.beacon_sigma = limits::kMaxBeaconSigmaM;
   EXPECT_EQ(ValidateRig(r), RigStatus::kOk);
+}
+
+// An inferred normal's tolerance narrows the beam for "surely seen" (margin < 0: a missing
+// beacon refutes a pose) and leaves "may be seen" as it was; validation keeps it in [0, pi/2].
+TEST(Rig, NormalToleranceNarrowsOnlySurelySeen) {
+  Rig r = PaperRig();
+  r.has_facing = true;
+  for (int m = 0; m < r.num_beacons; ++m) {
+    r.beacon_normal_w[static_cast<std::size_t>(m)] = Eigen::Vector3d::UnitZ();
+    r.beacon_half_angle[static_cast<std::size_t>(m)] = DegToRad(60.0);
+  }
+  r.beacon_normal_tolerance[3] = DegToRad(15.0);
+  EXPECT_EQ(ValidateRig(r), RigStatus::kOk);
+  // A point 50 deg off beacon 3's normal: inside the beam, surely seen only without tolerance.
+  const Eigen::Vector3d p_w = r.beacons_w[3] + Eigen::Vector3d(std::sin(DegToRad(50.0)), 0.0, std::cos(DegToRad(50.0)));
+  EXPECT_TRUE(BeaconFaces(r, 3, p_w, 0.1));
+  EXPECT_TRUE(BeaconFaces(r, 3, p_w, 0.0));
+  EXPECT_FALSE(BeaconFaces(r, 3, p_w, -0.1));
+  EXPECT_NEAR(FacingCosine(r, 3, -0.1), std::cos(DegToRad(45.0) - 0.1), 1e-12);
+  EXPECT_NEAR(FacingCosine(r, 3, 0.1), std::cos(DegToRad(60.0) + 0.1), 1e-12);
+  r.beacon_normal_tolerance[3] = 0.0;
+  EXPECT_TRUE(BeaconFaces(r, 3, p_w, -0.1));
+  // 65 deg off: may be seen (margin 0.1 rad), never widened further by the tolerance.
+  const Eigen::Vector3d q_w = r.beacons_w[3] + Eigen::Vector3d(std::sin(DegToRad(67.0)), 0.0, std::cos(DegToRad(67.0)));
+  r.beacon_normal_tolerance[3] = DegToRad(15.0);
+  EXPECT_FALSE(BeaconFaces(r, 3, q_w, 0.1));
+  r.beacon_normal_tolerance[3] = -0.01;
+  EXPECT_EQ(ValidateRig(r), RigStatus::kBadFacing);
+  r.beacon_normal_tolerance[3] = 2.0;
+  EXPECT_EQ(ValidateRig(r), RigStatus::kBadFacing);
+  r.beacon_normal_tolerance[3] = std::nan("");
+  int beacon = -1;
+  EXPECT_EQ(ValidateRig(r, nullptr, &beacon), RigStatus::kNonFinite);
+  EXPECT_EQ(beacon, 3);
 }
 
 }  // namespace
