@@ -50,6 +50,30 @@ Range AxisRange(double lo, double hi) {
   return {std::floor(lo / step) * step, std::ceil(hi / step) * step};
 }
 
+// A CellTable as an HTML table: header, rows (the naming columns as row headers), the notes
+// as a list after it. Every cell is XML-escaped.
+std::string RenderTable(const char* id, const CellTable& t) {
+  std::ostringstream o;
+  o << "<table id=\"" << id << "\">\n<caption>" << XmlEscape(t.caption) << "</caption>\n<thead><tr>";
+  for (const std::string& h : t.header) o << "<th scope=\"col\">" << XmlEscape(h) << "</th>";
+  o << "</tr></thead>\n<tbody>\n";
+  for (const std::vector<std::string>& row : t.rows) {
+    o << "<tr>";
+    for (std::size_t c = 0; c < row.size(); ++c) {
+      const bool key = static_cast<int>(c) < t.key_columns;
+      o << (key ? "<th scope=\"row\" class=\"key\">" : "<td>") << XmlEscape(row[c]) << (key ? "</th>" : "</td>");
+    }
+    o << "</tr>\n";
+  }
+  o << "</tbody>\n</table>\n";
+  if (!t.notes.empty()) {
+    o << "<ul class=\"table-notes\">\n";
+    for (const std::string& n : t.notes) o << "<li>" << XmlEscape(n) << "</li>\n";
+    o << "</ul>\n";
+  }
+  return o.str();
+}
+
 }  // namespace
 
 std::string RenderChart(const Chart& c) {
@@ -192,16 +216,17 @@ std::string RenderReportHtml(const ReportInputs& in) {
   std::ostringstream o;
   o << "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n<title>" << XmlEscape(in.title)
     << "</title>\n<style>body{font-family:sans-serif;max-width:1100px;margin:1em auto;padding:0 1em}"
-       "pre{background:#f6f6f6;padding:.6em;overflow-x:auto;font-size:12px}</style>\n</head>\n<body>\n";
+       "table{border-collapse:collapse;font-size:13px;margin:.4em 0}th,td{border:1px solid #ccc;padding:2px 8px}"
+       "td{text-align:right;font-variant-numeric:tabular-nums}th.key{text-align:left;font-weight:normal}th{background:#f0f0f0}"
+       "ul.table-notes{font-size:12px;color:#444}</style>\n</head>\n<body>\n";
   o << "<h1>" << XmlEscape(in.title) << "</h1>\n";
   if (!in.notes.empty()) {
     o << "<ul class=\"notes\">\n";
     for (const std::string& n : in.notes) o << "<li>" << XmlEscape(n) << "</li>\n";
     o << "</ul>\n";
   }
-  if (!in.table5_text.empty()) o << "<h2>Table 5: navigation</h2>\n<pre id=\"table5\">" << XmlEscape(in.table5_text) << "</pre>\n";
-  if (!in.table3_text.empty())
-    o << "<h2>Table 3: calibration</h2>\n<pre id=\"table3\">" << XmlEscape(in.table3_text) << "</pre>\n";
+  if (!in.table5.rows.empty()) o << "<h2>Table 5: navigation</h2>\n" << RenderTable("table5", in.table5);
+  if (!in.table3.rows.empty()) o << "<h2>Table 3: calibration</h2>\n" << RenderTable("table3", in.table3);
   o << "<h2>Plots</h2>\n";
   for (const Chart& c : charts) o << "<div class=\"plot\">\n" << RenderChart(c) << "</div>\n";
   o << "</body>\n</html>\n";

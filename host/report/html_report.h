@@ -4,7 +4,9 @@
 //   pose-error-attitude  attitude error (deg) per axis against the true yaw
 //   beacons-per-camera   beacons in view per camera (crb.csv) and used by the estimator
 //   residuals            the estimator's residual RMS (px) against the true yaw
-// Each plot is an <svg id="NAME"> with one <g class="series"> per data series.
+// Each plot is an <svg id="NAME"> with one <g class="series"> per data series; the tables are
+// <table id="table5"> and <table id="table3"> (a header row, one row per table row, the notes
+// in a list after it).
 #pragma once
 
 #include <string>
@@ -37,7 +39,7 @@ struct NamedPoseSeries {
 struct ReportInputs {
   std::string title = "MFNS end-to-end demo";
   std::vector<NamedPoseSeries> runs;  // the first one drives the beacon and residual plots
-  std::string table5_text, table3_text;  // FormatTable5 / FormatTable3 output
+  CellTable table5, table3;              // Table5Cells / Table3Cells (left out when without rows)
   std::vector<std::string> notes;        // lines printed under the title (commands, inputs)
 };
 

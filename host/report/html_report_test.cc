@@ -44,13 +44,21 @@ PoseSeries SweepWithKnownErrors() {
 TEST(HtmlReport, HasTheFourPlotsWithOnePointPerPose) {
   ReportInputs in;
   in.runs.push_back({"ours", SweepWithKnownErrors()});
-  in.table5_text = "Table 5 <text>";
-  in.table3_text = "Table 3 & more";
+  in.table5 = CellTable{"Table 5 <caption>", {"axis", "a<b"}, {{"x_mm", "1 & 2"}, {"y_mm", "3"}}, {"note <1>"}, 1};
   in.notes = {"simulation: /tmp/x"};
   const std::string html = RenderReportHtml(in);
   EXPECT_EQ(html.rfind("<!DOCTYPE html>", 0), 0u);
-  EXPECT_NE(html.find("Table 5 &lt;text&gt;"), std::string::npos);
-  EXPECT_NE(html.find("Table 3 &amp; more"), std::string::npos);
+  // Table 5 as a table, every cell escaped; no Table 3 (no rows).
+  const std::size_t t5 = html.find("<table id=\"table5\">");
+  ASSERT_NE(t5, std::string::npos);
+  const std::string table = html.substr(t5, html.find("</ul>", t5) - t5);
+  EXPECT_NE(table.find("<caption>Table 5 &lt;caption&gt;</caption>"), std::string::npos) << table;
+  EXPECT_NE(table.find("<th scope=\"col\">a&lt;b</th>"), std::string::npos) << table;
+  EXPECT_NE(table.find("<tr><th scope=\"row\" class=\"key\">x_mm</th><td>1 &amp; 2</td></tr>"), std::string::npos) << table;
+  EXPECT_EQ(Count(table, "<tr>"), 3);  // the header and two rows
+  EXPECT_NE(table.find("<li>note &lt;1&gt;</li>"), std::string::npos);
+  EXPECT_TRUE(CheckXml(table.substr(0, table.find("</table>") + 8)).ok);
+  EXPECT_EQ(html.find("table3"), std::string::npos);
   for (const char* id : {"pose-error-position", "pose-error-attitude", "beacons-per-camera", "residuals"}) {
     const std::string svg = SvgById(html, id);
     ASSERT_FALSE(svg.empty()) << id;

@@ -45,12 +45,17 @@ void RunReport(const ReportOptions& opt, std::ostream& out) {
   for (const NamedPoseSeries& r : in.runs)
     summaries.push_back({r.label, SummarizePoses(r.series, !opt.fix_only, opt.common_frames ? &common : nullptr)});
   if (!summaries.empty()) {
-    in.table5_text = FormatTable5(summaries);
-    if (opt.fix_only) in.table5_text += "  statistics over status fix only\n";
-    else in.table5_text += "  statistics over status fix and degraded (every frame set with a pose)\n";
+    std::vector<std::string> scope{opt.fix_only ? "statistics over status fix only"
+                                                : "statistics over status fix and degraded (every frame set with a pose)"};
     if (opt.common_frames)
-      in.table5_text += "  and only over the " + std::to_string(common.size()) + " frame sets that every run posed\n";
-    out << in.table5_text << "\n";
+      scope.push_back("and only over the " + std::to_string(common.size()) + " frame sets that every run posed");
+    in.table5 = Table5Cells(summaries);
+    std::string text = FormatTable5(summaries);
+    for (const std::string& line : scope) {
+      text += "  " + line + "\n";
+      in.table5.notes.push_back(line);
+    }
+    out << text << "\n";
   }
   if (!opt.calib.empty()) {
     const Rig truth = ReadRigYaml(opt.truth_rig);
@@ -60,8 +65,8 @@ void RunReport(const ReportOptions& opt, std::ostream& out) {
       methods.push_back({label, CompareCalibration(ReadRigYaml(file), truth)});
       in.notes.push_back("calibration " + label + ": " + file + " against " + opt.truth_rig);
     }
-    in.table3_text = FormatTable3(methods, PaperRig());
-    out << in.table3_text;
+    in.table3 = Table3Cells(methods, PaperRig());
+    out << FormatTable3(methods, PaperRig());
   }
   if (!opt.html.empty()) {
     if (!opt.sim_dir.empty()) in.notes.insert(in.notes.begin(), "simulation: " + opt.sim_dir);

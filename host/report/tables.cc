@@ -2,6 +2,7 @@
 
 #include <cstdio>
 #include <cstring>
+#include <iterator>
 #include <sstream>
 
 #include "common/rotation/rotation.h"
@@ -29,11 +30,74 @@ int PublishedIndex(const Rig& published, const std::string& name) {
   return -1;
 }
 
+constexpr const char* kTable5Caption = "Table 5: navigation error over the sweep (estimate - truth; mean and std per axis)";
+constexpr const char* kTable3Caption =
+    "Table 3: camera-to-body calibration error (estimate - truth, with the estimate's 1-sigma)";
+constexpr int kTable3Rows = 8;  // per camera: 3 Euler, |rotation|, 3 position, |position|
+const char* const kTable3Notes[] = {
+    "rotation: 2-1-3 Euler angles of C_k_b; near phi = 90 deg (camera y) theta and psi are",
+    "ill-conditioned, |rotation| (angle of C_k_b_true^T C_k_b_est) is the robust measure.",
+    "paper sigma: Table 3 (CPC on the real rig), read as C_k_b and r_b_bk (common/rig/paper_rig.h)"};
+
+std::vector<std::string> Table5Notes(const std::vector<NamedPoseSummary>& runs) {
+  std::vector<std::string> notes;
+  for (const NamedPoseSummary& r : runs) {
+    const PoseSummary& s = r.summary;
+    char b[320];
+    std::snprintf(b, sizeof(b),
+                  "%s: %d frame sets, %d in the statistics; fix %d, degraded %d, lost %d, no output %d; "
+                  ">= 3 beacons in view %d, of which posed %d",
+                  r.label.c_str(), s.frames, s.used, s.fixes, s.degraded, s.lost, s.missing, s.frames_3plus,
+                  s.posed_3plus);
+    notes.push_back(b);
+  }
+  notes.push_back("paper: Sensors 2017, 17, 655, Table 5 (real turntable; beacons matched by hand)");
+  return notes;
+}
+
+std::string Table3Quantity(int row) {
+  static const char* kRot[3] = {"phi_deg", "theta_deg", "psi_deg"};
+  static const char* kPos[3] = {"r_x_mm", "r_y_mm", "r_z_mm"};
+  if (row < 3) return kRot[row];
+  if (row == 3) return "|rotation|_deg";
+  if (row < 7) return kPos[row - 4];
+  return "|position|_mm";
+}
+
+// A method's cell: its error and, where known, its 1-sigma; "-" when it has no such camera.
+std::string Table3Value(const CameraCalibError* c, int row) {
+  if (c == nullptr) return "-";
+  double v = 0, s = -1;
+  if (row < 3) {
+    v = c->euler_error_deg[row];
+    s = c->has_sigma ? c->euler_sigma_deg[row] : -1;
+  } else if (row == 3) {
+    v = c->rotation_deg;
+  } else if (row < 7) {
+    v = c->position_error_mm[row - 4];
+    s = c->has_sigma ? c->position_sigma_mm[row - 4] : -1;
+  } else {
+    v = c->position_mm;
+  }
+  return Fmt(true, v) + (s >= 0 ? " (" + Fmt(false, s) + ")" : "");
+}
+
+std::string Table3Published(const RigCameraSigma* ps, int row) {
+  if (ps != nullptr && row < 3) return Fmt(false, RadToDeg(ps->euler[row]));
+  if (ps != nullptr && row >= 4 && row < 7) return Fmt(false, ps->r_b_bk[row - 4] * 1e3);
+  return "-";
+}
+
+const RigCameraSigma* PublishedSigma(const Rig& published, const std::string& name) {
+  const int p = PublishedIndex(published, name);
+  return (p >= 0 && published.has_sigma) ? &published.sigma[static_cast<std::size_t>(p)] : nullptr;
+}
+
 }  // namespace
 
 std::string FormatTable5(const std::vector<NamedPoseSummary>& runs) {
   std::ostringstream o;
-  o << "Table 5: navigation error over the sweep (estimate - truth; mean and std per axis)\n";
+  o << kTable5Caption << "\n";
   o << "  axis          pub. mean   pub. std";
   for (const NamedPoseSummary& r : runs) {
     std::string l = r.label.substr(0, 10);
@@ -57,23 +121,13 @@ std::string FormatTable5(const std::vector<NamedPoseSummary>& runs) {
     }
     o << "\n";
   }
-  for (const NamedPoseSummary& r : runs) {
-    const PoseSummary& s = r.summary;
-    char b[320];
-    std::snprintf(b, sizeof(b),
-                  "  %s: %d frame sets, %d in the statistics; fix %d, degraded %d, lost %d, no output %d; "
-                  ">= 3 beacons in view %d, of which posed %d\n",
-                  r.label.c_str(), s.frames, s.used, s.fixes, s.degraded, s.lost, s.missing, s.frames_3plus,
-                  s.posed_3plus);
-    o << b;
-  }
-  o << "  paper: Sensors 2017, 17, 655, Table 5 (real turntable; beacons matched by hand)\n";
+  for (const std::string& n : Table5Notes(runs)) o << "  " << n << "\n";
   return o.str();
 }
 
 std::string FormatTable3(const std::vector<NamedCalibration>& methods, const Rig& published) {
   std::ostringstream o;
-  o << "Table 3: camera-to-body calibration error (estimate - truth, with the estimate's 1-sigma)\n";
+  o << kTable3Caption << "\n";
   {
     char h[64];
     std::snprintf(h, sizeof(h), "  %-6s %-14s", "camera", "quantity");
@@ -86,52 +140,61 @@ std::string FormatTable3(const std::vector<NamedCalibration>& methods, const Rig
   }
   o << " | paper sigma\n";
   if (methods.empty()) return o.str();
-  static const char* kRot[3] = {"phi_deg", "theta_deg", "psi_deg"};
-  static const char* kPos[3] = {"r_x_mm", "r_y_mm", "r_z_mm"};
   for (const CameraCalibError& first : methods.front().cameras) {
-    const int p = PublishedIndex(published, first.name);
-    const RigCameraSigma* ps = (p >= 0 && published.has_sigma) ? &published.sigma[static_cast<std::size_t>(p)] : nullptr;
-    // rows: 3 Euler, |rotation|, 3 position, |position|
-    for (int row = 0; row < 8; ++row) {
-      std::string q;
-      if (row < 3) q = kRot[row];
-      else if (row == 3) q = "|rotation|_deg";
-      else if (row < 7) q = kPos[row - 4];
-      else q = "|position|_mm";
+    const RigCameraSigma* ps = PublishedSigma(published, first.name);
+    for (int row = 0; row < kTable3Rows; ++row) {
       char b[96];
-      std::snprintf(b, sizeof(b), "  %-6s %-14s", first.name.c_str(), q.c_str());
+      std::snprintf(b, sizeof(b), "  %-6s %-14s", first.name.c_str(), Table3Quantity(row).c_str());
       o << b;
       for (const NamedCalibration& m : methods) {
-        const CameraCalibError* c = Find(m, first.name);
-        std::string cell = "-";
-        if (c != nullptr) {
-          double v = 0, s = -1;
-          if (row < 3) {
-            v = c->euler_error_deg[row];
-            s = c->has_sigma ? c->euler_sigma_deg[row] : -1;
-          } else if (row == 3) {
-            v = c->rotation_deg;
-          } else if (row < 7) {
-            v = c->position_error_mm[row - 4];
-            s = c->has_sigma ? c->position_sigma_mm[row - 4] : -1;
-          } else {
-            v = c->position_mm;
-          }
-          cell = Fmt(true, v) + (s >= 0 ? " (" + Fmt(false, s) + ")" : "");
-        }
-        std::snprintf(b, sizeof(b), " | %-22s", cell.c_str());
+        std::snprintf(b, sizeof(b), " | %-22s", Table3Value(Find(m, first.name), row).c_str());
         o << b;
       }
-      std::string pub = "-";
-      if (ps != nullptr && row < 3) pub = Fmt(false, RadToDeg(ps->euler[row]));
-      if (ps != nullptr && row >= 4 && row < 7) pub = Fmt(false, ps->r_b_bk[row - 4] * 1e3);
-      o << " | " << pub << "\n";
+      o << " | " << Table3Published(ps, row) << "\n";
     }
   }
-  o << "  rotation: 2-1-3 Euler angles of C_k_b; near phi = 90 deg (camera y) theta and psi are\n"
-       "  ill-conditioned, |rotation| (angle of C_k_b_true^T C_k_b_est) is the robust measure.\n"
-       "  paper sigma: Table 3 (CPC on the real rig), read as C_k_b and r_b_bk (common/rig/paper_rig.h)\n";
+  for (const char* n : kTable3Notes) o << "  " << n << "\n";
   return o.str();
+}
+
+CellTable Table5Cells(const std::vector<NamedPoseSummary>& runs) {
+  CellTable t;
+  t.caption = kTable5Caption;
+  t.header = {"axis", "paper mean", "paper std"};
+  for (const NamedPoseSummary& r : runs)
+    for (const char* q : {" mean", " std", " CRB rms"}) t.header.push_back(r.label + q);
+  for (std::size_t a = 0; a < 6; ++a) {
+    std::vector<std::string> row{kPoseAxes[a], Fmt(false, kPaperTable5[a].mean), Fmt(false, kPaperTable5[a].std)};
+    for (const NamedPoseSummary& r : runs) {
+      const AxisSummary& x = r.summary.axes[a];
+      for (const double v : {x.mean, x.std, x.bound_rms}) row.push_back(x.n == 0 ? "-" : Fmt(false, v));
+    }
+    t.rows.push_back(std::move(row));
+  }
+  t.notes = Table5Notes(runs);
+  return t;
+}
+
+CellTable Table3Cells(const std::vector<NamedCalibration>& methods, const Rig& published) {
+  CellTable t;
+  t.caption = kTable3Caption;
+  t.header = {"camera", "quantity"};
+  t.key_columns = 2;
+  for (const NamedCalibration& m : methods) t.header.push_back(m.label);
+  t.header.push_back("paper sigma");
+  if (!methods.empty()) {
+    for (const CameraCalibError& first : methods.front().cameras) {
+      const RigCameraSigma* ps = PublishedSigma(published, first.name);
+      for (int row = 0; row < kTable3Rows; ++row) {
+        std::vector<std::string> cells{first.name, Table3Quantity(row)};
+        for (const NamedCalibration& m : methods) cells.push_back(Table3Value(Find(m, first.name), row));
+        cells.push_back(Table3Published(ps, row));
+        t.rows.push_back(std::move(cells));
+      }
+    }
+  }
+  t.notes.assign(std::begin(kTable3Notes), std::end(kTable3Notes));
+  return t;
 }
 
 }  // namespace mfns::host

@@ -30,4 +30,16 @@ std::string FormatTable5(const std::vector<NamedPoseSummary>& runs);
 // camera name; cameras are listed in the first method's order.
 std::string FormatTable3(const std::vector<NamedCalibration>& methods, const Rig& published);
 
+// The same tables as cells, for the HTML report (host/report/html_report.h): the same rows,
+// values and notes as the text, each value in its own cell ("-" where the text has one).
+struct CellTable {
+  std::string caption;
+  std::vector<std::string> header;
+  std::vector<std::vector<std::string>> rows;  // each as long as the header
+  std::vector<std::string> notes;              // lines under the table
+  int key_columns = 1;                         // leading columns that name the row (text, not values)
+};
+CellTable Table5Cells(const std::vector<NamedPoseSummary>& runs);
+CellTable Table3Cells(const std::vector<NamedCalibration>& methods, const Rig& published);
+
 }  // namespace mfns::host
