@@ -15,6 +15,7 @@
 
 #include "common/rig/paper_rig.h"
 #include "common/rotation/rotation.h"
+#include "common/testing/loopback_udp.h"
 #include "firmware/drivers/gpio/fake_gpio_line_io.h"
 #include "firmware/drivers/gpio/gpio_trigger.h"
 #include "firmware/lib/in_process_source.h"
@@ -213,15 +214,9 @@ struct TrackedSweep {
 
 // A UDP socket on loopback for the outputs to send to; *url gets its address in scheme.
 int LoopbackReceiver(const char* scheme, std::string* url) {
-  const int rx = ::socket(AF_INET, SOCK_DGRAM, 0);
-  sockaddr_in addr{};
-  addr.sin_family = AF_INET;
-  addr.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-  socklen_t len = sizeof(addr);
-  if (rx < 0 || ::bind(rx, reinterpret_cast<sockaddr*>(&addr), sizeof(addr)) != 0 ||
-      ::getsockname(rx, reinterpret_cast<sockaddr*>(&addr), &len) != 0)
-    return -1;
-  *url = std::string(scheme) + "127.0.0.1:" + std::to_string(ntohs(addr.sin_port));
+  std::string port;
+  const int rx = ::mfns::testing::LoopbackUdpSocket(&port);
+  *url = std::string(scheme) + "127.0.0.1:" + port;
   return rx;
 }
 

@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "common/rotation/rotation.h"
+#include "common/testing/loopback_udp.h"
 #include "common/wire/byte_io.h"
 #include "firmware/modules/publish/publishers.h"
 
@@ -323,25 +324,11 @@ TEST(Outputs, RefusesUnknownSchemesAndMoreThanTheLimit) {
   EXPECT_FALSE(o.wants_health());
 }
 
-int BoundSocket(std::string* port) {
-  const int fd = ::socket(AF_INET, SOCK_DGRAM, 0);
-  sockaddr_in addr{};
-  addr.sin_family = AF_INET;
-  addr.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-  socklen_t len = sizeof(addr);
-  if (fd < 0 || ::bind(fd, reinterpret_cast<sockaddr*>(&addr), sizeof(addr)) != 0 ||
-      ::getsockname(fd, reinterpret_cast<sockaddr*>(&addr), &len) != 0)
-    return -1;
-  timeval tv{2, 0};
-  ::setsockopt(fd, SOL_SOCKET, SO_RCVTIMEO, &tv, sizeof(tv));
-  *port = std::to_string(ntohs(addr.sin_port));
-  return fd;
-}
 
 // Both protocols at once: the MFNS datagrams to one socket, MAVLink to another.
 TEST(Outputs, MfnsAndMavlinkAtOnceOnLoopback) {
   std::string mfns_port, mav_port;
-  const int mfns = BoundSocket(&mfns_port), mav = BoundSocket(&mav_port);
+  const int mfns = ::mfns::testing::LoopbackUdpSocket(&mfns_port, 2), mav = ::mfns::testing::LoopbackUdpSocket(&mav_port, 2);
   ASSERT_GE(mfns, 0);
   ASSERT_GE(mav, 0);
   Outputs o;
