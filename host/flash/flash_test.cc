@@ -75,13 +75,7 @@ TEST(ParseTarget, DirectoriesAndSshUrls) {
 // Issue 14 (host_cli_fuzz): the command line is parsed (the target included) without reading
 // or flashing anything, and an argument holding a newline no longer makes a two-line error.
 TEST(FlashCommandLine, ParsesTheTargetAndErrorsStayOneLine) {
-  const auto parse = [](const std::vector<std::string>& words) {
-    Argv line(words);
-    CLI::App app;
-    FlashCommandLine cl;
-    ParseFlashCommandLine(app, line.argc(), line.argv(), &cl);
-    return cl;
-  };
+  const auto parse = [](const std::vector<std::string>& words) { return ParseWords(ParseFlashCommandLine, words); };
   const FlashCommandLine cl =
       parse({"mfns-flash", "no-such.bin", "ssh://pi@flyer:2200/p", "--no-signal", "-o", "A=b", "--timeout", "9"});
   EXPECT_EQ(cl.blob_path, "no-such.bin");

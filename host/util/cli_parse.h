@@ -46,4 +46,14 @@ class Argv {
   std::vector<char*> argv_;
 };
 
+// `parse` (a tool's parse-only function) on a fresh app and these words; for the tools' tests.
+template <typename CommandLine>
+CommandLine ParseWords(void (*parse)(CLI::App&, int, char**, CommandLine*), const std::vector<std::string>& words) {
+  Argv line(words);
+  CLI::App app;
+  CommandLine cl;
+  parse(app, line.argc(), line.argv(), &cl);
+  return cl;
+}
+
 }  // namespace mfns::host

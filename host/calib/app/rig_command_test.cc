@@ -113,13 +113,7 @@ TEST(GenerationOption, OnlyWholeNumbersUpTo2To64) {
 // argument holding a newline no longer makes a two-line error (CLI11's messages and
 // --generation's quoted the argument as given; now its control characters are escaped).
 TEST(CalibCommandLine, ParsesWithoutRunningAndErrorsStayOneLine) {
-  const auto parse = [](const std::vector<std::string>& words) {
-    Argv line(words);
-    CLI::App app;
-    CalibCommandLine cl;
-    ParseCalibCommandLine(app, line.argc(), line.argv(), &cl);
-    return cl;
-  };
+  const auto parse = [](const std::vector<std::string>& words) { return ParseWords(ParseCalibCommandLine, words); };
   const fs::path out = fs::temp_directory_path() / ("mfns_calib_cli_test_" + std::to_string(::getpid()));
   const CalibCommandLine cl =
       parse({"mfns-calib", "rig", "no-dataset", "--out", out.string(), "--generation", "7", "--angle-sigma-arcsec", "4"});
