@@ -68,34 +68,18 @@ std::uint64_t NowSeconds() {
 }
 
 int Run(int argc, char** argv) {
-  CLI::App app{"MFNS calibration tools: rig calibration, intrinsics, rig files, parameter blobs"};
-  app.require_subcommand(1);
-
-  std::string rig_path, out_path, blob_path;
-  std::string generation;  // ParseGenerationOption: CLI11 read "-1" as 2^64-1
-  CLI::App* blob = app.add_subcommand("blob", "Turn a rig file into a parameter blob");
-  blob->add_option("rig", rig_path, "Rig file (YAML)")->required();
-  blob->add_option("--out", out_path, "Output blob file")->required();
-  blob->add_option("--generation", generation,
-                   "Blob generation, 0..2^64-1 (monotonically increasing; default: UTC seconds now)");
-
-  CLI::App* inspect = app.add_subcommand("inspect", "Check a parameter blob and print its contents");
-  inspect->add_option("blob", blob_path, "Blob file")->required();
-
-  CLI::App* paper = app.add_subcommand("paper-rig", "Write the paper's published rig (Tables 2-4) as a rig file");
-  paper->add_option("--out", out_path, "Output rig file (YAML)")->required();
-
-  AddRigCommand(app);
-  AddIntrinsicsCommand(app);
-
+  CLI::App app;
+  CalibCommandLine cl;
   try {
-    app.parse(argc, argv);
+    ParseCalibCommandLine(app, argc, argv, &cl);
   } catch (const CLI::ParseError& e) {
     return app.exit(e) == 0 ? 0 : 1;
   }
-  if (*blob) MakeBlob(rig_path, out_path, blob->count("--generation") ? ParseGenerationOption(generation) : NowSeconds());
-  if (*inspect) Inspect(blob_path);
-  if (*paper) WriteRigYaml(out_path, PaperRig());
+  if (cl.command == "blob") MakeBlob(cl.rig_path, cl.out_path, cl.generation_set ? cl.generation : NowSeconds());
+  if (cl.command == "inspect") Inspect(cl.blob_path);
+  if (cl.command == "paper-rig") WriteRigYaml(cl.out_path, PaperRig());
+  if (cl.command == "rig") RunRigCommand(cl.rig, std::cerr);
+  if (cl.command == "intrinsics") RunIntrinsicsCommand(cl.intrinsics, std::cerr);
   return 0;
 }
 

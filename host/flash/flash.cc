@@ -141,9 +141,10 @@ std::string FlashTarget::Display() const {
 FlashTarget ParseTarget(const std::string& text) {
   FlashTarget t;
   if (text.empty()) throw UserError("empty TARGET");
+  const std::string named = "TARGET " + OneLine(text);  // what an error names
   if (text.rfind(kScheme, 0) != 0) {
     if (text.find("://") != std::string::npos) {
-      throw UserError("TARGET " + text + ": unsupported scheme (a directory, or ssh://[user@]host[:port]/dir)");
+      throw UserError(named + ": unsupported scheme (a directory, or ssh://[user@]host[:port]/dir)");
     }
     t.kind = FlashTarget::Kind::kLocal;
     t.dir = text;
@@ -153,7 +154,7 @@ FlashTarget ParseTarget(const std::string& text) {
   const std::string rest = text.substr(std::strlen(kScheme));
   const std::size_t slash = rest.find('/');
   if (slash == std::string::npos || slash + 1 >= rest.size()) {
-    throw UserError("TARGET " + text + ": no store directory (ssh://[user@]host[:port]/dir)");
+    throw UserError(named + ": no store directory (ssh://[user@]host[:port]/dir)");
   }
   t.dir = rest.substr(slash);
   std::string authority = rest.substr(0, slash);
@@ -161,16 +162,16 @@ FlashTarget ParseTarget(const std::string& text) {
   if (at != std::string::npos) {
     t.user = authority.substr(0, at);
     authority = authority.substr(at + 1);
-    if (t.user.empty() || t.user[0] == '-') throw UserError("TARGET " + text + ": bad user name");
+    if (t.user.empty() || t.user[0] == '-') throw UserError(named + ": bad user name");
   }
   std::string port;
   if (!authority.empty() && authority[0] == '[') {  // [IPv6]:port
     const std::size_t close = authority.find(']');
-    if (close == std::string::npos) throw UserError("TARGET " + text + ": unterminated [address]");
+    if (close == std::string::npos) throw UserError(named + ": unterminated [address]");
     t.host = authority.substr(1, close - 1);
     const std::string after = authority.substr(close + 1);
     if (!after.empty()) {
-      if (after[0] != ':') throw UserError("TARGET " + text + ": expected :port after ]");
+      if (after[0] != ':') throw UserError(named + ": expected :port after ]");
       port = after.substr(1);
     }
   } else {
@@ -178,11 +179,11 @@ FlashTarget ParseTarget(const std::string& text) {
     t.host = authority.substr(0, colon);
     if (colon != std::string::npos) port = authority.substr(colon + 1);
   }
-  if (!ValidHostChars(t.host)) throw UserError("TARGET " + text + ": bad or missing host name");
+  if (!ValidHostChars(t.host)) throw UserError(named + ": bad or missing host name");
   if (!port.empty() || authority.find(':') != std::string::npos) {
     if (port.empty() || port.size() > 5 || port.find_first_not_of("0123456789") != std::string::npos ||
         std::stoi(port) < 1 || std::stoi(port) > 65535) {
-      throw UserError("TARGET " + text + ": port must be 1..65535");
+      throw UserError(named + ": port must be 1..65535");
     }
     t.port = std::stoi(port);
   }

@@ -2,6 +2,7 @@
 // ssh command line, local stores, error mapping through a stand-in ssh program, an unreachable
 // port with the real ssh client, and the process runner's limits.
 #include "host/flash/flash.h"
+#include "host/flash/flash_cli.h"
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
@@ -20,6 +21,7 @@
 
 #include "firmware/modules/params/testing/test_blobs.h"
 #include "host/flash/process.h"
+#include "host/util/cli_parse.h"
 #include "host/util/user_error.h"
 
 namespace mfns::host {
@@ -70,6 +72,28 @@ TEST(ParseTarget, DirectoriesAndSshUrls) {
 }
 
 // The reference for quoting is the shell itself: sh -c 'printf "%s\n" WORDS' prints each word.
+// Issue 14 (host_cli_fuzz): the command line is parsed (the target included) without reading
+// or flashing anything, and an argument holding a newline no longer makes a two-line error.
+TEST(FlashCommandLine, ParsesTheTargetAndErrorsStayOneLine) {
+  const auto parse = [](const std::vector<std::string>& words) { return ParseWords(ParseFlashCommandLine, words); };
+  const FlashCommandLine cl =
+      parse({"mfns-flash", "no-such.bin", "ssh://pi@flyer:2200/p", "--no-signal", "-o", "A=b", "--timeout", "9"});
+  EXPECT_EQ(cl.blob_path, "no-such.bin");
+  EXPECT_EQ(cl.target.Display(), "pi@flyer:2200:/p");
+  EXPECT_FALSE(cl.options.signal_navd);
+  EXPECT_EQ(cl.options.ssh_options, std::vector<std::string>{"A=b"});
+  EXPECT_EQ(cl.options.timeout_s, 9);
+  EXPECT_EQ(ErrorOf([&] { parse({"mfns-flash", "b.bin", "ssh://fly\ner/p"}); }),
+            "TARGET ssh://fly\\ner/p: bad or missing host name");
+  try {
+    parse({"mfns-flash", "b.bin", "dir", "--timeout", "6\n0"});
+    ADD_FAILURE() << "accepted";
+  } catch (const CLI::ParseError& e) {
+    EXPECT_EQ(std::string(e.what()).find('\n'), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("6\\n0"), std::string::npos) << e.what();
+  }
+}
+
 TEST(ShellQuote, TheShellSeesEachArgumentAsOneUnchangedWord) {
   const std::vector<std::string> words = {"plain", "with space", "it's", "'", "", "$HOME", "`id`", "a\"b",
                                           "semi;colon", "new\nline", "back\\slash", "*", "--store"};

@@ -10,31 +10,26 @@
 //   mfns-sim solve-given DIR --rig RIG --out POSES.csv [--geometric] [--sigma-px S]
 //     the paper's pipeline: Newton with the true correspondences of DIR/blobs.csv.
 //
-// Errors propagate out of app.parse() as UserError (one line; mfns-sim prints it, exits 1).
+// Their options are defined by AddReportOptions (report_options.h; mfns-sim parses them first,
+// then runs one of these). Errors are UserError (one line; mfns-sim prints it, exits 1).
 #pragma once
-
-#include <CLI/CLI.hpp>
 
 #include <iosfwd>
 #include <string>
 #include <vector>
 
-namespace mfns::host {
+#include "host/report/report_options.h"
 
-struct ReportOptions {
-  std::string sim_dir;
-  std::vector<std::string> poses;  // [LABEL=]FILE
-  std::string truth_rig;
-  std::vector<std::string> calib;  // LABEL=RIG
-  std::string html;
-  bool fix_only = false;
-  bool common_frames = false;  // Table 5 over the frame sets every run posed
-};
+namespace mfns::host {
 
 // Prints the tables to `out`; writes opt.html when set. Throws UserError on bad options or
 // input.
 void RunReport(const ReportOptions& opt, std::ostream& out);
 
-void AddReportCommands(CLI::App& app);
+// merge-rig: writes o.out. Throws UserError.
+void RunMergeRig(const MergeRigOptions& o);
+
+// solve-given: writes o.out and prints a summary line. Throws UserError.
+void RunSolveGiven(const SolveGivenCommandOptions& o);
 
 }  // namespace mfns::host

@@ -28,26 +28,6 @@ YAML::Node LoadYaml(const std::string& text, const std::string& source) {
   }
 }
 
-std::string OneLine(const std::string& text) {
-  constexpr std::size_t kMaxChars = 240;
-  std::string out;
-  for (const char ch : text) {
-    if (out.size() >= kMaxChars) return out + "...";
-    const auto c = static_cast<unsigned char>(ch);
-    if (c == '\n') {
-      out += "\\n";
-    } else if (c < 0x20 || c == 0x7f) {
-      constexpr char kHex[] = "0123456789abcdef";
-      out += "\\x";
-      out += kHex[c >> 4];
-      out += kHex[c & 15];
-    } else {
-      out += ch;
-    }
-  }
-  return out;
-}
-
 bool Has(const YAML::Node& map, const char* key) {
   const YAML::Node n = map[key];
   return n.IsDefined() && !n.IsNull();

@@ -25,11 +25,6 @@ struct YamlCtx {
 // Parses text; a syntax error becomes a UserError with the line.
 YAML::Node LoadYaml(const std::string& text, const std::string& source);
 
-// Text from the file (a scalar, yaml-cpp's message quoting it) made fit for a one-line error:
-// control characters escaped (a newline as \n, others as \xHH), cut after 240 characters with
-// "...". (Found by rig_yaml_fuzz: "unknown escape character" quoted a raw newline.)
-std::string OneLine(const std::string& text);
-
 bool Has(const YAML::Node& map, const char* key);  // defined and not null
 YAML::Node Require(const YAML::Node& map, const char* key, const YamlCtx& ctx);
 double Number(const YAML::Node& n, const YamlCtx& ctx);  // finite

@@ -2,6 +2,7 @@
 // host error must pass (a UserError is one line that starts with what it names).
 #pragma once
 
+#include <algorithm>
 #include <cstddef>
 #include <cstdint>
 #include <string>
@@ -25,6 +26,20 @@ inline std::vector<std::string> SplitParts(const std::uint8_t* data, std::size_t
   parts.push_back(text.substr(from));
   parts.resize(max_parts);
   return parts;
+}
+
+// The input as a command line's words: `tool` (argv[0]), then the input cut at each NUL byte
+// into at most max_args words (what a shell passes: a word holds anything but NUL).
+inline std::vector<std::string> SplitWords(const char* tool, const std::uint8_t* data, std::size_t size,
+                                           std::size_t max_args) {
+  std::vector<std::string> words{tool};
+  const std::string text(reinterpret_cast<const char*>(data), size);
+  for (std::size_t from = 0; from <= text.size() && words.size() <= max_args;) {
+    const std::size_t nul = std::min(text.find('\0', from), text.size());
+    words.push_back(text.substr(from, nul - from));
+    from = nul + 1;
+  }
+  return words;
 }
 
 // A host error message: one line, starting with `prefix` (the file or option it names).

@@ -44,31 +44,38 @@ const option kLongOptions[] = {
     {nullptr, 0, nullptr, 0},
 };
 
-struct Options {
-  const char* command = nullptr;
-  const char* store = kDefaultStoreDir;
-  const char* blob = nullptr;  // install: file or "-"
-  const char* pid_file = kDefaultNavdPidFile;
-  const char* rig_id = nullptr;
-  bool force = false;
-  bool allow_rig_change = false;
-  bool signal = true;
-  bool help = false;
-};
-
 // Static storage: no heap, and no 40 KB on the stack.
 ParamStore g_store;
 std::array<std::uint8_t, limits::kMaxBlobBytes + 1> g_blob;
 Rig g_rig;
 
-// One line "mfns-paramctl: <what> <detail>" on err; returns the exit code 1.
+// Text a user gave (an argument) on f, control characters escaped (a newline as \n, others as
+// \xHH) so that a message stays one line (found by host_cli_fuzz).
+void PutOneLine(std::FILE* f, const char* text) {
+  for (const char* p = text; *p != '\0'; ++p) {
+    const auto c = static_cast<unsigned char>(*p);
+    if (c == '\n') {
+      std::fputs("\\n", f);
+    } else if (c < 0x20 || c == 0x7f) {
+      std::fprintf(f, "\\x%02x", c);
+    } else {
+      std::fputc(c, f);
+    }
+  }
+}
+
+// One line "mfns-paramctl: <what> <detail>" on err (detail through PutOneLine); returns the
+// exit code 1.
 int Fail(std::FILE* err, const char* what, const char* detail = "") {
-  std::fprintf(err, "%s: %s%s\n", kTool, what, detail);
+  std::fprintf(err, "%s: %s", kTool, what);
+  PutOneLine(err, detail);
+  std::fputc('\n', err);
   return 1;
 }
 
-// Parses argv (argv[1] is the command). false with a reason on err.
-bool Parse(int argc, char** argv, Options* o, std::FILE* err) {
+}  // namespace
+
+bool ParseParamctlArgs(int argc, char** argv, ParamctlOptions* o, std::FILE* err) {
   if (argc < 2) {
     Fail(err, "missing command (install, show, verify, rollback; --help)");
     return false;
@@ -80,7 +87,9 @@ bool Parse(int argc, char** argv, Options* o, std::FILE* err) {
   o->command = argv[1];
   if (std::strcmp(o->command, "install") != 0 && std::strcmp(o->command, "show") != 0 &&
       std::strcmp(o->command, "verify") != 0 && std::strcmp(o->command, "rollback") != 0) {
-    std::fprintf(err, "%s: unknown command '%s' (install, show, verify, rollback; --help)\n", kTool, o->command);
+    std::fprintf(err, "%s: unknown command '", kTool);
+    PutOneLine(err, o->command);
+    std::fputs("' (install, show, verify, rollback; --help)\n", err);
     return false;
   }
   optind = 0;  // glibc: full re-initialisation (RunParamctl may run more than once)
@@ -120,6 +129,8 @@ bool Parse(int argc, char** argv, Options* o, std::FILE* err) {
   return true;
 }
 
+namespace {
+
 // Reads the blob into g_blob; returns its size, or -1 after a one-line error.
 long ReadBlob(const char* path, int stdin_fd, std::FILE* err) {  // NOLINT(runtime/int)
   const bool from_stdin = std::strcmp(path, "-") == 0;
@@ -157,7 +168,7 @@ const char* ActiveSuffix(const StoreSnapshot& snap, char* buf, std::size_t n) {
   return buf;
 }
 
-void TellNavd(const Options& o, std::FILE* out, std::FILE* err) {
+void TellNavd(const ParamctlOptions& o, std::FILE* out, std::FILE* err) {
   if (!o.signal) return;
   int pid = 0;
   const SignalStatus s = SignalReload(o.pid_file, kNavdProcessName, &pid);
@@ -178,7 +189,7 @@ void TellNavd(const Options& o, std::FILE* out, std::FILE* err) {
   }
 }
 
-int Install(const Options& o, int stdin_fd, std::FILE* out, std::FILE* err) {
+int Install(const ParamctlOptions& o, int stdin_fd, std::FILE* out, std::FILE* err) {
   const long size = ReadBlob(o.blob, stdin_fd, err);  // NOLINT(runtime/int)
   if (size < 0) return 1;
   StoreError mkdir_err;
@@ -272,7 +283,7 @@ void PrintSlotLine(std::FILE* out, const char* key, int slot, const SlotReport& 
   std::fputc('\n', out);
 }
 
-int Show(const Options& o, std::FILE* out, std::FILE* err) {
+int Show(const ParamctlOptions& o, std::FILE* out, std::FILE* err) {
   StoreSnapshot snap;
   BlobInfo info;
   const StoreStatus s = g_store.Load(nullptr, &g_rig, &info, &snap);
@@ -310,7 +321,7 @@ int Show(const Options& o, std::FILE* out, std::FILE* err) {
   return 0;
 }
 
-int Verify(const Options& o, std::FILE* out, std::FILE* err) {
+int Verify(const ParamctlOptions& o, std::FILE* out, std::FILE* err) {
   StoreSnapshot snap;
   const StoreStatus s = g_store.Scan(o.rig_id, &snap);
   if (s == StoreStatus::kNotFound || s == StoreStatus::kIoError || s == StoreStatus::kBadPath) {
@@ -353,7 +364,7 @@ int Verify(const Options& o, std::FILE* out, std::FILE* err) {
   return 0;
 }
 
-int Rollback(const Options& o, std::FILE* out, std::FILE* err) {
+int Rollback(const ParamctlOptions& o, std::FILE* out, std::FILE* err) {
   RollbackReport rep;
   const StoreStatus s = g_store.Rollback(&rep);
   char why[256];
@@ -386,8 +397,8 @@ int Rollback(const Options& o, std::FILE* out, std::FILE* err) {
 }  // namespace
 
 int RunParamctl(int argc, char** argv, int stdin_fd, std::FILE* out, std::FILE* err) {
-  Options o;
-  if (!Parse(argc, argv, &o, err)) return 1;
+  ParamctlOptions o;
+  if (!ParseParamctlArgs(argc, argv, &o, err)) return 1;
   if (o.help) {
     std::fputs(Usage(), out);
     return 0;

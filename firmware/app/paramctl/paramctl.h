@@ -17,9 +17,30 @@
 
 #include <cstdio>
 
+#include "firmware/modules/params/reload_signal.h"
+
 namespace mfns::fw {
 
 inline constexpr char kDefaultStoreDir[] = "/var/lib/mfns/params";
+
+// The command line: the command (argv[1]) and its options; pointers into argv.
+struct ParamctlOptions {
+  const char* command = nullptr;  // install, show, verify or rollback
+  const char* store = kDefaultStoreDir;
+  const char* blob = nullptr;  // install: file or "-"
+  const char* pid_file = kDefaultNavdPidFile;
+  const char* rig_id = nullptr;
+  bool force = false;
+  bool allow_rig_change = false;
+  bool signal = true;
+  bool help = false;
+};
+
+// Parses argv into *o and runs nothing (the parse RunParamctl runs first; the fuzz target
+// tests/fuzz/host_cli_fuzz.cc calls it alone). true when the command line is valid or asks for
+// --help (o->help); false after one line "mfns-paramctl: <reason>" on err. getopt_long reorders
+// argv; not reentrant (getopt state).
+bool ParseParamctlArgs(int argc, char** argv, ParamctlOptions* o, std::FILE* err);
 
 // Runs one command. stdin_fd is read for "install -"; out/err receive the output. Returns the
 // process exit code. Not reentrant (getopt state, static buffers).

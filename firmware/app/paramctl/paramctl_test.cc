@@ -121,6 +121,21 @@ TEST_F(ParamctlTest, HelpAndUsageErrors) {
   }
 }
 
+// Issue 14 (host_cli_fuzz): an argument holding a newline was echoed as given, a two-line
+// error; its control characters are escaped now.
+TEST_F(ParamctlTest, ArgumentsHoldingANewlineGiveOneLineErrors) {
+  const std::vector<std::pair<std::vector<std::string>, std::string>> cases = {
+      {{"sh\now"}, "mfns-paramctl: unknown command 'sh\\now' (install, show, verify, rollback; --help)\n"},
+      {{"show", "ex\ntra"}, "mfns-paramctl: unexpected argument: ex\\ntra\n"},
+      {{"show", "--bo\x01gus"}, "mfns-paramctl: unknown option or missing value: --bo\\x01gus\n"},
+  };
+  for (const auto& [args, err] : cases) {
+    const Result r = Paramctl(args);
+    EXPECT_EQ(r.code, 1);
+    EXPECT_EQ(r.err, err);
+  }
+}
+
 TEST_F(ParamctlTest, InstallCreatesTheStoreAndShowPrintsTheActiveBlob) {
   const std::string blob = Blob(5);
   Result r = Install(blob);

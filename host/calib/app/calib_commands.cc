@@ -2,14 +2,12 @@
 
 #include <algorithm>
 #include <cerrno>
-#include <charconv>
 #include <chrono>
 #include <cstdlib>
 #include <map>
 #include <cmath>
 #include <filesystem>
 #include <iostream>
-#include <memory>
 #include <opencv2/imgcodecs.hpp>
 #include <sstream>
 
@@ -163,15 +161,6 @@ CalibInput CornersFromCsv(const CalibDataset& ds, const std::string& path) {
   return in;
 }
 
-std::uint64_t ParseGenerationOption(const std::string& text) {
-  std::uint64_t value = 0;
-  const char* end = text.data() + text.size();
-  const auto r = std::from_chars(text.data(), end, value);
-  if (text.empty() || text.find_first_not_of("0123456789") != std::string::npos || r.ec != std::errc() || r.ptr != end)
-    throw UserError("--generation: expected a whole number 0..18446744073709551615, got \"" + text + "\"");
-  return value;
-}
-
 std::string FormatCornersCsv(const CalibInput& in) {
   std::ostringstream o;
   o.precision(10);
@@ -318,64 +307,6 @@ ZhangResult RunIntrinsicsCommand(const IntrinsicsCommandOptions& o, std::ostream
   WriteFileAtomic(std::filesystem::path(o.out_dir) / "report.txt", r.str());
   log << r.str() << "wrote " << yaml.string() << " and report.txt\n";
   return z;
-}
-
-void AddRigCommand(CLI::App& app) {
-  auto o = std::make_shared<RigCommandOptions>();
-  auto generation = std::make_shared<std::string>();  // ParseGenerationOption, not CLI11's unsigned parse
-  CLI::App* cmd = app.add_subcommand("rig", "Calibrate the rig (intrinsics, C_k_b, r_b_bk with sigma) from a turntable "
-                                            "dataset (docs/calib-dataset.md)");
-  cmd->add_option("dataset", o->dataset, "Dataset directory")->required();
-  cmd->add_option("--out", o->out_dir, "Output directory (created if missing)")->required();
-  cmd->add_option("--method", o->method, "ml (joint maximum likelihood), paper (CPC, Appendix A) or opencv-handeye")
-      ->capture_default_str();
-  cmd->add_flag("--free-k3", o->free_k3, "Estimate kc5 (k3); default fixed at 0 as the paper's Table 2");
-  cmd->add_option("--huber-px", o->huber_px, "ml: Huber loss scale in px (0: plain least squares)")->capture_default_str();
-  cmd->add_option("--mount-mm", o->mount_mm,
-                  "Body origin in the platform frame r_p_pb X Y Z in mm (the measured mount; default: truth.yaml's, "
-                  "else 0 0 0)")
-      ->expected(3);
-  cmd->add_option("--angle-sigma-arcsec", o->angle_sigma_arcsec, "Turntable angle accuracy, 1-sigma")->capture_default_str();
-  cmd->add_option("--reference-camera", o->reference_camera, "paper: the camera of eq. A10")->capture_default_str();
-  cmd->add_flag("--all-a10-rows", o->all_a10_rows, "paper: use all nine elements of every image in A10");
-  cmd->add_option("--jobs", o->jobs, "Detection threads")->capture_default_str();
-  cmd->add_flag("--fast-detect", o->fast_detect, "findChessboardCornersSB without CALIB_CB_ACCURACY (4x faster, less exact)");
-  cmd->add_flag("--refine-corners,!--no-refine-corners", o->refine_corners,
-                "Checkerboards: fit a blurred-corner model to every SB corner (5x more exact, ~0.07 s CPU per "
-                "1280x1024 image; docs/calibration.md); --no-refine-corners (the default) keeps SB's corners");
-  cmd->add_option("--rig-id", o->rig_id, "Rig id of the blob (default: the truth rig's, else mfns-calibrated)");
-  cmd->add_option("--generation", *generation, "Blob generation, 0..2^64-1 (default: UTC seconds now)");
-  cmd->add_flag("--no-covariance", o->no_covariance, "ml: skip the covariance (sigma 0)");
-  cmd->add_option("--corners", o->corners_csv,
-                  "Use these corners (CSV camera,image,corner,u_px,v_px as the dataset's corners.csv) instead of "
-                  "detecting them");
-  cmd->add_option("--write-corners", o->write_corners_csv, "Write the corners used (same CSV format)");
-  cmd->add_flag("--compare", o->compare,
-                "Also run every other method on the same corners and write compare.csv (errors against the dataset's "
-                "truth)");
-  cmd->callback([o, cmd, generation]() {
-    o->generation_set = cmd->count("--generation") > 0;
-    if (o->generation_set) o->generation = ParseGenerationOption(*generation);
-    o->angle_sigma_set = cmd->count("--angle-sigma-arcsec") > 0;
-    RunRigCommand(*o, std::cerr);
-  });
-}
-
-void AddIntrinsicsCommand(CLI::App& app) {
-  auto o = std::make_shared<IntrinsicsCommandOptions>();
-  CLI::App* cmd = app.add_subcommand("intrinsics", "Zhang's intrinsics of one camera from plain target images");
-  cmd->add_option("--target", o->target,
-                  "checkerboard:COLSxROWS:SQUARE_MM (inner corners) or aprilgrid:COLSxROWS:TAG_MM:SPACING[:FIRST_ID]")
-      ->required();
-  cmd->add_option("images", o->images, "Images (PGM, PNG, ...)")->required();
-  cmd->add_option("--out", o->out_dir, "Output directory (created if missing)")->required();
-  cmd->add_option("--camera", o->camera, "Camera name in the outputs")->capture_default_str();
-  cmd->add_flag("--free-k3", o->free_k3, "Estimate kc5 (k3); default fixed at 0");
-  cmd->add_flag("--fast-detect", o->fast_detect, "findChessboardCornersSB without CALIB_CB_ACCURACY");
-  cmd->add_flag("--refine-corners,!--no-refine-corners", o->refine_corners,
-                "Checkerboards: fit a blurred-corner model to every SB corner; --no-refine-corners (the default) "
-                "keeps SB's corners");
-  cmd->callback([o]() { RunIntrinsicsCommand(*o, std::cerr); });
 }
 
 }  // namespace mfns::host

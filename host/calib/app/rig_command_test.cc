@@ -25,6 +25,7 @@
 #include "host/calib/testing/synth_calib.h"
 #include "host/rigio/rig_yaml.h"
 #include "host/util/atomic_file.h"
+#include "host/util/cli_parse.h"
 
 namespace mfns::host {
 namespace {
@@ -106,6 +107,34 @@ TEST(GenerationOption, OnlyWholeNumbersUpTo2To64) {
   EXPECT_EQ(err, "mfns-calib: --generation: expected a whole number 0..18446744073709551615, got \"-1\"\n");
   EXPECT_FALSE(fs::exists(dir / "b.bin"));
   fs::remove_all(dir);
+}
+
+// Issue 14 (host_cli_fuzz): the command line is parsed without running anything, and an
+// argument holding a newline no longer makes a two-line error (CLI11's messages and
+// --generation's quoted the argument as given; now its control characters are escaped).
+TEST(CalibCommandLine, ParsesWithoutRunningAndErrorsStayOneLine) {
+  const auto parse = [](const std::vector<std::string>& words) { return ParseWords(ParseCalibCommandLine, words); };
+  const fs::path out = fs::temp_directory_path() / ("mfns_calib_cli_test_" + std::to_string(::getpid()));
+  const CalibCommandLine cl =
+      parse({"mfns-calib", "rig", "no-dataset", "--out", out.string(), "--generation", "7", "--angle-sigma-arcsec", "4"});
+  EXPECT_EQ(cl.command, "rig");
+  EXPECT_TRUE(cl.rig.generation_set);
+  EXPECT_EQ(cl.rig.generation, 7u);
+  EXPECT_TRUE(cl.rig.angle_sigma_set);
+  EXPECT_FALSE(fs::exists(out));  // nothing ran
+  try {
+    parse({"mfns-calib", "blob", "rig.yaml", "--out", "b.bin", "--generation", "1\n2"});
+    ADD_FAILURE() << "accepted";
+  } catch (const UserError& e) {
+    EXPECT_STREQ(e.what(), "--generation: expected a whole number 0..18446744073709551615, got \"1\\n2\"");
+  }
+  try {
+    parse({"mfns-calib", "rig", "no-dataset", "--out", out.string(), "--jobs", "1\n2"});
+    ADD_FAILURE() << "accepted";
+  } catch (const CLI::ParseError& e) {
+    EXPECT_EQ(std::string(e.what()).find('\n'), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("1\\n2"), std::string::npos) << e.what();
+  }
 }
 
 // A small dataset (640x512 cameras, 5 turntable + 4 free images per camera), made once.

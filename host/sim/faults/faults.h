@@ -132,7 +132,23 @@ std::string FormatFaultTrace(const FaultCampaign& c);
 // line, the fault's span shaded.
 std::string FaultFigureSvg(const FaultResult& r, const FaultRun& baseline, double period_s);
 
-// `mfns-sim faults` (faults_command.cc).
+// `mfns-sim faults`' options (faults_options.cc: their one definition, needing CLI11 only; the
+// fuzz preset compiles it, tests/fuzz/host_cli_fuzz.cc).
+struct FaultsCommandOptions {
+  FaultRunOptions run;
+  std::vector<std::string> only;
+  std::string out;
+  std::string trace;
+  bool cold = false;
+  bool check = false;
+};
+// Adds the `faults` subcommand and its options (values into *o) to app; runs nothing.
+CLI::App* AddFaultsOptions(CLI::App& app, FaultsCommandOptions* o);
+// Runs the campaign, writes the table and figures (faults_command.cc). Throws UserError, and
+// CLI::RuntimeError(1) for --check with a wrong fix.
+void RunFaultsCommand(const FaultsCommandOptions& a);
+// AddFaultsOptions with a callback that runs RunFaultsCommand (mfns-sim parses first and runs
+// after, host/sim/app/sim_cli.h).
 void AddFaultsCommand(CLI::App& app);
 
 }  // namespace mfns::host

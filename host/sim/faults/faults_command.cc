@@ -13,16 +13,7 @@
 namespace mfns::host {
 namespace {
 
-struct FaultsArgs {
-  FaultRunOptions run;
-  std::vector<std::string> only;
-  std::string out;
-  std::string trace;
-  bool cold = false;
-  bool check = false;
-};
-
-std::vector<FaultSpec> Selected(const FaultsArgs& a) {
+std::vector<FaultSpec> Selected(const FaultsCommandOptions& a) {
   std::vector<FaultSpec> all = IssueFaults(a.run), chosen;
   for (const FaultSpec& f : all)
     if (a.only.empty() || std::find(a.only.begin(), a.only.end(), f.name) != a.only.end()) chosen.push_back(f);
@@ -34,7 +25,9 @@ std::vector<FaultSpec> Selected(const FaultsArgs& a) {
   return chosen;
 }
 
-void RunFaultsCommand(const FaultsArgs& a) {
+}  // namespace
+
+void RunFaultsCommand(const FaultsCommandOptions& a) {
   namespace fs = std::filesystem;
   const std::vector<FaultSpec> faults = Selected(a);
   std::error_code ec;
@@ -60,25 +53,9 @@ void RunFaultsCommand(const FaultsArgs& a) {
   if (a.check && wrong > 0) throw CLI::RuntimeError(1);
 }
 
-}  // namespace
-
 void AddFaultsCommand(CLI::App& app) {
-  auto a = std::make_shared<FaultsArgs>();
-  CLI::App* cmd = app.add_subcommand(
-      "faults",
-      "Fault scenarios (issue 14): rendered frames through the real NavLoop with a camera stalled, unplugged, "
-      "corrupt frames, reflections, an occlusion, clock jumps, a wrong-rig reload; a markdown table and one SVG per fault");
-  cmd->add_option("--out", a->out, "Folder for faults.md and fault-<name>.svg")->required();
-  cmd->add_option("--preset", a->run.preset, "Scenario preset")->capture_default_str();
-  cmd->add_option("--seed", a->run.seed, "Scenario seed")->capture_default_str();
-  cmd->add_option("--frames", a->run.frames, "Frame sets per run")->capture_default_str();
-  cmd->add_option("--fault-at", a->run.fault_at, "First frame set of every fault")->capture_default_str();
-  cmd->add_option("--divisor", a->run.image_divisor, "Image size divisor (same field of view)")->capture_default_str();
-  cmd->add_option("--only", a->only, "Faults to run, comma-separated (default: all)")->delimiter(',');
-  cmd->add_option("--trace", a->trace, "Also write every run's frame sets (status, reason, errors) to this CSV file");
-  cmd->add_flag("--cold", a->cold, "Also run the baseline without a start pose and report its first fix");
-  cmd->add_flag("--check", a->check, "Exit 1 when a fault gave a wrong fix");
-  cmd->callback([a]() { RunFaultsCommand(*a); });
+  auto a = std::make_shared<FaultsCommandOptions>();
+  AddFaultsOptions(app, a.get())->callback([a]() { RunFaultsCommand(*a); });
 }
 
 }  // namespace mfns::host

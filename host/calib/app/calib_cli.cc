@@ -1,0 +1,103 @@
+#include "host/calib/app/calib_cli.h"
+
+#include <charconv>
+
+#include "host/util/cli_parse.h"
+#include "host/util/user_error.h"
+
+namespace mfns::host {
+namespace {
+
+CLI::App* AddRigCommand(CLI::App& app, RigCommandOptions* o, std::string* generation) {
+  CLI::App* cmd = app.add_subcommand("rig", "Calibrate the rig (intrinsics, C_k_b, r_b_bk with sigma) from a turntable "
+                                            "dataset (docs/calib-dataset.md)");
+  cmd->add_option("dataset", o->dataset, "Dataset directory")->required();
+  cmd->add_option("--out", o->out_dir, "Output directory (created if missing)")->required();
+  cmd->add_option("--method", o->method, "ml (joint maximum likelihood), paper (CPC, Appendix A) or opencv-handeye")
+      ->capture_default_str();
+  cmd->add_flag("--free-k3", o->free_k3, "Estimate kc5 (k3); default fixed at 0 as the paper's Table 2");
+  cmd->add_option("--huber-px", o->huber_px, "ml: Huber loss scale in px (0: plain least squares)")->capture_default_str();
+  cmd->add_option("--mount-mm", o->mount_mm,
+                  "Body origin in the platform frame r_p_pb X Y Z in mm (the measured mount; default: truth.yaml's, "
+                  "else 0 0 0)")
+      ->expected(3);
+  cmd->add_option("--angle-sigma-arcsec", o->angle_sigma_arcsec, "Turntable angle accuracy, 1-sigma")->capture_default_str();
+  cmd->add_option("--reference-camera", o->reference_camera, "paper: the camera of eq. A10")->capture_default_str();
+  cmd->add_flag("--all-a10-rows", o->all_a10_rows, "paper: use all nine elements of every image in A10");
+  cmd->add_option("--jobs", o->jobs, "Detection threads")->capture_default_str();
+  cmd->add_flag("--fast-detect", o->fast_detect, "findChessboardCornersSB without CALIB_CB_ACCURACY (4x faster, less exact)");
+  cmd->add_flag("--refine-corners,!--no-refine-corners", o->refine_corners,
+                "Checkerboards: fit a blurred-corner model to every SB corner (5x more exact, ~0.07 s CPU per "
+                "1280x1024 image; docs/calibration.md); --no-refine-corners (the default) keeps SB's corners");
+  cmd->add_option("--rig-id", o->rig_id, "Rig id of the blob (default: the truth rig's, else mfns-calibrated)");
+  cmd->add_option("--generation", *generation, "Blob generation, 0..2^64-1 (default: UTC seconds now)");
+  cmd->add_flag("--no-covariance", o->no_covariance, "ml: skip the covariance (sigma 0)");
+  cmd->add_option("--corners", o->corners_csv,
+                  "Use these corners (CSV camera,image,corner,u_px,v_px as the dataset's corners.csv) instead of "
+                  "detecting them");
+  cmd->add_option("--write-corners", o->write_corners_csv, "Write the corners used (same CSV format)");
+  cmd->add_flag("--compare", o->compare,
+                "Also run every other method on the same corners and write compare.csv (errors against the dataset's "
+                "truth)");
+  return cmd;
+}
+
+void AddIntrinsicsCommand(CLI::App& app, IntrinsicsCommandOptions* o) {
+  CLI::App* cmd = app.add_subcommand("intrinsics", "Zhang's intrinsics of one camera from plain target images");
+  cmd->add_option("--target", o->target,
+                  "checkerboard:COLSxROWS:SQUARE_MM (inner corners) or aprilgrid:COLSxROWS:TAG_MM:SPACING[:FIRST_ID]")
+      ->required();
+  cmd->add_option("images", o->images, "Images (PGM, PNG, ...)")->required();
+  cmd->add_option("--out", o->out_dir, "Output directory (created if missing)")->required();
+  cmd->add_option("--camera", o->camera, "Camera name in the outputs")->capture_default_str();
+  cmd->add_flag("--free-k3", o->free_k3, "Estimate kc5 (k3); default fixed at 0");
+  cmd->add_flag("--fast-detect", o->fast_detect, "findChessboardCornersSB without CALIB_CB_ACCURACY");
+  cmd->add_flag("--refine-corners,!--no-refine-corners", o->refine_corners,
+                "Checkerboards: fit a blurred-corner model to every SB corner; --no-refine-corners (the default) "
+                "keeps SB's corners");
+}
+
+}  // namespace
+
+std::uint64_t ParseGenerationOption(const std::string& text) {
+  std::uint64_t value = 0;
+  const char* end = text.data() + text.size();
+  const auto r = std::from_chars(text.data(), end, value);
+  if (text.empty() || text.find_first_not_of("0123456789") != std::string::npos || r.ec != std::errc() || r.ptr != end)
+    throw UserError("--generation: expected a whole number 0..18446744073709551615, got \"" + OneLine(text) + "\"");
+  return value;
+}
+
+void ParseCalibCommandLine(CLI::App& app, int argc, char** argv, CalibCommandLine* cl) {
+  app.description("MFNS calibration tools: rig calibration, intrinsics, rig files, parameter blobs");
+  app.require_subcommand(1);
+
+  std::string generation;  // ParseGenerationOption: CLI11 read "-1" as 2^64-1
+  CLI::App* blob = app.add_subcommand("blob", "Turn a rig file into a parameter blob");
+  blob->add_option("rig", cl->rig_path, "Rig file (YAML)")->required();
+  blob->add_option("--out", cl->out_path, "Output blob file")->required();
+  blob->add_option("--generation", generation,
+                   "Blob generation, 0..2^64-1 (monotonically increasing; default: UTC seconds now)");
+
+  app.add_subcommand("inspect", "Check a parameter blob and print its contents")
+      ->add_option("blob", cl->blob_path, "Blob file")
+      ->required();
+
+  app.add_subcommand("paper-rig", "Write the paper's published rig (Tables 2-4) as a rig file")
+      ->add_option("--out", cl->out_path, "Output rig file (YAML)")
+      ->required();
+
+  std::string rig_generation;
+  CLI::App* rig = AddRigCommand(app, &cl->rig, &rig_generation);
+  AddIntrinsicsCommand(app, &cl->intrinsics);
+
+  ParseOneLine(app, argc, argv);
+  cl->command = app.get_subcommands().front()->get_name();
+  cl->generation_set = blob->count("--generation") > 0;
+  if (cl->generation_set) cl->generation = ParseGenerationOption(generation);
+  cl->rig.generation_set = rig->count("--generation") > 0;
+  if (cl->rig.generation_set) cl->rig.generation = ParseGenerationOption(rig_generation);
+  cl->rig.angle_sigma_set = rig->count("--angle-sigma-arcsec") > 0;
+}
+
+}  // namespace mfns::host

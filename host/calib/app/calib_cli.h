@@ -1,0 +1,72 @@
+// mfns-calib's command line, parsed without running anything (issue 14): the one definition of
+// every subcommand and option of the tool, used by mfns-calib (mfns_calib_main.cc, which then
+// runs the command) and by its fuzz target (tests/fuzz/host_cli_fuzz.cc). Needs CLI11 only, so
+// that the fuzz preset compiles it without OpenCV or Ceres.
+#pragma once
+
+#include <CLI/CLI.hpp>
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace mfns::host {
+
+struct RigCommandOptions {
+  std::string dataset;
+  std::string out_dir;
+  std::string method = "ml";
+  bool free_k3 = false;
+  double huber_px = 1.0;
+  std::vector<double> mount_mm;  // r_p_pb (3 numbers); default: truth.yaml's, else 0
+  double angle_sigma_arcsec = 8.0;  // default: truth.yaml's turntable_angle_sigma_arcsec when > 0
+  bool angle_sigma_set = false;
+  std::string reference_camera = "z";
+  bool all_a10_rows = false;
+  int jobs = 2;
+  bool fast_detect = false;
+  bool refine_corners = false;  // corner_refine.h model fit after findChessboardCornersSB (--refine-corners)
+  std::string rig_id;  // default: truth-rig.yaml's rig id, else "mfns-calibrated"
+  std::uint64_t generation = 0;  // the command line's --generation through ParseGenerationOption
+  bool generation_set = false;
+  bool no_covariance = false;
+  bool compare = false;  // also run the other methods on the same corners; compare.csv against the truth
+  // Corners from a CSV (camera,image,corner,u_px,v_px: the dataset's corners.csv format, e.g.
+  // from another detector) instead of detecting them; and the corners used, written out.
+  std::string corners_csv;
+  std::string write_corners_csv;
+};
+
+struct IntrinsicsCommandOptions {
+  std::string target;
+  std::vector<std::string> images;
+  std::string out_dir;
+  std::string camera = "camera";
+  bool free_k3 = false;
+  bool fast_detect = false;
+  bool refine_corners = false;
+};
+
+// A --generation value: a whole number 0..2^64-1 in decimal digits; anything else ("-1", "1e3",
+// "x", 2^64) is a UserError naming the option (CLI11 wrapped "-1" to 2^64-1, refusing every
+// later flash as "not newer").
+std::uint64_t ParseGenerationOption(const std::string& text);
+
+// mfns-calib's command line: the subcommand given and the options of each.
+struct CalibCommandLine {
+  std::string command;  // blob, inspect, paper-rig, rig or intrinsics
+  std::string rig_path;   // blob RIG
+  std::string out_path;   // blob --out, paper-rig --out
+  std::string blob_path;  // inspect BLOB
+  std::uint64_t generation = 0;  // blob --generation through ParseGenerationOption
+  bool generation_set = false;   // else the tool takes UTC seconds now
+  RigCommandOptions rig;
+  IntrinsicsCommandOptions intrinsics;
+};
+
+// Defines mfns-calib's subcommands and options on `app` (a fresh one) and parses argv into *cl;
+// runs nothing. Throws what app.parse throws (CLI::ParseError, --help included: app.exit(e)
+// prints it), and UserError for a value CLI11 takes that the tool does not (--generation).
+void ParseCalibCommandLine(CLI::App& app, int argc, char** argv, CalibCommandLine* cl);
+
+}  // namespace mfns::host
