@@ -318,24 +318,36 @@ void LostInSpace::Confirm(Candidate* c, const LisOptions& o, LisResult* result) 
   result->false_alarms = fa;
 }
 
-void LostInSpace::SelectBlobs(const LisOptions& o) {
-  // Brightest first within each camera, cameras in turn.
+void LostInSpace::SelectBlobs(const LisOptions& o, const std::uint8_t* steady) {
+  // Steady first, then brightest first within each camera; cameras in turn.
+  const auto is_steady = [&](short b) { return steady != nullptr && steady[b] != 0; };
   std::array<std::array<short, limits::kMaxBlobsPerFrame>, limits::kMaxCameras> order{};
   for (int k = 0; k < rig_->num_cameras; ++k) {
     auto& ok = order[static_cast<std::size_t>(k)];
     const int n = matcher_.BlobsInCamera(k);
     for (int j = 0; j < n; ++j) ok[static_cast<std::size_t>(j)] = static_cast<short>(matcher_.BlobOfCamera(k, j));
     // (std::sort with the index as tie-break: deterministic like a stable sort, and no heap.)
-    std::sort(ok.begin(), ok.begin() + n,
-              [&](short a, short b) { return blobs_[a].flux > blobs_[b].flux || (blobs_[a].flux == blobs_[b].flux && a < b); });
+    std::sort(ok.begin(), ok.begin() + n, [&](short a, short b) {
+      if (is_steady(a) != is_steady(b)) return is_steady(a);
+      return blobs_[a].flux > blobs_[b].flux || (blobs_[a].flux == blobs_[b].flux && a < b);
+    });
   }
+  // Two rounds over the cameras: the steady blobs, then the others.
   num_sel_ = 0;
-  for (int rank = 0; rank < limits::kMaxBlobsPerFrame && num_sel_ < o.max_blobs; ++rank)
-    for (int k = 0; k < rig_->num_cameras && num_sel_ < o.max_blobs; ++k)
-      if (rank < matcher_.BlobsInCamera(k))
-        sel_[static_cast<std::size_t>(num_sel_++)] = order[static_cast<std::size_t>(k)][static_cast<std::size_t>(rank)];
-  for (int i = 0; i < num_sel_; ++i)
-    rays_[static_cast<std::size_t>(i)] = RayOfBlob(*rig_, blobs_[sel_[static_cast<std::size_t>(i)]]);
+  for (const bool want_steady : {true, false})
+    for (int rank = 0; rank < limits::kMaxBlobsPerFrame && num_sel_ < o.max_blobs; ++rank)
+      for (int k = 0; k < rig_->num_cameras && num_sel_ < o.max_blobs; ++k) {
+        if (rank >= matcher_.BlobsInCamera(k)) continue;
+        const short b = order[static_cast<std::size_t>(k)][static_cast<std::size_t>(rank)];
+        if (is_steady(b) == want_steady) sel_[static_cast<std::size_t>(num_sel_++)] = b;
+      }
+  num_sel_steady_ = 0;
+  for (int i = 0; i < num_sel_; ++i) {
+    const auto si = static_cast<std::size_t>(i);
+    rays_[si] = RayOfBlob(*rig_, blobs_[sel_[si]]);
+    sel_steady_[si] = is_steady(static_cast<short>(sel_[si]));
+    num_sel_steady_ += sel_steady_[si] ? 1 : 0;
+  }
 }
 
 // With a prior, blob i can only be a beacon that some prior pose sees near blob i's ray: the
@@ -420,8 +432,11 @@ const std::array<BeaconSet, limits::kMaxBeacons>& LostInSpace::Feasible(int i, i
 // in five of six map rows, docs/acquisition.md; against session 6's order, where the near
 // range of every triple came first, the matrix's first-fix lag fell). Within a group, a
 // same-camera triple by its largest ray angle (fewer beacon pairs are seen under a small
-// angle), a cross-camera one in the order of selection (brightest first).
+// angle), a cross-camera one in the order of selection (brightest first). With at least three
+// steady blobs selected, the triples of three steady blobs come first, in the same four
+// groups: most other triples hold a spurious blob.
 void LostInSpace::OrderItems(bool near_pass) {
+  const bool steady_first = num_sel_steady_ >= 3;
   num_items_ = 0;
   int t = 0;
   const auto& d = [&](int x) { return rays_[static_cast<std::size_t>(x)].d_b; };
@@ -438,7 +453,8 @@ void LostInSpace::OrderItems(bool near_pass) {
                                         std::acos(std::clamp(d(j).dot(d(k)), -1.0, 1.0))});
         for (const bool near : {true, false}) {
           if (near && !near_pass) continue;
-          const int group = (same ? 0 : 2) + (near ? 0 : 1);
+          const bool all_steady = sel_steady_[i] && sel_steady_[j] && sel_steady_[k];
+          const int group = (steady_first && !all_steady ? 4 : 0) + (same ? 0 : 2) + (near ? 0 : 1);
           items_[static_cast<std::size_t>(num_items_++)] =
               Item{static_cast<std::uint16_t>(t), near, group, static_cast<float>(same ? widest : t)};
         }
@@ -548,13 +564,13 @@ bool LostInSpace::NearPrior(const BodyPose& pose, double slack_m, double slack_r
 }
 
 LisStatus LostInSpace::Identify(const BlobObs* blobs, int num_blobs, const LisOptions& o, LisResult* result,
-                                const LisPrior* prior, std::uint32_t cameras) {
-  const LisStatus s = Begin(blobs, num_blobs, o, result, prior, cameras);
+                                const LisPrior* prior, std::uint32_t cameras, const std::uint8_t* steady) {
+  const LisStatus s = Begin(blobs, num_blobs, o, result, prior, cameras, steady);
   return s == LisStatus::kSearching ? Continue(o.max_hypotheses, result) : s;
 }
 
 LisStatus LostInSpace::Begin(const BlobObs* blobs, int num_blobs, const LisOptions& o, LisResult* result,
-                             const LisPrior* prior, std::uint32_t cameras) {
+                             const LisPrior* prior, std::uint32_t cameras, const std::uint8_t* steady) {
   searching_ = false;
   prior_ = prior;
   LisResult& res = *result;
@@ -588,7 +604,7 @@ LisStatus LostInSpace::Begin(const BlobObs* blobs, int num_blobs, const LisOptio
   blobs_ = own_blobs_.data();
   num_blobs_ = num_blobs;
   matcher_.SetBlobs(blobs_, num_blobs, cameras);
-  SelectBlobs(o);
+  SelectBlobs(o, steady);
   const bool near_pass = o.near_depth_m > 0.0 && o.near_depth_m < p3p_.max_depth_m && o.near_depth_m > p3p_.min_depth_m;
   near_max_m_ = near_pass ? o.near_depth_m : p3p_.max_depth_m;
   pair_tol_m_ = o.pair_tolerance_m;

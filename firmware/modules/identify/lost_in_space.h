@@ -1,8 +1,8 @@
 // Lost-in-space beacon identification: blobs -> beacon identities and a pose, with no prior
 // (issue 4 item 5; the paper matched beacons by hand).
 //
-// 1. Up to max_blobs blobs are taken, brightest first, cameras in turn; each is a ray in the
-//    body frame.
+// 1. Up to max_blobs blobs are taken, steady ones first (blob_tracks.h, when given), then
+//    brightest first, cameras in turn; each is a ray in the body frame.
 // 2. Every blob pair gets, per beacon pair, a feasibility bit: the beacons' distance must lie
 //    within the range of distances between the two rays' segments [min_depth, max_depth]
 //    (this prunes a cross-camera pair by the lever arm). A same-camera pair's ray angle must
@@ -13,7 +13,8 @@
 //    The bits are computed for a blob pair when a triple first needs them, for two depth
 //    ranges: the full one and a near one (within near_depth_m, which prunes beacon pairs by
 //    their distance in a dense map).
-// 3. Work items, a blob triple over one range, are visited in four groups: same-camera
+// 3. Work items, a blob triple over one range, are visited in four groups (after the same
+//    four of the triples of three steady blobs, when the caller marks steady blobs): same-camera
 //    triples over the near range, then over the full range, then the cross-camera ones
 //    likewise (a same-camera triple is cheap: its angles prune, its solve is closed-form);
 //    same-camera triples by their largest ray angle (the smaller, the fewer beacon pairs are
@@ -172,8 +173,12 @@ class LostInSpace {
   // With a prior, only poses near it are sought and listed (complete then means: every
   // consistent pose near the prior).
   // cameras: those that delivered a frame (BeaconMatcher::SetBlobs); the others refute nothing.
+  // steady (optional, one flag per blob): blobs whose image track is steady (blob_tracks.h)
+  // are selected first, and the triples of three steady blobs are searched before all others
+  // (when at least three are selected); the result is the same for a complete search.
   LisStatus Identify(const BlobObs* blobs, int num_blobs, const LisOptions& options, LisResult* result,
-                     const LisPrior* prior = nullptr, std::uint32_t cameras = kAllCameras);
+                     const LisPrior* prior = nullptr, std::uint32_t cameras = kAllCameras,
+                     const std::uint8_t* steady = nullptr);
 
   // The same search spread over several calls, so that a frame set's time budget is kept:
   // Begin checks and copies the blobs (the caller's list need not outlive the call) and
@@ -183,7 +188,8 @@ class LostInSpace {
   // stay alive until then. Identify = Begin + Continue(options.max_hypotheses). Any Identify
   // or Begin abandons a search in progress.
   LisStatus Begin(const BlobObs* blobs, int num_blobs, const LisOptions& options, LisResult* result,
-                  const LisPrior* prior = nullptr, std::uint32_t cameras = kAllCameras);
+                  const LisPrior* prior = nullptr, std::uint32_t cameras = kAllCameras,
+                  const std::uint8_t* steady = nullptr);
   LisStatus Continue(int budget, LisResult* result);
   bool searching() const { return searching_; }
 
@@ -198,7 +204,7 @@ class LostInSpace {
   struct Triple {
     std::uint8_t i, j, k;  // selected-blob indices, i < j < k
   };
-  void SelectBlobs(const LisOptions& o);
+  void SelectBlobs(const LisOptions& o, const std::uint8_t* steady);
   BeaconSet PriorBeacons(int i) const;
   void CoVisibilityTable();
   void SampleCoVisibility(const Eigen::Vector3d& p, double min_depth_m);
@@ -251,6 +257,8 @@ class LostInSpace {
   BeaconMatcher matcher_;
   int num_sel_ = 0;
   std::array<int, limits::kMaxLisBlobs> sel_{};  // selected blob indices
+  std::array<bool, limits::kMaxLisBlobs> sel_steady_{};  // the selected blob's image track is steady
+  int num_sel_steady_ = 0;
   std::array<BodyRay, limits::kMaxLisBlobs> rays_{};
   // feasible_[range][pair(i, j)][a]: bit b set when beacons (a, b) may be seen along rays (i, j)
   // (range 0: the full depth range, 1: the near one).

@@ -32,6 +32,8 @@ bool TrackOptions::IsValid(const char** why) const {
   else if (!positive(velocity_window_s)) bad = "velocity_window_s";
   else if (!(gate_sigmas >= 0.0) || !std::isfinite(gate_sigmas)) bad = "gate_sigmas";
   else if (!positive(gate_depth_m)) bad = "gate_depth_m";
+  else if (!positive(steady_gate_px) || !(steady_gate_fraction >= 0.0) || !std::isfinite(steady_gate_fraction))
+    bad = "steady_gate_px / steady_gate_fraction";
   else if (!positive(max_seed_s)) bad = "max_seed_s";
   else if (fix_min_beacons < 3) bad = "fix_min_beacons";
   else if (!positive(degraded_rms_px)) bad = "degraded_rms_px";

@@ -75,6 +75,7 @@ bool Tracker::Reset(const Rig& rig) {
   motion_.Forget();
   acquisition_.Clear();
   counters_ = TrackCounters{};
+  blob_tracks_.Reset();
   if (!lis_.Reset(rig)) return false;
   matcher_.Reset(rig);
   rig_ = &rig;
@@ -610,6 +611,11 @@ TrackStatus Tracker::Track(const BlobObs* blobs, int num_blobs, std::uint64_t t_
   limits_ = LimitsOf(o);
   // One budget for the frame set, also when a finished cold search seeds it again (TrackOnce).
   lis_budget_left_ = o.lis_budget_per_frame;
+  steady_ = nullptr;
+  if (o.steady_blobs_first && rig_ != nullptr && o.IsValid()) {
+    blob_tracks_.Update(blobs, num_blobs, t_ns, cameras, noise_.px_per_rad, BlobTrackOptionsOf(o));
+    steady_ = blob_tracks_.steady_flags();
+  }
   const TrackStatus s = TrackOnce(blobs, num_blobs, t_ns, o, r);
   if (r->reason != TrackReason::kBadInput) KeepBlobs(t_ns);
   return s;
@@ -624,7 +630,7 @@ LisStatus Tracker::RunLis(const BlobObs* blobs, int num_blobs, const LisPrior* p
   // give (the paper sweep with two reflections: first fix 43 -> 103 frame sets): unbudgeted,
   // as cheap as it always was there.
   if (rig_->num_beacons < o.lis.fourth_blob_min_beacons)
-    return lis_.Identify(blobs, num_blobs, o.lis, &lis_res_, prior, cameras_);
+    return lis_.Identify(blobs, num_blobs, o.lis, &lis_res_, prior, cameras_, steady_);
   if (lis_budget_left_ <= 0) {
     lis_res_.status = LisStatus::kBudgetExhausted;
     lis_res_.complete = false;
@@ -634,7 +640,7 @@ LisStatus Tracker::RunLis(const BlobObs* blobs, int num_blobs, const LisPrior* p
   }
   LisOptions lo = o.lis;
   lo.max_hypotheses = std::min(HypothesesLeft(), lo.max_hypotheses);
-  const LisStatus s = lis_.Identify(blobs, num_blobs, lo, &lis_res_, prior, cameras_);
+  const LisStatus s = lis_.Identify(blobs, num_blobs, lo, &lis_res_, prior, cameras_, steady_);
   Charge(lis_res_.work);
   return s;
 }
@@ -645,6 +651,16 @@ LisStatus Tracker::RunLis(const BlobObs* blobs, int num_blobs, const LisPrior* p
 // units (measured: ~5 us with facing; 8, 10 and 13.6 us without, at 64, 128 and 256 beacons).
 double Tracker::HypothesisUnits() const {
   return rig_->has_facing ? 1.0 : 1.0 + rig_->num_beacons / 150.0;
+}
+
+// The blob tracks' gates: a new blob may continue one that moved at the body's largest rate
+// plus its largest speed seen from a beacon gate_depth_m away.
+BlobTrackOptions Tracker::BlobTrackOptionsOf(const TrackOptions& o) const {
+  BlobTrackOptions b;
+  b.max_image_rate_rad_s = o.max_rate_rad_s + o.max_speed_m_s / o.gate_depth_m;
+  b.tight_gate_px = o.steady_gate_px;
+  b.tight_gate_fraction = o.steady_gate_fraction;
+  return b;
 }
 
 int Tracker::HypothesesLeft() const {
@@ -662,9 +678,14 @@ void Tracker::Charge(int hypotheses) {
 LisStatus Tracker::ColdSearch(const BlobObs* blobs, int num_blobs, std::uint64_t t_ns, const TrackOptions& o,
                               bool* old) {
   *old = false;
-  if (!lis_.searching() || Seconds(t_ns, cold_t_ns_) > o.cold_search_s || t_ns < cold_t_ns_) {
+  // A search begun before three blobs were steady starts over once they are: its own order
+  // has them nowhere in particular.
+  const int steady = steady_ != nullptr ? blob_tracks_.num_steady() : 0;
+  const bool steadier = cold_steady_ < 3 && steady >= 3;
+  if (!lis_.searching() || steadier || Seconds(t_ns, cold_t_ns_) > o.cold_search_s || t_ns < cold_t_ns_) {
     cold_t_ns_ = t_ns;
-    const LisStatus s = lis_.Begin(blobs, num_blobs, o.lis, &lis_res_, nullptr, cameras_);
+    cold_steady_ = steady;
+    const LisStatus s = lis_.Begin(blobs, num_blobs, o.lis, &lis_res_, nullptr, cameras_, steady_);
     if (s != LisStatus::kSearching) return s;
   }
   *old = cold_t_ns_ != t_ns;

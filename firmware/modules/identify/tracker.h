@@ -54,6 +54,7 @@
 #include "common/limits.h"
 #include "common/rig/rig.h"
 #include "firmware/modules/identify/acquisition.h"
+#include "firmware/modules/identify/blob_tracks.h"
 #include "firmware/modules/identify/lost_in_space.h"
 #include "firmware/modules/identify/match.h"
 #include "firmware/modules/identify/motion_model.h"
@@ -179,6 +180,12 @@ struct TrackOptions {
   // the current one. (Smaller maps search each frame set on its own: the acquisition follows
   // their complete lists of poses over frame sets.)
   double cold_search_s = 0.6;
+  // Lost-in-space searches the triples of steady blobs first (blob_tracks.h): blobs that
+  // continued a blob of the previous frame sets with a constant image velocity. The image
+  // gates come from the motion bounds above and these (false: every blob alike, as before).
+  bool steady_blobs_first = true;
+  double steady_gate_px = 3.0;        // BlobTrackOptions::tight_gate_px
+  double steady_gate_fraction = 0.2;  // BlobTrackOptions::tight_gate_fraction
   int lis_fix_min_beacons = 4;       // a lost-in-space fix on its own needs this many beacons
                                      // (three fit exactly, so a reflection among them shows not)
   double chain_stale_s = 1.0;        // a followed pose unconfirmed this long restarts it all
@@ -341,6 +348,7 @@ class Tracker {
   int HypothesesLeft() const;  // of this frame set's budget (lis_budget_per_frame), >= 1
   void Charge(int hypotheses);
   LisStatus ColdSearch(const BlobObs* blobs, int num_blobs, std::uint64_t t_ns, const TrackOptions& o, bool* old);
+  BlobTrackOptions BlobTrackOptionsOf(const TrackOptions& o) const;
 
   const Rig* rig_ = nullptr;
   std::uint64_t now_ns_ = 0;  // this frame set's capture time
@@ -353,6 +361,9 @@ class Tracker {
   BeaconMatcher matcher_;
   LostInSpace lis_;
   LisResult lis_res_;
+  BlobTracks blob_tracks_;  // the blobs' image tracks: steady ones are searched first
+  const std::uint8_t* steady_ = nullptr;  // blob_tracks_'s flags for this frame set, or nullptr
+  int cold_steady_ = 0;  // steady blobs when the cold search in progress began
   int lis_budget_left_ = 0;  // work units left to this frame set
   std::uint64_t cold_t_ns_ = 0;  // the frame set of the cold search in progress
   MatchSet set_;

@@ -68,6 +68,7 @@ Scenario MatrixScenario(const RunSpec& r) {
     root["beacons"]["facing"] = r.facing;
   }
   root["clutter"]["spurious"]["count"] = r.spurious;
+  if (r.static_reflections > 0) root["clutter"]["spurious"]["static_reflections"] = r.static_reflections;
   return ParseOverridden(root, r.preset);
 }
 
@@ -96,6 +97,8 @@ std::vector<RunSpec> ExpandMatrix(const MatrixSpec& m) {
   if (m.seeds.empty()) throw UserError("--seeds: give at least one seed");
   if (m.frames < 1 || m.frames > 1000000) throw UserError("--frames: must be 1..1000000");
   if (m.spurious < 0 || m.spurious > 100) throw UserError("--spurious: must be 0..100");
+  if (m.static_reflections < 0 || m.static_reflections > limits::kMaxBeacons)
+    throw UserError("--static-reflections: must be 0.." + std::to_string(limits::kMaxBeacons));
   for (const int c : m.counts)
     if (c < 10 || c > limits::kMaxBeacons)
       throw UserError("--counts: " + std::to_string(c) + " is outside 10.." + std::to_string(limits::kMaxBeacons));
@@ -120,7 +123,8 @@ std::vector<RunSpec> ExpandMatrix(const MatrixSpec& m) {
                           .map_has_facing = s.rig.has_facing,
                           .map_beacons = count > 0 ? count : s.rig.num_beacons,
                           .frames = m.frames,
-                          .spurious = m.spurious});
+                          .spurious = m.spurious,
+                          .static_reflections = s.module.shape != ModuleShape::kNone ? m.static_reflections : 0});
   }
   return runs;
 }

@@ -22,6 +22,10 @@ struct MatrixSpec {
   std::vector<std::uint64_t> seeds{1, 2, 3, 4, 5};
   int frames = 600;
   int spurious = 2;  // clutter.spurious.count per camera (near_fraction as the preset has it: 0.5)
+  // clutter.spurious.static_reflections: unmapped reflecting points on the module's walls,
+  // imaged like beacons (clutter that moves with the scene, not from frame set to frame set);
+  // presets with a module only.
+  int static_reflections = 0;
   FacingMode facing = FacingMode::kBoth;
 };
 
@@ -35,6 +39,7 @@ struct RunSpec {
   int map_beacons = 0;         // beacons in the map (count, or the preset's own)
   int frames = 600;
   int spurious = 2;
+  int static_reflections = 0;
 };
 
 // The preset's YAML with the run's overrides (frames, seed, beacons.count/seed/facing,
