@@ -61,6 +61,7 @@ bool LisOptions::IsValid(const char** why) const {
   const char* sub = nullptr;
   if (!p.IsValid(&sub)) bad = sub;
   else if (max_hypotheses < 1 || max_hypotheses > limits::kMaxLisHypotheses) bad = "max_hypotheses";
+  else if (cross_camera_work < 1 || cross_camera_work > 8) bad = "cross_camera_work";
   else if (max_blobs < 3 || max_blobs > limits::kMaxLisBlobs) bad = "max_blobs";
   else if (!hypothesis_match.IsValid()) bad = "hypothesis_match";
   else if (!refine_match.IsValid()) bad = "refine_match";
@@ -489,6 +490,7 @@ LostInSpace::SearchEnd LostInSpace::Search(int budget, LisResult* res) {
     const auto& fjk = Feasible(tr.j, tr.k);
     // Over the full range, the beacon triples its near item already tried are skipped.
     const bool skip_near = !item.near && near_done_[item.t];
+    const int unit = item.group % 4 < 2 ? 1 : options_.cross_camera_work;  // groups 0-1: same camera
     for (; cur_.a < nb; ++cur_.a, cur_.b = cur_.c = -1) {
       const int a = cur_.a;
       const BeaconSet& bs = fij[static_cast<std::size_t>(a)];
@@ -502,7 +504,7 @@ LostInSpace::SearchEnd LostInSpace::Search(int budget, LisResult* res) {
           cur_.c = c;
           if (res->work >= options_.max_hypotheses) return SearchEnd::kBudgetOut;
           if (res->work - work_before >= budget) return SearchEnd::kPaused;
-          ++res->work;
+          res->work += unit;
           ++res->hypotheses;
           TryTriple(a, b, c, res);
           if (res->confirmed) return SearchEnd::kDone;

@@ -290,8 +290,14 @@ TEST(LostInSpaceTest, StatusesForFewBlobsAndBadInput) {
   o.max_hypotheses = 5;
   const LisStatus st = lis.Identify(g_scene.blobs.data(), g_scene.num_blobs, o, &g_res);
   EXPECT_TRUE(st == LisStatus::kBudgetExhausted || st == LisStatus::kAmbiguous) << ToString(st);
-  EXPECT_EQ(g_res.hypotheses, 5);
+  // (a cross-camera hypothesis costs cross_camera_work units)
+  EXPECT_GE(g_res.work, 5);
+  EXPECT_LE(g_res.hypotheses, 5);
+  EXPECT_GE(g_res.hypotheses * o.cross_camera_work, 5);
   EXPECT_FALSE(g_res.complete);
+  o.cross_camera_work = 0;
+  EXPECT_FALSE(o.IsValid(&why));
+  EXPECT_STREQ(why, "cross_camera_work");
   for (int i = 0; i < kNumLisStatus; ++i)
     EXPECT_STRNE(ToString(static_cast<LisStatus>(i)), "unknown lost-in-space status");
 }
