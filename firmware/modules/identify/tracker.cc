@@ -491,8 +491,28 @@ bool Tracker::Acquire(std::uint64_t t_ns, const TrackOptions& o, TrackResult* r)
   const TwinRegion twin = seeded ? TwinRegion{nullptr, o.lis.same_pose_m, o.lis.same_pose_rad}
                                  : TwinRegion{nullptr, o.twin_m, o.twin_rad};
   if (set_.num_beacons < 3 || !SolveAt(survivor, twin, o, r)) return false;
+  // Three beacons fit their pose exactly, and the motion refutes a pose resting on a reflection
+  // only when the reflection jumps: one that moves with the scene (a point on a wall) keeps a
+  // wrong three-beacon pose consistent frame set after frame set (seen: a seeded chain's
+  // survivor 147 mm and 10 deg off, on one beacon and two such reflections, while the true
+  // pose had dropped out of the chain). A steady blob it leaves unexplained (a fourth beacon,
+  // or such a reflection) is the sign: wait for the pose that explains it.
+  if (r->matches.num_beacons == 3 && LeavesSteadyBlob(r->matches)) {
+    ++counters_.steady_unexplained;
+    return false;
+  }
   acquisition_.Clear();
   return true;
+}
+
+// Whether a steady blob (BlobTracks) of a camera that delivered is not among the matches.
+bool Tracker::LeavesSteadyBlob(const MatchSet& matches) const {
+  if (steady_ == nullptr) return false;
+  for (int i = 0; i < num_blobs_; ++i) {
+    if (steady_[i] == 0 || (cameras_ >> blobs_[i].camera & 1u) == 0) continue;
+    if (matches.BeaconOfBlob(i) < 0) return true;
+  }
+  return false;
 }
 
 // An unseeded chain started from lost-in-space's list of its first frame set; when that frame

@@ -265,6 +265,7 @@ struct TrackCounters {
   std::uint32_t ambiguous_decided = 0;    // ... of which decided by the motion (ambiguity_accept_m2)
   std::uint32_t lis_runs = 0, track_refuted = 0, innovation_refused = 0;
   std::uint32_t previous_refused = 0;  // an acquired pose that does not explain the previous frame set
+  std::uint32_t steady_unexplained = 0;  // an acquired three-beacon pose that leaves a steady blob unexplained
   std::uint32_t chain_restarts = 0;    // an unseeded acquisition's survivor outscored: restarted
   SolveCounters solve;
 };
@@ -334,6 +335,7 @@ class Tracker {
   bool Acquire(std::uint64_t t_ns, const TrackOptions& o, TrackResult* r);
   bool ExplainsPrevious(const BodyPose& pose, std::uint64_t t_ns, const TrackOptions& o, int* unexplained);
   bool SurvivorIsBest(std::uint64_t t_ns, const TrackOptions& o);
+  bool LeavesSteadyBlob(const MatchSet& matches) const;
   void KeepBlobs(std::uint64_t t_ns);
   TrackStatus TrackOnce(const BlobObs* blobs, int num_blobs, std::uint64_t t_ns, const TrackOptions& o,
                         TrackResult* result);
