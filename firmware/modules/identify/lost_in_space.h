@@ -279,7 +279,9 @@ class LostInSpace {
   struct Item {
     std::uint16_t t;  // triples_ index
     bool near;
-    int group;        // same-camera near, full, cross-camera near, full (+4: not all steady)
+    bool same_camera;
+    int group;        // same-camera near, full, cross-camera near, full (+4: not all steady; steady
+                      // triples: same-camera, cross-camera, each near then full)
     float key;        // order within the group
   };
   std::array<Item, 2 * kMaxTriples> items_{};
