@@ -77,10 +77,11 @@ void CheckCorruptFrames(const FaultCampaign& c) {
     EXPECT_GE(r.recovery_sets, 0) << name;
     EXPECT_LE(r.recovery_sets, kSettle) << name;
   }
-  // A frame cut short with the rest zero is not blank: nothing counts it (the V4L2 driver
-  // counts a short bytesused, firmware/drivers/v4l2); the beacons missing from its lower half
-  // lose the track for a while, never with a wrong fix.
+  // A rendered frame cut short with the rest zero is not blank but truncated: a bad frame in
+  // health (it was counted by nothing), its upper half's blobs kept, never a wrong fix.
   const FaultResult& cut = Result(c, "truncated-frames");
+  EXPECT_EQ(cut.Moved("x.bad_frames"), 3) << "the three truncated frames";
+  EXPECT_EQ(cut.Moved("x.detect_errors"), 0);
   EXPECT_EQ(cut.wrong_fixes, 0);
   EXPECT_GE(cut.recovery_sets, 0);
   EXPECT_LE(cut.recovery_sets, kSettle);
