@@ -112,8 +112,11 @@ bool NavLoop::AcquireAll(std::uint64_t* t_capture_ns, bool* all_ended, std::uint
       ++sup.detect_errors;
       continue;
     }
-    *delivered_set |= std::uint32_t{1} << k;
     const BlobList& list = lists_[ks];
+    sup.saturated_frames += list.counters.saturated_frames;
+    // Delivered, with the cells where it could not have seen a beacon (saturated, unwritten):
+    // the beacons predicted there are not missing (match.h).
+    *delivered_set |= (std::uint32_t{1} << k) | BlindCellBits(k, list.blind_cells);
     sup.blobs_last = static_cast<std::uint16_t>(list.count);
     for (int i = 0; i < list.count && num_obs_ < limits::kMaxObservations; ++i) {
       const Blob& b = list.blobs[static_cast<std::size_t>(i)];
