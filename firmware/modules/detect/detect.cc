@@ -807,13 +807,15 @@ int WrittenRows(const FrameView& f, int saturation_level) {
 }
 
 // Blind cells (BlobList::blind_cells): cells below rows_written, and cells a saturated block
-// touches. A block is 32 x 32 px sampled every 4 px (64 samples); it is saturated when half its
+// touches. A block is 32 x 32 px sampled every 8 px (16 samples); it is saturated when half its
 // samples are: an LED's own saturated core (a few px) touches a sample or two and never blinds
 // its cell, a lamp or a window of 16 px and more does. Cells are coarse (a sixth of the image):
 // a beacon predicted anywhere in a cell a block touches is not missing, at the cost of that
-// cell's evidence against a wrong pose. Work: width x height / 16 samples.
+// cell's evidence against a wrong pose. Work: width x height / 64 samples, in every 8th row
+// (detect_benchmark, 1280 x 1024 mono8, with the truncation test: +0.01-0.03 ms a frame, on
+// 0.05 ms fixed and 0.72 ms adaptive).
 constexpr int kBlindBlockPx = 32;
-constexpr int kBlindSampleStepPx = 4;
+constexpr int kBlindSampleStepPx = 8;
 
 std::uint32_t CellsOfBox(const FrameView& f, int x0, int y0, int x1, int y1) {
   const int c0 = BlindCellOf(x0, y0, f.width, f.height), c1 = BlindCellOf(x1, y1, f.width, f.height);
@@ -824,6 +826,7 @@ std::uint32_t CellsOfBox(const FrameView& f, int x0, int y0, int x1, int y1) {
   return cells;
 }
 
+template <typename RowT>
 std::uint32_t SaturatedCells(const FrameView& f, int rows, int saturation_level) {
   constexpr int kHalf = kBlindSampleStepPx / 2;
   std::uint32_t cells = 0;
@@ -832,9 +835,11 @@ std::uint32_t SaturatedCells(const FrameView& f, int rows, int saturation_level)
     for (int x0 = 0; x0 < f.width; x0 += kBlindBlockPx) {
       const int x1 = std::min(x0 + kBlindBlockPx, f.width) - 1;
       int samples = 0, saturated = 0;
-      for (int y = std::min(y0 + kHalf, y1); y <= y1; y += kBlindSampleStepPx)
+      for (int y = std::min(y0 + kHalf, y1); y <= y1; y += kBlindSampleStepPx) {
+        const RowT row{f.data + static_cast<std::ptrdiff_t>(y) * f.stride_bytes};
         for (int x = std::min(x0 + kHalf, x1); x <= x1; x += kBlindSampleStepPx, ++samples)
-          saturated += f.At(x, y) >= saturation_level ? 1 : 0;
+          saturated += row[x] >= saturation_level ? 1 : 0;
+      }
       if (2 * saturated >= samples) cells |= CellsOfBox(f, x0, y0, x1, y1);
     }
   }
@@ -846,7 +851,9 @@ std::uint32_t SaturatedCells(const FrameView& f, int rows, int saturation_level)
 void MarkBlindCells(const FrameView& frame, int rows_written, int saturation_level, BlobList* out) {
   out->rows_written = rows_written;
   if (out->counters.blank_frames > 0) return;
-  const std::uint32_t saturated = SaturatedCells(frame, rows_written, saturation_level);
+  const std::uint32_t saturated = frame.format == PixelFormat::kMono8
+                                      ? SaturatedCells<Mono8Row>(frame, rows_written, saturation_level)
+                                      : SaturatedCells<Mono16Row>(frame, rows_written, saturation_level);
   std::uint32_t unwritten = 0;
   // From the first uniform row (row rows_written, left out of the detection, holds the last pixels written).
   if (rows_written < frame.height) unwritten = CellsOfBox(frame, 0, rows_written + 1, frame.width - 1, frame.height - 1);
