@@ -34,6 +34,14 @@ inline constexpr int kMaxImageWidth = 2048;
 inline constexpr int kMaxImageHeight = 2048;
 inline constexpr std::size_t kMaxImageBytes =
     static_cast<std::size_t>(kMaxImageWidth) * kMaxImageHeight * 2;  // mono16 worst case
+// Blind cells (issue 14): the coarse grid, row-major, on which the detector reports where it could
+// not have seen a blob (a saturated region, rows never written; firmware/lib/frame.h BlindCellOf).
+// Coarse because it travels to the matcher beside each camera's "delivered" bit in one 32-bit
+// camera set (firmware/modules/identify/match.h), which the tracker passes through unchanged.
+inline constexpr int kBlindCellsX = 3;
+inline constexpr int kBlindCellsY = 2;
+inline constexpr int kBlindCells = kBlindCellsX * kBlindCellsY;
+static_assert(kMaxCameras * (1 + kBlindCells) <= 32, "delivered bits and blind cells share 32 bits");
 
 // Parameter blob (common/blob): the whole encoded blob never exceeds this.
 inline constexpr std::size_t kMaxBlobBytes = 16384;

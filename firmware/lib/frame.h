@@ -2,8 +2,12 @@
 // MMAP buffer, a replay buffer reserved at start, a test image). No ownership, no heap.
 #pragma once
 
+#include <algorithm>
+#include <cmath>
 #include <cstddef>
 #include <cstdint>
+
+#include "common/limits.h"
 
 namespace mfns::fw {
 
@@ -34,5 +38,17 @@ struct FrameView {
     return static_cast<std::uint16_t>(row[2 * x] | (row[2 * x + 1] << 8));
   }
 };
+
+// The blind cell (limits::kBlindCellsX x kBlindCellsY, row-major) of image point (u, v) px in a
+// width x height image: the image [-0.5, width - 0.5] x [-0.5, height - 0.5] cut into equal
+// parts (a pixel belongs to the cell of its centre), points beyond it in the nearest cell. The detector marks cells by pixel, the matcher
+// looks predictions up by point: one function, so that both cut the image alike.
+inline int BlindCellOf(double u_px, double v_px, int width, int height) {
+  const auto index = [](double t, int size, int cells) {
+    const double c = std::floor((t + 0.5) * cells / std::max(size, 1));
+    return c >= cells - 1.0 ? cells - 1 : c >= 0.0 ? static_cast<int>(c) : 0;  // (NaN: cell 0)
+  };
+  return index(v_px, height, limits::kBlindCellsY) * limits::kBlindCellsX + index(u_px, width, limits::kBlindCellsX);
+}
 
 }  // namespace mfns::fw

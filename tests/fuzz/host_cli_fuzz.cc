@@ -91,10 +91,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     }
     case 1: {
       Argv line(mfns::fuzz::SplitWords("mfns-sim", data + 1, size - 1, kMaxArgs));
-      // Without navmatrix: its options are not split from its run yet (sim_cli.h).
-      FuzzCli11(line, [](CLI::App& app, int argc, char** argv, SimCommandLine* cl) {
-        ParseSimCommandLine(app, argc, argv, cl);
-      }, &SimCommandLine::command);
+      FuzzCli11(line, ParseSimCommandLine, &SimCommandLine::command);
       break;
     }
     case 2: {

@@ -106,13 +106,17 @@ bool NavLoop::AcquireAll(std::uint64_t* t_capture_ns, bool* all_ended, std::uint
       ++sup.blank_frames;  // no information (a stuck sensor): as if the camera had not delivered
       continue;
     }
-    if (d != DetectStatus::kOk && d != DetectStatus::kBlobLimit) {
+    if (d == DetectStatus::kTruncatedFrame) ++sup.truncated_frames;  // its blobs above the cut are sound
+    if (d != DetectStatus::kOk && d != DetectStatus::kBlobLimit && d != DetectStatus::kTruncatedFrame) {
       ++counters_.detect_errors;  // no usable blob list: as if the camera had not delivered
       ++sup.detect_errors;
       continue;
     }
-    *delivered_set |= std::uint32_t{1} << k;
     const BlobList& list = lists_[ks];
+    sup.saturated_frames += list.counters.saturated_frames;
+    // Delivered, with the cells where it could not have seen a beacon (saturated, unwritten):
+    // the beacons predicted there are not missing (match.h).
+    *delivered_set |= (std::uint32_t{1} << k) | BlindCellBits(k, list.blind_cells);
     sup.blobs_last = static_cast<std::uint16_t>(list.count);
     for (int i = 0; i < list.count && num_obs_ < limits::kMaxObservations; ++i) {
       const Blob& b = list.blobs[static_cast<std::size_t>(i)];
@@ -188,7 +192,8 @@ HealthRecord NavLoop::Health() const {
     ch.timeouts = Saturate32(c.timeouts);
     ch.errors = Saturate32(c.driver_errors);
     ch.bad_frames = Saturate32(c.error_buffers + c.short_buffers + c.unknown_clock + c.bad_files +
-                               supervision_[ks].blank_frames + supervision_[ks].stale_frames);
+                               supervision_[ks].blank_frames + supervision_[ks].stale_frames +
+                               supervision_[ks].truncated_frames);
     ch.detect_errors = Saturate32(supervision_[ks].detect_errors);
     ch.blobs_last = supervision_[ks].blobs_last;
   }

@@ -53,6 +53,9 @@ struct CameraSupervision {
   std::uint16_t blobs_last = 0;
   std::uint64_t detect_errors = 0;  // frames whose detection gave no blob list
   std::uint64_t blank_frames = 0;   // frames with every pixel alike (DetectStatus::kBlankFrame)
+  std::uint64_t truncated_frames = 0;  // frames whose lower rows were never written (kTruncatedFrame):
+                                       // the blobs above the cut are used, the frame is counted bad
+  std::uint64_t saturated_frames = 0;  // frames with a saturated region (BlobList::blind_cells)
   std::uint64_t stale_frames = 0;   // frames stamped no later than the last frame set while another
                                     // camera's was later: dropped for the frame set (DropStaleFrames)
 };

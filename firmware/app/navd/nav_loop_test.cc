@@ -10,6 +10,7 @@
 #include <algorithm>
 #include <cstdio>
 #include <cstdlib>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -724,35 +725,94 @@ TEST(NavLoop, AClockThatStaysOnePeriodBehindAfterARepeatKeepsTheTrack) {
   ClockOnePeriodBehind(true);
 }
 
+// A 60-frame-set sweep from the start pose in which camera 0's frame of frame set n is replaced
+// where corrupt(n, &pixels) returns true (pixels: a copy of the rendered frame, to change). Counts
+// wrong poses, and frame sets with >= 3 beacons in view (truth) and those of them with a pose,
+// apart for the corrupted ones and the others from frame set 3 on.
+struct CorruptSweep {
+  int wrong = 0;
+  int sets_3plus = 0, posed_3plus = 0;  // frame sets not corrupted
+  int corrupt_3plus = 0, corrupt_posed = 0;
+};
+CorruptSweep SweepCorruptingCameraZero(TrackedSweep* s, const std::function<bool(int, std::vector<std::uint8_t>*)>& corrupt) {
+  CorruptSweep out;
+  PoseRecord rec;
+  std::vector<std::uint8_t> pixels;
+  for (int n = 0; n < 60; ++n) {
+    const int visible = s->sweep.Render(n);
+    bool corrupted = false;
+    for (int k = 0; k < s->rig.num_cameras; ++k) {
+      FrameView v = s->sweep.View(k, 1'000'000'000ull + static_cast<std::uint64_t>(n) * kFrameNs, static_cast<std::uint32_t>(n));
+      if (k == 0) {
+        pixels.assign(v.data, v.data + static_cast<std::size_t>(v.stride_bytes) * static_cast<std::size_t>(v.height));
+        corrupted = corrupt(n, &pixels);
+        if (corrupted) v.data = pixels.data();
+      }
+      EXPECT_TRUE(s->source.Push(k, v));
+    }
+    EXPECT_EQ(s->loop.Step(&rec), StepStatus::kOk);
+    out.wrong += rec.status != NavStatus::kLost && !FixIsRight(rec, s->sweep.pose());
+    if (n < 3 || visible < 3) continue;
+    (corrupted ? out.corrupt_3plus : out.sets_3plus) += 1;
+    (corrupted ? out.corrupt_posed : out.posed_3plus) += rec.status != NavStatus::kLost;
+  }
+  return out;
+}
+
 // Issue 14 defect 8: one all-zero or all-white frame from one camera lost the track for ~1.2 s
 // (its missing beacons refuted the right pose). A blank frame counts as the camera's silence
-// (health: bad_frames), so the others keep the track.
+// (health: bad_frames), so the others keep the track. (In frame sets 20 and 30 the other cameras
+// may see fewer than 3 beacons.)
 TEST(NavLoop, ABlankFrameFromOneCameraKeepsTheTrack) {
   TrackedSweep s;
   ASSERT_TRUE(s.Start());
-  std::vector<std::uint8_t> black(static_cast<std::size_t>(320 * 256), 0), white(black.size(), 255);
-  PoseRecord rec;
-  int wrong = 0, sets_3plus = 0, posed_3plus = 0;
-  for (int n = 0; n < 60; ++n) {
-    const int visible = s.sweep.Render(n);
-    for (int k = 0; k < s.rig.num_cameras; ++k) {
-      FrameView v = s.sweep.View(k, 1'000'000'000ull + static_cast<std::uint64_t>(n) * kFrameNs, static_cast<std::uint32_t>(n));
-      if (k == 0 && n == 20) v.data = black.data();
-      if (k == 0 && n == 30) v.data = white.data();
-      ASSERT_TRUE(s.source.Push(k, v));
-    }
-    ASSERT_EQ(s.loop.Step(&rec), StepStatus::kOk);
-    wrong += rec.status != NavStatus::kLost && !FixIsRight(rec, s.sweep.pose());
-    // (In frame sets 20 and 30 the other cameras may see fewer than 3 beacons.)
-    if (n >= 3 && visible >= 3 && n != 20 && n != 30) {
-      ++sets_3plus;
-      posed_3plus += rec.status != NavStatus::kLost;
-    }
-  }
+  const CorruptSweep r = SweepCorruptingCameraZero(&s, [](int n, std::vector<std::uint8_t>* pixels) {
+    if (n == 20 || n == 30) std::fill(pixels->begin(), pixels->end(), n == 20 ? 0 : 255);
+    return n == 20 || n == 30;
+  });
   EXPECT_EQ(s.loop.Health().cameras[0].bad_frames, 2u);
   EXPECT_EQ(s.loop.Health().cameras[1].bad_frames, 0u);
-  EXPECT_EQ(wrong, 0);
-  EXPECT_EQ(posed_3plus, sets_3plus);
+  EXPECT_EQ(r.wrong, 0);
+  EXPECT_EQ(r.posed_3plus, r.sets_3plus);
+}
+
+// Issue 14: a frame whose lower rows were never written (here the lower half zero, three frame
+// sets) reached health as nothing; it is a bad frame of its camera now (supervision:
+// truncated_frames), its upper half's blobs used, and no wrong pose.
+TEST(NavLoop, ATruncatedFrameIsABadFrameInHealth) {
+  TrackedSweep s;
+  ASSERT_TRUE(s.Start());
+  const CorruptSweep r = SweepCorruptingCameraZero(&s, [](int n, std::vector<std::uint8_t>* pixels) {
+    if (n < 20 || n > 22) return false;
+    std::fill(pixels->begin() + static_cast<std::ptrdiff_t>(pixels->size() / 2), pixels->end(), 0);
+    return true;
+  });
+  EXPECT_EQ(s.loop.supervision(0).truncated_frames, 3u);
+  EXPECT_EQ(s.loop.Health().cameras[0].bad_frames, 3u);
+  EXPECT_EQ(s.loop.Health().cameras[1].bad_frames, 0u);
+  EXPECT_EQ(s.loop.Health().cameras[0].detect_errors, 0u);
+  EXPECT_EQ(r.wrong, 0);
+}
+
+// Issue 14: a camera half saturated (a lamp, the sun in a window: the left half of camera 0's
+// image at 255 for frame sets 20-39) refuted the track: the beacon its saturated half hides was
+// found missing. The detector reports that half blind and the tracking matcher does not miss it
+// there: frame sets 20 and 21 (3 beacons left outside the glare) keep the fix, and the fix is back
+// at frame set 40, as the glare ends (before: posed in 0 of the 20, lost until frame set 43,
+// 34 of the 37 others posed). In 22-39 two beacons are left: too few.
+TEST(NavLoop, AHalfSaturatedCameraKeepsTheTrack) {
+  TrackedSweep s;
+  ASSERT_TRUE(s.Start());
+  const CorruptSweep r = SweepCorruptingCameraZero(&s, [](int n, std::vector<std::uint8_t>* pixels) {
+    if (n < 20 || n >= 40) return false;
+    for (std::size_t y = 0; y < 256; ++y) std::fill_n(pixels->begin() + static_cast<std::ptrdiff_t>(y * 320), 160, 255);
+    return true;
+  });
+  EXPECT_EQ(s.loop.supervision(0).saturated_frames, 20u);
+  EXPECT_EQ(s.loop.Health().cameras[0].bad_frames, 0u);  // the scene, not a bad frame
+  EXPECT_EQ(r.wrong, 0);
+  EXPECT_EQ(r.corrupt_posed, 2);
+  EXPECT_EQ(r.posed_3plus, r.sets_3plus);
 }
 
 TEST(NavLoop, EndOfStreamAndNoFrames) {

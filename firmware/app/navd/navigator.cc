@@ -38,6 +38,12 @@ bool Navigator::Init(const Rig& rig, const NavigatorOptions& options, const char
     return false;
   }
   options_ = options;
+  // Blind cells (a saturated half, unwritten rows) excuse missing beacons while a track is
+  // followed, not in lost-in-space: there the missing beacons tell a pose from its twins, and
+  // excusing them let a twin through (NavLoop test: a truncated frame, then a 36 cm wrong fix
+  // confirmed over frames). A re-identification during glare waits for it to pass.
+  options_.track.lis.hypothesis_match.skip_blind_cells = false;
+  options_.track.lis.refine_match.skip_blind_cells = false;
   pending_pose_ = have_last_ = false;
   if (options_.scale_gates_to_rig) options_.track.ScalePixelGates(PixelGateScale(rig));
   // The gates must allow for the surveyed map's error (rig.beacon_sigma), seen at the range

@@ -56,8 +56,9 @@ class Navigator {
   // Copies rig (with inferred facing, NavigatorOptions::infer_facing). False on bad options or
   // rig; *why names the problem.
   bool Init(const Rig& rig, const NavigatorOptions& options, const char** why = nullptr);
-  // One frame set's blobs (sample time t_ns). delivered: bit k set when camera k delivered a
-  // frame (the others predict no beacon, so their silence refutes nothing); cameras_down: a
+  // One frame set's blobs (sample time t_ns). delivered: the camera set of match.h: bit k set
+  // when camera k delivered a frame (the others predict no beacon, so their silence refutes
+  // nothing), and the cells where it could not have seen a beacon (BlindCellBits); cameras_down: a
   // camera is set aside (a fix is then reported degraded, reason kCameraDown).
   void Step(const BlobObs* blobs, int num_blobs, std::uint64_t t_ns, std::uint32_t delivered, bool cameras_down,
             NavOutput* out);

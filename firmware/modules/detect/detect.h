@@ -132,6 +132,8 @@ struct DetectCounters {
   std::uint64_t open_discarded = 0;      // components still open when a frame was cut short
   std::uint64_t undistort_failures = 0;  // Unproject not kOk
   std::uint64_t blank_frames = 0;        // kBlankFrame
+  std::uint64_t truncated_frames = 0;    // kTruncatedFrame: lower rows never written
+  std::uint64_t saturated_frames = 0;    // frames with a blind cell from a saturated region
 
   DetectCounters& operator+=(const DetectCounters& o);
 };
@@ -146,6 +148,8 @@ enum class DetectStatus : unsigned char {
   kBlankFrame,       // no blob, and every sampled pixel has the same value (all zero, all
                      // saturated, stuck): no sensor gives that (read noise), so the frame
                      // carries no information and must not say "no beacon here"
+  kTruncatedFrame,   // the lower rows were never written (a transfer cut short; see Detect):
+                     // blobs from the rows above, the rows below reported blind
 };
 const char* ToString(DetectStatus s);
 
@@ -164,6 +168,12 @@ struct BlobList {
   double contrast_dn = 0.0;  // threshold - background (kFixed: fixed threshold - fixed background)
   int threshold_min_dn = 0;
   int threshold_max_dn = 0;
+  // Where no blob could have been seen (limits::kBlindCellsX x kBlindCellsY cells, row-major,
+  // firmware/lib/frame.h BlindCellOf): bit c set when cell c holds a saturated block (a lamp,
+  // the sun in a window: half or more of a 32 x 32 px block's samples at the saturation level)
+  // or rows never written (kTruncatedFrame). A beacon predicted there is not missing (match.h).
+  std::uint32_t blind_cells = 0;
+  int rows_written = 0;  // rows detected in: the frame's height, fewer when kTruncatedFrame
   DetectCounters counters;  // this frame only
 };
 
@@ -182,6 +192,15 @@ class BlobDetector {
   // Detects the blobs of `frame` into *out (count = 0 on kBadOptions/kBadFrame/
   // kCameraMismatch). With `camera` non-null, each centroid is undistorted into Blob::x_n;
   // the camera's size must equal the frame's. The frame is only read.
+  //
+  // Truncated frame (kTruncatedFrame): the bottom kMinUnwrittenRows or more rows hold one value
+  // below saturation, every pixel of them exactly, while at least half the pixels of the
+  // kWrittenProbeRows rows above the first of them differ from it. A buffer the transfer did
+  // not fill keeps its old content, normally zero; a sensor's read noise does not stop at a row,
+  // so a dark frame is either zero nearly everywhere (its rows above fail the second test) or
+  // nowhere (its bottom rows fail the first), and a saturated bottom is glare, not a short
+  // transfer. Blobs are detected in the rows above the first unwritten row but one (that row
+  // may be half written), as in a frame that ends there: a blob cut by the end is a border blob.
   DetectStatus Detect(const FrameView& frame, const CameraIntrinsics* camera, BlobList* out);
 
   const DetectOptions& options() const { return options_; }

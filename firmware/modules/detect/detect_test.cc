@@ -188,6 +188,101 @@ TEST(BlobDetector, BlankFramesAreFlagged) {
   EXPECT_EQ(detector.counters().blank_frames, 6u);
 }
 
+// Issue 14: a frame whose lower rows were never written (the transfer stopped; the buffer kept
+// zeros) read as a dark lower half: its beacons "missing", nothing counted. Now kTruncatedFrame,
+// counted; the blobs above the cut kept, one cut by it dropped (a border blob), the cells below
+// the cut blind. mono8 and mono16, cut at row 128 and at row 200 of 256.
+TEST(BlobDetector, TruncatedFramesAreCountedAndKeepTheBlobsAboveTheCut) {
+  BlobDetector detector;
+  BlobList out;
+  for (const PixelFormat format : {PixelFormat::kMono8, PixelFormat::kMono16})
+    for (const int cut : {128, 200}) {
+      SyntheticImage img(320, 256);
+      img.AddBackground(20.0);
+      std::mt19937_64 rng(3);
+      img.AddNoise(1.5, rng);
+      img.AddSpot(Spot{100.3, 50.6, 1.2, 1.2, 3000.0});
+      img.AddSpot(Spot{250.2, cut - 1.5, 1.2, 1.2, 3000.0});  // cut by the end of the transfer
+      for (int y = cut; y < img.height; ++y)
+        for (int x = 0; x < img.width; ++x) img.At(x, y) = 0.0;
+      const FrameBuffer fb = Quantize(img, format);
+      ASSERT_EQ(detector.Detect(fb.view, nullptr, &out), DetectStatus::kTruncatedFrame) << cut;
+      EXPECT_EQ(out.counters.truncated_frames, 1u);
+      EXPECT_EQ(out.rows_written, cut - 1);  // the last row written may be partial: left out
+      ASSERT_EQ(out.count, 1) << cut;
+      EXPECT_NEAR(out.blobs[0].uv_px.x(), 100.3, 0.1);
+      EXPECT_NEAR(out.blobs[0].uv_px.y(), 50.6, 0.1);
+      // Cells are 107 x 128 px: rows >= 128 are the lower three.
+      EXPECT_EQ(out.blind_cells, 0b111000u) << cut;
+    }
+  EXPECT_EQ(detector.counters().truncated_frames, 4u);
+  EXPECT_STREQ(ToString(DetectStatus::kTruncatedFrame), "truncated frame (lower rows never written)");
+}
+
+// The truncation rule does not fire on a legitimately dark frame: zero nearly everywhere with
+// LEDs (a dark module; its rows above a zero band are zero too), read noise clipped at zero
+// (no row wholly zero), a few zero rows only (3 < 4), or a saturated lower half (glare, whose
+// cells are blind for saturation, not truncation).
+TEST(BlobDetector, DarkOrSaturatedFramesAreNotTruncated) {
+  BlobDetector detector;
+  BlobList out;
+  const auto detect = [&](SyntheticImage img) {
+    img.AddSpot(Spot{100.3, 50.6, 1.2, 1.2, 3000.0});
+    img.AddSpot(Spot{200.7, 220.2, 1.2, 1.2, 3000.0});
+    return detector.Detect(Quantize(img, PixelFormat::kMono8).view, nullptr, &out);
+  };
+  SyntheticImage black(320, 256);  // zero but the LEDs
+  EXPECT_EQ(detect(black), DetectStatus::kOk);
+  EXPECT_EQ(out.count, 2);
+  SyntheticImage clipped(320, 256);  // background 0.5 DN, noise 1 DN: about half the pixels 0
+  clipped.AddBackground(0.5);
+  std::mt19937_64 rng(5);
+  clipped.AddNoise(1.0, rng);
+  EXPECT_EQ(detect(clipped), DetectStatus::kOk);
+  SyntheticImage three(320, 256);  // three zero rows under a normal background
+  three.AddBackground(20.0);
+  three.AddNoise(1.5, rng);
+  for (int x = 0; x < three.width; ++x)
+    for (int y = 253; y < 256; ++y) three.At(x, y) = 0.0;
+  EXPECT_EQ(detect(three), DetectStatus::kOk);
+  SyntheticImage glare(320, 256);  // the lower half saturated
+  glare.AddBackground(20.0);
+  glare.AddNoise(1.5, rng);
+  glare.AddRect(0, 128, 319, 255, 1e4);
+  EXPECT_EQ(detect(glare), DetectStatus::kOk);
+  EXPECT_EQ(out.rows_written, 256);
+  EXPECT_EQ(out.blind_cells, 0b111000u);
+  EXPECT_EQ(out.counters.saturated_frames, 1u);
+  EXPECT_EQ(detector.counters().truncated_frames, 0u);
+}
+
+// Issue 14: a camera half saturated (a lamp, the sun in a window) reports the cells of the
+// saturated half blind, so that the beacons predicted there are not found missing; an LED's
+// own saturated core does not blind its cell.
+TEST(BlobDetector, ASaturatedRegionBlindsItsCellsAnLedDoesNot) {
+  BlobDetector detector;
+  BlobList out;
+  SyntheticImage img(320, 256);
+  img.AddBackground(20.0);
+  std::mt19937_64 rng(9);
+  img.AddNoise(1.5, rng);
+  img.AddSpot(Spot{260.3, 60.6, 1.5, 1.5, 1e5});  // saturated core
+  const FrameBuffer led = Quantize(img, PixelFormat::kMono8);
+  EXPECT_EQ(detector.Detect(led.view, nullptr, &out), DetectStatus::kOk);
+  ASSERT_EQ(out.count, 1);
+  EXPECT_TRUE(out.blobs[0].saturated);
+  EXPECT_EQ(out.blind_cells, 0u);
+  img.AddRect(0, 0, 159, 255, 1e4);  // the left half saturated: columns 0 and 1 of the cells
+  const FrameBuffer half = Quantize(img, PixelFormat::kMono8);
+  EXPECT_EQ(detector.Detect(half.view, nullptr, &out), DetectStatus::kOk);
+  EXPECT_EQ(out.count, 1);
+  EXPECT_EQ(out.blind_cells, 0b011011u);
+  EXPECT_EQ(out.counters.saturated_frames, 1u);
+  EXPECT_EQ(BlindCellOf(106.1, 127.4, 320, 256), 0);  // the cell edges (106.17, 127.5) as the matcher sees them
+  EXPECT_EQ(BlindCellOf(106.3, 127.6, 320, 256), 4);
+  EXPECT_EQ(BlindCellOf(-50.0, 1e9, 320, 256), 3);
+}
+
 // Zero noise: centroids within 0.02 px of the true centres for mono8, mono16, padded strides
 // and an unaligned mono16 buffer.
 struct FormatCase {

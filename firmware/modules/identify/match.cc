@@ -50,6 +50,11 @@ void BeaconMatcher::Reset(const Rig& rig) {
   }
 }
 
+bool BeaconMatcher::Blind(int k, const Eigen::Vector2d& uv) const {
+  const CameraIntrinsics& in = rig_->cameras[static_cast<std::size_t>(k)].intrinsics;
+  return (cameras_ >> BlindCellBit(k, BlindCellOf(uv.x(), uv.y(), in.width, in.height)) & 1U) != 0;
+}
+
 int BeaconMatcher::SetBlobs(const BlobObs* blobs, int num_blobs, std::uint32_t cameras) {
   blobs_ = blobs;
   cameras_ = cameras;
@@ -111,6 +116,7 @@ void BeaconMatcher::MatchPose(const BodyPose& pose, const MatchOptions& o, Match
       if (!Predict(k, pose, rig_->beacons_w[static_cast<std::size_t>(m)], o.gate_px, o.miss_margin_px, &uv, &inner))
         continue;
       if (inner && rig_->has_facing && !BeaconFacesCos(*rig_, m, centre_w, cos_narrow_[sm])) inner = false;
+      if (inner && o.skip_blind_cells && Blind(k, uv)) inner = false;  // glare or unwritten rows hide it
       if (InImage(rig_->cameras[sk].intrinsics, uv)) ++out->num_predicted;
       if (inner) inner_set.Set(m);
       // Nearest and second-nearest blob of this camera.

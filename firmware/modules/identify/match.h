@@ -9,7 +9,9 @@
 // the image and faces the camera by facing_margin_rad inside its beam (an LED seen at the rim of
 // its beam is dim and may go undetected); such a beacon with no blob matched counts as missing.
 // A beacon whose beam is unknown (half-angle pi, common/rig/infer_facing.h) never counts as
-// missing: an LED at an unknown angle may be out of its beam.
+// missing: an LED at an unknown angle may be out of its beam. Nor does one predicted in a blind
+// cell of its camera (the camera set below; MatchOptions::skip_blind_cells): the detector could
+// not have seen it there.
 //
 // Matching: each predicted beacon takes its nearest blob of that camera within gate_px;
 // conflicts are resolved greedily by distance so that every blob and every (camera, beacon)
@@ -25,18 +27,34 @@
 
 #include "common/limits.h"
 #include "common/rig/rig.h"
+#include "firmware/lib/frame.h"
 #include "firmware/modules/solve/observation.h"
 
 namespace mfns::fw {
 
-// A camera set: bit k for camera k.
-inline constexpr std::uint32_t kAllCameras = 0xFFFFFFFFu;
+// A camera set, per frame set: bit k (k < limits::kMaxCameras) set when camera k delivered a
+// frame; bit BlindCellBit(k, c) set when cell c (firmware/lib/frame.h BlindCellOf) of camera k's
+// frame is blind, where its detector could not have seen a blob (BlobList::blind_cells: a
+// saturated region, rows never written). One word, so that the blind cells travel with their
+// frame set wherever the tracker and lost-in-space pass the set (unchanged) to the matcher.
+inline constexpr std::uint32_t kAllCameras = (std::uint32_t{1} << limits::kMaxCameras) - 1U;  // none blind
+inline constexpr int BlindCellBit(int camera, int cell) {
+  return limits::kMaxCameras + camera * limits::kBlindCells + cell;
+}
+// The camera set's bits for camera k's blind cells (bit c: cell c, as BlobList::blind_cells).
+inline constexpr std::uint32_t BlindCellBits(int camera, std::uint32_t cells) {
+  return (cells & ((std::uint32_t{1} << limits::kBlindCells) - 1U)) << BlindCellBit(camera, 0);
+}
 
 struct MatchOptions {
   double gate_px = 10.0;          // largest blob-to-prediction distance of a match (> 0)
   double miss_margin_px = 15.0;   // "well inside the image" margin for missing beacons (>= 0)
   bool reject_ambiguous = false;  // drop beacons with two blobs inside the gate
   double facing_margin_rad = 0.1;  // beam rim: predicted within +margin, missing within -margin
+  // A beacon predicted in a blind cell of the camera set (SetBlobs) is not missing. True where a
+  // track is followed; mfns-navd's lost-in-space turns it off (Navigator::Init): with no track,
+  // the missing beacons are what tells a pose from its twins.
+  bool skip_blind_cells = true;
 
   bool IsValid(const char** why = nullptr) const;
 };
@@ -129,8 +147,9 @@ class BeaconMatcher {
 
   // Indexes a frame set's blobs by camera (blobs with a camera outside the rig, or beyond
   // limits::kMaxBlobsPerFrame in a camera, are ignored). The list must stay alive while
-  // matching. cameras: bit k set when camera k delivered a frame in this frame set; the
-  // others predict nothing (no match, never missing). Returns the number of blobs indexed.
+  // matching. cameras: the camera set (above): bit k set when camera k delivered a frame in
+  // this frame set (the others predict nothing: no match, never missing), and its blind cells
+  // (predicted there: matched if a blob is near, never missing). Returns the number of blobs indexed.
   int SetBlobs(const BlobObs* blobs, int num_blobs, std::uint32_t cameras = kAllCameras);
 
   // Predicts every beacon at `pose` and matches. out->matches come camera by camera.
@@ -150,6 +169,8 @@ class BeaconMatcher {
  private:
   // FacingCosine of every beacon for +-margin (a cache: MatchPose is called per hypothesis).
   void CacheFacing(double margin_rad) const;
+  // Whether image point uv of camera k lies in one of its blind cells (SetBlobs' camera set).
+  bool Blind(int k, const Eigen::Vector2d& uv) const;
 
   const Rig* rig_ = nullptr;
   std::array<double, limits::kMaxCameras> max_tan_sq_{};  // view cone: (x^2 + y^2) / z^2 bound

@@ -102,15 +102,16 @@ void RunCommand(const SimCommandLine& cl) {
   if (c == "report") RunReport(cl.report.report, std::cout);
   if (c == "merge-rig") RunMergeRig(cl.report.merge);
   if (c == "solve-given") RunSolveGiven(cl.report.given);
-  if (c == "faults") RunFaultsCommand(cl.faults);  // navmatrix ran inside the parse
+  if (c == "navmatrix") RunNavMatrixCommand(cl.navmatrix);
+  if (c == "faults") RunFaultsCommand(cl.faults);
 }
 
 int Run(int argc, char** argv) {
   CLI::App app;
   SimCommandLine cl;
   try {
-    ParseSimCommandLine(app, argc, argv, &cl, AddNavMatrixCommand);
-    RunCommand(cl);  // inside: faults --check ends with CLI::RuntimeError(1), exit 1 and no message
+    ParseSimCommandLine(app, argc, argv, &cl);
+    RunCommand(cl);  // inside: navmatrix and faults --check end with CLI::RuntimeError(1), exit 1 and no message
   } catch (const CLI::ParseError& e) {
     return app.exit(e) == 0 ? 0 : 1;
   }

@@ -20,7 +20,7 @@ void AddScenarioOptions(CLI::App* cmd, ScenarioArgs* a) {
 
 }  // namespace
 
-void ParseSimCommandLine(CLI::App& app, int argc, char** argv, SimCommandLine* cl, void (*add_navmatrix)(CLI::App&)) {
+void ParseSimCommandLine(CLI::App& app, int argc, char** argv, SimCommandLine* cl) {
   app.description("MFNS simulator: scenarios, rendered frames, truth, error analysis, Cramér-Rao bound");
   app.require_subcommand(1);
 
@@ -49,7 +49,7 @@ void ParseSimCommandLine(CLI::App& app, int argc, char** argv, SimCommandLine* c
 
   AddAnalyzeOptions(app, &cl->analyze);
   AddReportOptions(app, &cl->report);  // report, merge-rig, solve-given (host/report)
-  if (add_navmatrix != nullptr) add_navmatrix(app);
+  AddNavMatrixOptions(app, &cl->navmatrix);
   AddFaultsOptions(app, &cl->faults);
 
   ParseOneLine(app, argc, argv);

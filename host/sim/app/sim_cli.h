@@ -1,11 +1,9 @@
 // mfns-sim's command line, parsed without running anything (issue 14): the one definition of
 // every subcommand and option of the tool, used by mfns-sim (mfns_sim_main.cc, which then runs
 // the command) and by its fuzz target (tests/fuzz/host_cli_fuzz.cc). The options of analyze,
-// report, merge-rig, solve-given and faults are defined beside the code that runs them
-// (analyze_options.h, report_options.h, faults.h), in sources that need CLI11 only.
-//
-// navmatrix is not split yet: its options and its run are one registration in
-// host/sim/navmatrix (AddNavMatrixCommand, whose callback runs it inside app.parse).
+// report, merge-rig, solve-given, navmatrix and faults are defined beside the code that runs
+// them (analyze_options.h, report_options.h, navmatrix_options.h, faults.h), in sources that
+// need CLI11 only.
 #pragma once
 
 #include <CLI/CLI.hpp>
@@ -15,6 +13,7 @@
 #include "host/report/report_options.h"
 #include "host/sim/analysis/analyze_options.h"
 #include "host/sim/faults/faults.h"
+#include "host/sim/navmatrix/navmatrix_options.h"
 
 namespace mfns::host {
 
@@ -36,14 +35,13 @@ struct SimCommandLine {
   bool list = false;        // preset --list
   AnalyzeOptions analyze;
   ReportCommandsOptions report;  // report, merge-rig, solve-given
+  NavMatrixArgs navmatrix;
   FaultsCommandOptions faults;
 };
 
 // Defines mfns-sim's subcommands and options on `app` (a fresh one) and parses argv into *cl;
-// runs nothing, except navmatrix when add_navmatrix registers it (mfns-sim passes
-// AddNavMatrixCommand, registered where --help lists it; nullptr leaves the subcommand out).
-// Throws what app.parse throws (CLI::ParseError, --help included: app.exit(e) prints it).
-void ParseSimCommandLine(CLI::App& app, int argc, char** argv, SimCommandLine* cl,
-                         void (*add_navmatrix)(CLI::App&) = nullptr);
+// runs nothing. Throws what app.parse throws (CLI::ParseError, --help included: app.exit(e)
+// prints it).
+void ParseSimCommandLine(CLI::App& app, int argc, char** argv, SimCommandLine* cl);
 
 }  // namespace mfns::host

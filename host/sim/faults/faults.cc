@@ -137,13 +137,14 @@ std::uint64_t StampOf(const FaultSpec& f, const std::vector<FrameTruth>& truth, 
 // Camera k's frame of frame set n as the fault corrupts it (a new image), or the frame itself.
 cv::Mat CorruptFrame(const FaultSpec& f, const cv::Mat& image, int k, int n) {
   if (k != f.camera || n < f.first || n > f.last) return image;
+  const double full = image.depth() == CV_16U ? 65535 : 255;
   if (f.kind == FaultKind::kZeroFrames) return cv::Mat::zeros(image.size(), image.type());
-  if (f.kind == FaultKind::kWhiteFrames)
-    return cv::Mat(image.size(), image.type(), cv::Scalar(image.depth() == CV_16U ? 65535 : 255));
-  if (f.kind != FaultKind::kTruncatedFrames) return image;
-  cv::Mat cut = image.clone();
-  cut.rowRange(cut.rows / 2, cut.rows).setTo(0);  // the transfer stopped half-way; the rest never written
-  return cut;
+  if (f.kind == FaultKind::kWhiteFrames) return cv::Mat(image.size(), image.type(), cv::Scalar(full));
+  if (f.kind != FaultKind::kTruncatedFrames && f.kind != FaultKind::kGlare) return image;
+  cv::Mat out = image.clone();
+  if (f.kind == FaultKind::kTruncatedFrames) out.rowRange(out.rows / 2, out.rows).setTo(0);  // the transfer stopped half-way
+  if (f.kind == FaultKind::kGlare) out.colRange(0, out.cols / 2).setTo(full);  // a lamp or the sun: the left half saturated
+  return out;
 }
 
 // Feeds camera k's entry for frame set n (a status or a frame) to the source. A set-aside
@@ -198,7 +199,8 @@ std::vector<HealthCount> HealthCounts(const fw::NavLoop& loop, const Rig& rig) {
     for (const auto& [name, value] : std::initializer_list<std::pair<const char*, std::uint64_t>>{
              {"frames", ch.frames}, {"drops", ch.drops}, {"timeouts", ch.timeouts}, {"errors", ch.errors},
              {"bad_frames", ch.bad_frames}, {"detect_errors", ch.detect_errors}, {"set_asides", sup.set_asides},
-             {"resets", sup.resets}, {"set_aside_at_end", sup.set_aside ? 1u : 0u}})
+             {"resets", sup.resets}, {"set_aside_at_end", sup.set_aside ? 1u : 0u},
+             {"saturated_frames", sup.saturated_frames}})
       out.push_back({cam + name, static_cast<std::int64_t>(value)});
   }
   return out;
@@ -259,6 +261,7 @@ std::string FaultSpec::Describe(const std::string& camera_name) const {
     case FaultKind::kTruncatedFrames: return cam + " frames cut after half their rows, " + span;
     case FaultKind::kReflections: return "5 random reflections per camera, " + span;
     case FaultKind::kOcclusion: return "left half of " + cam + " occluded, " + span;
+    case FaultKind::kGlare: return "left half of " + cam + " saturated (a lamp, the sun in a window), " + span;
     case FaultKind::kTimeRepeat: return "frame set " + std::to_string(first) + " repeats the last stamp, the clock stays one period behind";
     case FaultKind::kTimeBackward: return std::string("the clock steps back ") + jump + " at frame set " + std::to_string(first);
     case FaultKind::kTimeForward: return std::string("the clock steps forward ") + jump + " at frame set " + std::to_string(first);
@@ -277,6 +280,7 @@ std::vector<FaultSpec> IssueFaults(const FaultRunOptions& o) {
           {"truncated-frames", FaultKind::kTruncatedFrames, 0, a, a + 2, 0.0},
           {"reflections", FaultKind::kReflections, 0, a, a + two_s - 1, 0.0},
           {"occlusion", FaultKind::kOcclusion, 2, a, a + two_s - 1, 0.0},
+          {"glare", FaultKind::kGlare, 2, a, a + two_s - 1, 0.0},
           {"time-repeat", FaultKind::kTimeRepeat, 0, a, a, 0.0},
           {"time-backward", FaultKind::kTimeBackward, 0, a, a, 1.0},
           {"time-forward", FaultKind::kTimeForward, 0, a, a, 1.0},

@@ -42,6 +42,7 @@ enum class FaultKind {
   kTruncatedFrames,  // camera's frames cut after half their rows (the rest 0) in [first, last]
   kReflections,      // 5 random reflections per camera in [first, last] (clutter.reflections_per_frame)
   kOcclusion,        // the left half of camera's image hidden in [first, last] (clutter.occlusions)
+  kGlare,            // the left half of camera's image saturated (a lamp, the sun in a window) in [first, last]
   kTimeRepeat,       // frame set `first` repeats the previous stamp; the clock stays one period behind
   kTimeBackward,     // from `first` on every stamp jump_s earlier (the clock stepped back)
   kTimeForward,      // from `first` on every stamp jump_s later (the clock stepped forward)
@@ -68,7 +69,8 @@ struct FaultRunOptions {
 
 // The issue's faults, each starting at options.fault_at: stall (20 frame sets), unplug, 3 zero,
 // 3 white and 3 truncated frames, 5 reflections per camera for 2 s, half a camera occluded for
-// 2 s, a repeated stamp, the clock 1 s back, 1 s forward, a wrong-rig reload.
+// 2 s, half a camera saturated for 2 s, a repeated stamp, the clock 1 s back, 1 s forward, a
+// wrong-rig reload.
 std::vector<FaultSpec> IssueFaults(const FaultRunOptions& o);
 
 // The scenario of a run: the preset with its cameras shrunk by image_divisor.

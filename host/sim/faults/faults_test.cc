@@ -34,8 +34,8 @@ const FaultResult& Result(const FaultCampaign& c, const std::string& name) {
 // Recovery bounds asserted (frame sets from the fault's end to the next fix): a set-aside
 // camera is retried every 19 frame sets (NavLoopConfig, navd's default); after a fault that
 // lost the track, the navigator needs a few frame sets to confirm it again (measured, seed 2:
-// 5 after truncated frames, 6 after the reflections, 3 after the occlusion, 13 after the clock
-// stepped 1 s forward; 0-2 for the others).
+// 6 after the reflections, 3 after the occlusion, 13 after the clock stepped 1 s forward; 0-2
+// for the others; 5 after truncated frames before their blind cells, 0 since).
 constexpr int kRetryEvery = 19, kSettle = 10, kAfterClockStep = 20;
 
 // 0 wrong fixes in every fault; the baseline fixes.
@@ -77,22 +77,33 @@ void CheckCorruptFrames(const FaultCampaign& c) {
     EXPECT_GE(r.recovery_sets, 0) << name;
     EXPECT_LE(r.recovery_sets, kSettle) << name;
   }
-  // A frame cut short with the rest zero is not blank: nothing counts it (the V4L2 driver
-  // counts a short bytesused, firmware/drivers/v4l2); the beacons missing from its lower half
-  // lose the track for a while, never with a wrong fix.
+  // A rendered frame cut short with the rest zero is not blank but truncated: a bad frame in
+  // health (it was counted by nothing), its upper half's blobs kept, its lower half blind, so
+  // the beacons there are not missing: the track is kept (before: 8 frame sets lost).
   const FaultResult& cut = Result(c, "truncated-frames");
+  EXPECT_EQ(cut.Moved("x.bad_frames"), 3) << "the three truncated frames";
+  EXPECT_EQ(cut.Moved("x.detect_errors"), 0);
   EXPECT_EQ(cut.wrong_fixes, 0);
-  EXPECT_GE(cut.recovery_sets, 0);
-  EXPECT_LE(cut.recovery_sets, kSettle);
+  EXPECT_EQ(cut.lost_vs_baseline, 0);
+  EXPECT_EQ(cut.recovery_sets, 0);
 }
 
-// Reflections and an occlusion: the next fix within kSettle.
+// Reflections and an occlusion: the next fix within kSettle. Half of camera z saturated (a lamp,
+// the sun in a window) lost the track (its hidden beacons missing) for the glare and beyond (at
+// frame set 60 of the full campaign: 100 frame sets, no fix after it); its blind cells keep the
+// track throughout now, never with a wrong fix.
 void CheckSceneFaults(const FaultCampaign& c) {
   for (const char* name : {"reflections", "occlusion"}) {
     const FaultResult& r = Result(c, name);
     EXPECT_GE(r.recovery_sets, 0) << name;
     EXPECT_LE(r.recovery_sets, kSettle) << name;
   }
+  const FaultResult& glare = Result(c, "glare");
+  const FaultSpec& spec = glare.run.fault;
+  EXPECT_EQ(glare.Moved("z.saturated_frames"), spec.last - spec.first + 1);
+  EXPECT_EQ(glare.lost_vs_baseline, 0);
+  EXPECT_EQ(glare.recovery_sets, 0);
+  EXPECT_EQ(glare.wrong_fixes + glare.wrong_degraded, 0);
 }
 
 // Clock faults counted as injected; the track kept or back within the bounds.

@@ -1,16 +1,16 @@
 // The matrix of issue 13 over RunNavigation (navmatrix.h): presets x beacon counts x seeds x
 // map facing, run on worker threads, aggregated over seeds into one table row per preset x
 // count x facing, and checked against the issue's requirements. `mfns-sim navmatrix` is the
-// command-line face (AddNavMatrixCommand).
+// command-line face (RunNavMatrixCommand).
 #pragma once
 
-#include <CLI/CLI.hpp>
 #include <cstdint>
 #include <iosfwd>
 #include <string>
 #include <vector>
 
 #include "host/sim/navmatrix/navmatrix.h"
+#include "host/sim/navmatrix/navmatrix_options.h"
 
 namespace mfns::host {
 
@@ -106,9 +106,9 @@ std::string FormatMatrixTable(const std::vector<MatrixRow>& rows, const MatrixLi
 // One line per requirement the rows fail; empty when all hold.
 std::vector<std::string> RequirementFailures(const std::vector<MatrixRow>& rows, const MatrixLimits& limits);
 
-// Registers `navmatrix` on app. Its callback runs the matrix, prints the table on stdout (and
-// writes it to --out), progress on stderr; with --check it exits 1 (throws CLI::RuntimeError(1))
-// when a requirement fails. Option errors surface as UserError naming the flag.
-void AddNavMatrixCommand(CLI::App& app);
+// `mfns-sim navmatrix` (options: navmatrix_options.h): runs the matrix, prints the table on
+// stdout (and writes it to --out), progress on stderr; with --check it throws
+// CLI::RuntimeError(1) (exit 1) when a requirement fails. Option errors are UserErrors naming the flag.
+void RunNavMatrixCommand(const NavMatrixArgs& a);
 
 }  // namespace mfns::host

@@ -1,9 +1,9 @@
-// `mfns-sim navmatrix`: the acquisition matrix of issue 13 (matrix.h) from the command line.
+// `mfns-sim navmatrix`: the acquisition matrix of issue 13 (matrix.h) from the command line,
+// run after the parse (its options: navmatrix_options.cc).
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <iostream>
-#include <memory>
 #include <thread>
 
 #include "host/sim/navmatrix/matrix.h"
@@ -12,25 +12,14 @@
 namespace mfns::host {
 namespace {
 
-struct NavMatrixArgs {
-  std::vector<std::string> presets{"free-flight", "station-cylinder", "station-box"};
-  std::vector<int> counts{64, 128, 256};
-  std::string seeds = "1-5";
-  int frames = 600;
-  int spurious = 2;
-  std::string facing = "both";
-  int jobs = 0;
-  std::string out;
-  std::string trace;
-  bool check = false;
-};
-
 FacingMode ParseFacing(const std::string& text) {
   if (text == "both") return FacingMode::kBoth;
   if (text == "yes") return FacingMode::kYes;
   if (text == "no") return FacingMode::kNo;
   throw UserError("--facing: expected both, yes or no, got '" + text + "'");
 }
+
+}  // namespace
 
 void RunNavMatrixCommand(const NavMatrixArgs& a) {
   MatrixSpec spec;
@@ -63,33 +52,6 @@ void RunNavMatrixCommand(const NavMatrixArgs& a) {
   for (const std::string& f : failures) std::fprintf(stderr, "navmatrix: requirement not met: %s\n", f.c_str());
   if (failures.empty()) std::fprintf(stderr, "navmatrix: every requirement met\n");
   if (a.check && !failures.empty()) throw CLI::RuntimeError(1);
-}
-
-}  // namespace
-
-void AddNavMatrixCommand(CLI::App& app) {
-  auto a = std::make_shared<NavMatrixArgs>();
-  CLI::App* cmd = app.add_subcommand(
-      "navmatrix",
-      "Acquisition test matrix (issue 13): the navigator on blob-level simulations of presets x beacon counts x "
-      "seeds x map facing, from a cold start; a markdown table of first-fix lag, posed share, wrong poses, CPU time");
-  cmd->add_option("--presets", a->presets, "Presets, comma-separated")->delimiter(',')->capture_default_str();
-  cmd->add_option("--counts", a->counts, "beacons.count of presets with a generated map, comma-separated")
-      ->delimiter(',')
-      ->capture_default_str();
-  cmd->add_option("--seeds", a->seeds, "Seeds (trajectory, noise, clutter and the generated map): 1-5 or 1,3,8")
-      ->capture_default_str();
-  cmd->add_option("--frames", a->frames, "Frame sets per run")->capture_default_str();
-  cmd->add_option("--spurious", a->spurious, "clutter.spurious.count: spurious blobs per camera per frame set")
-      ->capture_default_str();
-  cmd->add_option("--facing", a->facing, "Beacon facing in the navigator's map: both, yes or no")
-      ->capture_default_str();
-  cmd->add_option("--jobs", a->jobs, "Worker threads, each with its own navigator (0: all cores)")
-      ->capture_default_str();
-  cmd->add_option("--out", a->out, "Also write the table to this markdown file");
-  cmd->add_option("--trace", a->trace, "Also write every run's frame sets (status, reason, errors) to this CSV file");
-  cmd->add_flag("--check", a->check, "Exit 1 when a requirement of issue 13 fails");
-  cmd->callback([a]() { RunNavMatrixCommand(*a); });
 }
 
 }  // namespace mfns::host

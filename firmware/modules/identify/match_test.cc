@@ -1,0 +1,82 @@
+// The matcher's missing-beacon test against blind cells (issue 14): a camera half saturated (a
+// lamp, the sun in a window) must not refute the pose with the beacons its saturated half hides.
+#include "firmware/modules/identify/match.h"
+
+#include <gtest/gtest.h>
+
+#include <vector>
+
+#include "common/rig/paper_rig.h"
+
+namespace mfns::fw {
+namespace {
+
+// The paper rig with four beacons 2 m in front of camera 0 (pose: identity), imaged near
+// (200, 300) and (300, 800) in the left part of its 1280 x 1024 image and (1000, 300) and
+// (1100, 700) in the right part; blobs: the images of `seen` (camera 0).
+class BlindCellsTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    rig_ = PaperRig();
+    const RigCamera& cam = rig_.cameras[0];
+    const CameraIntrinsics& in = cam.intrinsics;
+    const double px[4][2] = {{200, 300}, {300, 800}, {1000, 300}, {1100, 700}};
+    rig_.num_beacons = 4;
+    rig_.has_facing = false;
+    for (int m = 0; m < 4; ++m) {
+      const Eigen::Vector3d p_k(2.0 * (px[m][0] - in.u0) / in.alpha_x, 2.0 * (px[m][1] - in.v0) / in.alpha_y, 2.0);
+      rig_.beacons_w[static_cast<std::size_t>(m)] = cam.C_k_b.transpose() * p_k + cam.r_b_bk;
+      ASSERT_EQ(ProjectBeacon(cam, pose_, rig_.beacons_w[static_cast<std::size_t>(m)], &uv_[static_cast<std::size_t>(m)]),
+                ProjectStatus::kOk);
+    }
+    matcher_.Reset(rig_);
+  }
+
+  MatchSet Match(const std::vector<int>& seen, std::uint32_t cameras) {
+    blobs_.clear();
+    for (int m : seen) {
+      BlobObs b;
+      b.camera = 0;
+      b.uv_px = uv_[static_cast<std::size_t>(m)];
+      blobs_.push_back(b);
+    }
+    matcher_.SetBlobs(blobs_.data(), static_cast<int>(blobs_.size()), cameras);
+    MatchSet out;
+    matcher_.MatchPose(pose_, MatchOptions{}, &out);
+    return out;
+  }
+
+  Rig rig_;
+  BodyPose pose_;
+  std::array<Eigen::Vector2d, 4> uv_{};
+  std::vector<BlobObs> blobs_;
+  BeaconMatcher matcher_;
+};
+
+constexpr std::uint32_t kLeftCells = 0b011011;  // columns 0 and 1 of both rows
+
+TEST_F(BlindCellsTest, BeaconsPredictedInBlindCellsAreNotMissing) {
+  const MatchSet plain = Match({2, 3}, kAllCameras);  // the left two hidden by glare
+  EXPECT_EQ(plain.num_matches, 2);
+  EXPECT_EQ(plain.num_predicted, 4);
+  EXPECT_EQ(plain.num_missing, 2);  // before: the glare refutes the right pose
+  const MatchSet blind = Match({2, 3}, kAllCameras | BlindCellBits(0, kLeftCells));
+  EXPECT_EQ(blind.num_matches, 2);
+  EXPECT_EQ(blind.num_predicted, 4);
+  EXPECT_EQ(blind.num_missing, 0);
+}
+
+TEST_F(BlindCellsTest, BlindCellsStillMatchAndOnlyTheirCameraAndCellsCount) {
+  const MatchSet seen = Match({0, 2, 3}, kAllCameras | BlindCellBits(0, kLeftCells));
+  EXPECT_EQ(seen.num_matches, 3);  // a blob in a blind cell is matched as anywhere
+  EXPECT_EQ(seen.num_missing, 0);
+  EXPECT_EQ(Match({2, 3}, kAllCameras | BlindCellBits(1, kLeftCells)).num_missing, 2);  // camera 1's cells
+  EXPECT_EQ(Match({2, 3}, kAllCameras | BlindCellBits(0, 0b000001)).num_missing, 1);  // (200, 300) in cell 0; (300, 800) in 3
+  EXPECT_EQ(Match({0, 1}, kAllCameras | BlindCellBits(0, kLeftCells)).num_missing, 2);  // the right ones
+  // The camera set's layout: delivered bits below the cells, six cells per camera.
+  EXPECT_EQ(kAllCameras, 0xFu);
+  EXPECT_EQ(BlindCellBits(1, 0xFFFFFFFFu), 0x3Fu << 10);
+}
+
+}  // namespace
+}  // namespace mfns::fw

@@ -1,0 +1,29 @@
+#include "host/sim/navmatrix/navmatrix_options.h"
+
+namespace mfns::host {
+
+CLI::App* AddNavMatrixOptions(CLI::App& app, NavMatrixArgs* a) {
+  CLI::App* cmd = app.add_subcommand(
+      "navmatrix",
+      "Acquisition test matrix (issue 13): the navigator on blob-level simulations of presets x beacon counts x "
+      "seeds x map facing, from a cold start; a markdown table of first-fix lag, posed share, wrong poses, CPU time");
+  cmd->add_option("--presets", a->presets, "Presets, comma-separated")->delimiter(',')->capture_default_str();
+  cmd->add_option("--counts", a->counts, "beacons.count of presets with a generated map, comma-separated")
+      ->delimiter(',')
+      ->capture_default_str();
+  cmd->add_option("--seeds", a->seeds, "Seeds (trajectory, noise, clutter and the generated map): 1-5 or 1,3,8")
+      ->capture_default_str();
+  cmd->add_option("--frames", a->frames, "Frame sets per run")->capture_default_str();
+  cmd->add_option("--spurious", a->spurious, "clutter.spurious.count: spurious blobs per camera per frame set")
+      ->capture_default_str();
+  cmd->add_option("--facing", a->facing, "Beacon facing in the navigator's map: both, yes or no")
+      ->capture_default_str();
+  cmd->add_option("--jobs", a->jobs, "Worker threads, each with its own navigator (0: all cores)")
+      ->capture_default_str();
+  cmd->add_option("--out", a->out, "Also write the table to this markdown file");
+  cmd->add_option("--trace", a->trace, "Also write every run's frame sets (status, reason, errors) to this CSV file");
+  cmd->add_flag("--check", a->check, "Exit 1 when a requirement of issue 13 fails");
+  return cmd;
+}
+
+}  // namespace mfns::host

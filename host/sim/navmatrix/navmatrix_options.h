@@ -1,0 +1,32 @@
+// `mfns-sim navmatrix`'s options and their one definition on a command line (issue 14); needs
+// CLI11 only, so that the fuzz preset compiles it (tests/fuzz/host_cli_fuzz.cc) without the
+// matrix. RunNavMatrixCommand (matrix.h) runs what they hold; mfns-sim parses first, then runs
+// (host/sim/app/sim_cli.h).
+#pragma once
+
+#include <CLI/CLI.hpp>
+
+#include <string>
+#include <vector>
+
+namespace mfns::host {
+
+// As typed: --seeds and --facing are checked when the command runs (ParseSeeds, RunNavMatrixCommand),
+// so that every bad value is a UserError naming the flag.
+struct NavMatrixArgs {
+  std::vector<std::string> presets{"free-flight", "station-cylinder", "station-box"};
+  std::vector<int> counts{64, 128, 256};
+  std::string seeds = "1-5";
+  int frames = 600;
+  int spurious = 2;
+  std::string facing = "both";
+  int jobs = 0;
+  std::string out;
+  std::string trace;
+  bool check = false;
+};
+
+// Adds the `navmatrix` subcommand and its options (values into *a) to app; runs nothing.
+CLI::App* AddNavMatrixOptions(CLI::App& app, NavMatrixArgs* a);
+
+}  // namespace mfns::host
