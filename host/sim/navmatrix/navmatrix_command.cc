@@ -28,6 +28,7 @@ void RunNavMatrixCommand(const NavMatrixArgs& a) {
   spec.seeds = ParseSeeds(a.seeds);
   spec.frames = a.frames;
   spec.spurious = a.spurious;
+  spec.static_reflections = a.static_reflections;
   spec.facing = ParseFacing(a.facing);
   if (a.jobs < 0) throw UserError("--jobs: must be >= 0 (0: all cores)");
   const int jobs = a.jobs > 0 ? a.jobs : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));

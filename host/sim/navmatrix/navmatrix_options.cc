@@ -16,6 +16,10 @@ CLI::App* AddNavMatrixOptions(CLI::App& app, NavMatrixArgs* a) {
   cmd->add_option("--frames", a->frames, "Frame sets per run")->capture_default_str();
   cmd->add_option("--spurious", a->spurious, "clutter.spurious.count: spurious blobs per camera per frame set")
       ->capture_default_str();
+  cmd->add_option("--static-reflections", a->static_reflections,
+                  "clutter.spurious.static_reflections: unmapped reflecting points on the module's walls, imaged "
+                  "like beacons (clutter that moves with the scene); presets with a module only")
+      ->capture_default_str();
   cmd->add_option("--facing", a->facing, "Beacon facing in the navigator's map: both, yes or no")
       ->capture_default_str();
   cmd->add_option("--jobs", a->jobs, "Worker threads, each with its own navigator (0: all cores)")

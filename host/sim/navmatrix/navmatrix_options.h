@@ -19,6 +19,7 @@ struct NavMatrixArgs {
   std::string seeds = "1-5";
   int frames = 600;
   int spurious = 2;
+  int static_reflections = 0;
   std::string facing = "both";
   int jobs = 0;
   std::string out;

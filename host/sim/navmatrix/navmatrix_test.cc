@@ -187,6 +187,21 @@ TEST(NavMatrixSpec, ScenarioCarriesTheRunsOverrides) {
   EXPECT_FALSE(ff.rig.has_facing);
   EXPECT_EQ(ff.clutter.spurious, 2);
   EXPECT_EQ(ff.trajectory.kind, TrajectoryKind::kFreeFlight);
+  // Static reflections: points on the module's walls, none in the navigator's map.
+  r.static_reflections = 12;
+  const Scenario sr = MatrixScenario(r);
+  EXPECT_EQ(sr.clutter.static_reflections, 12);
+  EXPECT_EQ(sr.clutter.reflectors.num_beacons, 12);
+  EXPECT_EQ(BelievedRig(sr).num_beacons, 64);
+}
+
+// --static-reflections reaches the presets with a module only (free-flight has none).
+TEST(NavMatrixSpec, StaticReflectionsOnlyWhereThereAreWalls) {
+  MatrixSpec m;
+  m.static_reflections = 20;
+  m.seeds = {1};
+  for (const RunSpec& r : ExpandMatrix(m))
+    EXPECT_EQ(r.static_reflections, r.preset == "free-flight" ? 0 : 20) << r.preset;
 }
 
 std::string ErrorOf(const MatrixSpec& m) {
@@ -208,6 +223,9 @@ TEST(NavMatrixSpec, ErrorsNameTheFlag) {
   m = MatrixSpec{};
   m.spurious = -1;
   EXPECT_EQ(ErrorOf(m), "--spurious: must be 0..100");
+  m = MatrixSpec{};
+  m.static_reflections = 257;
+  EXPECT_EQ(ErrorOf(m), "--static-reflections: must be 0..256");
   try {
     ParseSeeds("1-x");
     ADD_FAILURE() << "no error";
