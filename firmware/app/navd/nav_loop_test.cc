@@ -154,7 +154,7 @@ TEST(NavLoop, NoAllocationAfterStartAndFixesFromImages) {
 
   const long sets = FrameSetsForAllocationTest();
   const std::uint64_t before = testing::AllocationCount();
-  long first_fix = -1, sets_3plus = 0, fixes_3plus = 0, wrong = 0;
+  long first_fix = -1, sets_3plus = 0, fixes_3plus = 0, posed_3plus = 0, wrong = 0;
   PoseRecord rec;
   for (long n = 0; n < sets; ++n) {
     const int visible = sweep.Render(n);
@@ -168,20 +168,24 @@ TEST(NavLoop, NoAllocationAfterStartAndFixesFromImages) {
     if (first_fix >= 0 && visible >= 3) {
       ++sets_3plus;
       fixes_3plus += rec.status == NavStatus::kFix;
+      posed_3plus += fix;
     }
   }
-  std::printf("%ld frame sets of 320x256 images: first fix at %ld, then fix in %ld of %ld frame sets with >= 3 "
-              "beacons, %ld wrong\n",
-              sets, first_fix, fixes_3plus, sets_3plus, wrong);
+  std::printf("%ld frame sets of 320x256 images: first fix at %ld, then fix in %ld (posed in %ld) of %ld frame sets "
+              "with >= 3 beacons, %ld wrong\n",
+              sets, first_fix, fixes_3plus, posed_3plus, sets_3plus, wrong);
   EXPECT_EQ(testing::AllocationCount() - before, 0u) << "heap allocations after start";
   EXPECT_GE(first_fix, 0);
   EXPECT_LT(first_fix, 40);
-  // (Measured: 8221 of 8572. The frame sets without a fix follow the long gap of the sweep
-  // (2.3 s with 2 beacons; the full-resolution sweep settles at once, see navigator_test and
-  // the must-show test): on these 320 x 256 images the beacon that ends the gap enters at the
-  // image border, truncated, and several poses stay consistent within the prediction's bounds
-  // for ~12 frame sets. Lost, with reason "acquiring", never a wrong fix.)
-  EXPECT_GE(fixes_3plus, sets_3plus * 95 / 100);
+  // (Measured: posed in 8221 of 8572. The frame sets without a pose follow the long gap of the
+  // sweep (2.3 s with 2 beacons; the full-resolution sweep settles at once, see navigator_test
+  // and the must-show test): on these 320 x 256 images the beacon that ends the gap enters at
+  // the image border, truncated, and several poses stay consistent within the prediction's
+  // bounds for ~12 frame sets. Lost, with reason "acquiring", never a wrong pose. Of the posed,
+  // 84 three-beacon poses carry an attitude 1-sigma above TrackOptions::max_attitude_sigma_rad
+  // (0.25 deg: these images have a quarter of the paper's pixels per radian): degraded.)
+  EXPECT_GE(posed_3plus, sets_3plus * 95 / 100);
+  EXPECT_GE(fixes_3plus, sets_3plus * 93 / 100);
   EXPECT_EQ(wrong, 0);
   EXPECT_EQ(loop->counters().frame_sets, static_cast<std::uint64_t>(sets));
 }
