@@ -65,6 +65,17 @@ class Acquisition {
   // Follows the chain with a frame set's complete list; empty afterwards when no listed pose
   // lies within the bounds of a followed one.
   void Follow(const LisResult& list, std::uint64_t t_ns);
+  // Keeps the followed poses for which keep(pose) is true (order kept); returns how many
+  // were dropped.
+  template <typename Keep>
+  int Retain(Keep keep) {
+    int n = 0;
+    for (int i = 0; i < n_; ++i)
+      if (keep(chain_[static_cast<std::size_t>(i)].pose)) chain_[static_cast<std::size_t>(n++)] = chain_[static_cast<std::size_t>(i)];
+    const int dropped = n_ - n;
+    n_ = n;
+    return dropped;
+  }
 
  private:
   int n_ = 0;

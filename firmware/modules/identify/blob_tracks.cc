@@ -64,6 +64,7 @@ void BlobTracks::AssociateCamera(int camera, double dt_s, double wide_gate_px, c
     cur.age = tight ? static_cast<std::uint8_t>(std::min(255, prev.age + 1)) : std::uint8_t{2};
     cur.du = (cur.u - prev.u) / dt_s;
     cur.dv = (cur.v - prev.v) / dt_s;
+    cur.id = prev.id;
   }
 }
 
@@ -76,7 +77,7 @@ void BlobTracks::Update(const BlobObs* blobs, int n, std::uint64_t t_ns, std::ui
     const BlobObs& b = blobs[i];
     const bool usable = b.camera >= 0 && b.camera < limits::kMaxCameras && b.x_n.allFinite();
     cur_[si] = Point{usable ? b.x_n.x() * px_per_rad : 0.0, usable ? b.x_n.y() * px_per_rad : 0.0, 0.0, 0.0, 1,
-                     static_cast<std::int8_t>(usable ? b.camera : -1)};
+                     static_cast<std::int8_t>(usable ? b.camera : -1), 0U};
     best_prev_[si] = -1;
     best_prev_cost_[si] = kNoCost;
   }
@@ -93,6 +94,11 @@ void BlobTracks::Update(const BlobObs* blobs, int n, std::uint64_t t_ns, std::ui
   num_steady_ = 0;
   for (int i = 0; i < num_cur_; ++i) {
     const auto si = static_cast<std::size_t>(i);
+    if (cur_[si].id == 0) {
+      if (++last_id_ == 0) ++last_id_;
+      cur_[si].id = last_id_;
+    }
+    ids_[si] = cur_[si].id;
     ages_[si] = cur_[si].age;
     steady_[si] = cur_[si].age >= o.steady_age ? 1 : 0;
     num_steady_ += steady_[si];

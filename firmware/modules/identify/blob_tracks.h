@@ -59,6 +59,9 @@ class BlobTracks {
   int age(int i) const { return ages_[static_cast<std::size_t>(i)]; }
   bool steady(int i) const { return ages_[static_cast<std::size_t>(i)] >= steady_age_; }
   const std::uint8_t* steady_flags() const { return steady_.data(); }  // 1 per steady blob
+  // Of blob i of the last Update: its track's id, kept while the track continues; a new track
+  // gets an id no earlier track had (never 0; unique over 2^32 - 1 tracks).
+  std::uint32_t id(int i) const { return ids_[static_cast<std::size_t>(i)]; }
   int num_steady() const { return num_steady_; }
 
  private:
@@ -67,6 +70,7 @@ class BlobTracks {
     double du = 0.0, dv = 0.0;  // image velocity, px/s (age >= 2)
     std::uint8_t age = 0;
     std::int8_t camera = -1;
+    std::uint32_t id = 0;  // 0: not yet given
   };
   void AssociateCamera(int camera, double dt_s, double wide_gate_px, const BlobTrackOptions& o);
   float Cost(const Point& prev, const Point& cur, double dt_s, double wide_gate_px, const BlobTrackOptions& o) const;
@@ -77,6 +81,8 @@ class BlobTracks {
   std::uint32_t prev_cameras_ = 0;
   int steady_age_ = 3;
   int num_steady_ = 0;
+  std::uint32_t last_id_ = 0;
+  std::array<std::uint32_t, limits::kMaxObservations> ids_{};
   std::array<Point, limits::kMaxObservations> prev_{}, cur_{};
   std::array<std::uint8_t, limits::kMaxObservations> ages_{}, steady_{};
   std::array<std::int16_t, limits::kMaxObservations> best_prev_{}, best_cur_{};

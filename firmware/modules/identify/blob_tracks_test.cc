@@ -127,11 +127,20 @@ TEST(BlobTracksTest, GapsAndSilentCamerasStartOver) {
   StaticFrames(&tracks, s, 0, kAllCameras, o);
   EXPECT_EQ(tracks.num_steady(), s.num_blobs);
   EXPECT_EQ(tracks.age(0), 3);
-  // A gap beyond max_gap_s: every track is new.
-  const auto late = static_cast<int>(std::ceil((o.max_gap_s + 0.1) * kFrameRateHz)) + 3;
+  // Each track keeps its id while it continues; ids differ between tracks and are never 0.
+  std::set<std::uint32_t> ids;
+  for (int i = 0; i < s.num_blobs; ++i) ids.insert(tracks.id(i));
+  EXPECT_EQ(ids.size(), static_cast<std::size_t>(s.num_blobs));
+  EXPECT_EQ(ids.count(0U), 0U);
+  const std::uint32_t first_id = tracks.id(0);
+  tracks.Update(s.blobs.data(), s.num_blobs, FrameNs(3), kAllCameras, 1000.0, o);
+  EXPECT_EQ(tracks.id(0), first_id);
+  // A gap beyond max_gap_s: every track is new, with a new id.
+  const auto late = static_cast<int>(std::ceil((o.max_gap_s + 0.1) * kFrameRateHz)) + 4;
   tracks.Update(s.blobs.data(), s.num_blobs, FrameNs(late), kAllCameras, 1000.0, o);
   EXPECT_EQ(tracks.num_steady(), 0);
   EXPECT_EQ(tracks.age(0), 1);
+  for (int i = 0; i < s.num_blobs; ++i) EXPECT_EQ(ids.count(tracks.id(i)), 0U) << "blob " << i;
   // A camera that did not deliver in the previous frame set starts its tracks over.
   tracks.Reset();
   StaticFrames(&tracks, s, 0, kAllCameras, o);

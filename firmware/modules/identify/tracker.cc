@@ -76,6 +76,7 @@ bool Tracker::Reset(const Rig& rig) {
   acquisition_.Clear();
   counters_ = TrackCounters{};
   blob_tracks_.Reset();
+  beacon_track_.fill(0);
   if (!lis_.Reset(rig)) return false;
   matcher_.Reset(rig);
   rig_ = &rig;
@@ -208,6 +209,7 @@ bool Tracker::TrackFrom(const BodyPose& predicted, const PoseBounds& bounds, dou
                         TrackResult* r, bool* refuted) {
   *refuted = false;
   matcher_.MatchPose(predicted, MatchOptions{gate_px, o.miss_margin_px, true}, &base_, &ambiguous_);
+  ContinueTracks(o);
   const int n = std::min(ambiguous_.num, o.max_ambiguous_tried);
   if (n > 0) ++counters_.ambiguous_tried;
   int tried = 0, refutations = 0, consistent = 0, competitors = 0;
@@ -287,6 +289,76 @@ bool Tracker::Unambiguous(const TrackOptions& o, TrackResult* r) {
   return !ambiguity_refused_;
 }
 
+// A beacon with two blobs in its gate whose last accepted blob's image track continues, steady,
+// into one of them while the other blob is new (age 1): the beacon takes that blob (moved from
+// ambiguous_ to base_) instead of the trials of both. A reflection that appears beside a
+// beacon for one frame set does not continue anything; one that moves with the scene is
+// steady, and both blobs are still tried. (A beacon whose track was lost and whose blob is
+// new beside a steady reflection that took its place is not resolved: the other is not new.)
+void Tracker::ContinueTracks(const TrackOptions& o) {
+  if (!o.continue_blob_tracks || steady_ == nullptr) return;
+  int kept = 0;
+  for (int i = 0; i < ambiguous_.num; ++i) {
+    const AmbiguousMatch a = ambiguous_.items[static_cast<std::size_t>(i)];
+    const std::uint32_t id = beacon_track_[static_cast<std::size_t>(a.camera * limits::kMaxBeacons + a.beacon)];
+    int blob = -1;
+    if (id != 0 && blob_tracks_.id(a.blob_near) == id && blob_tracks_.steady(a.blob_near) && blob_tracks_.age(a.blob_far) == 1)
+      blob = a.blob_near;
+    else if (id != 0 && blob_tracks_.id(a.blob_far) == id && blob_tracks_.steady(a.blob_far) &&
+             blob_tracks_.age(a.blob_near) == 1)
+      blob = a.blob_far;
+    if (blob >= 0 && base_.BeaconOfBlob(blob) < 0 && base_.num_matches < limits::kMaxMatches) {
+      base_.matches[static_cast<std::size_t>(base_.num_matches++)] = Match{blob, a.beacon, a.camera};
+      base_.beacons.Set(a.beacon);
+      base_.num_beacons = base_.beacons.Count();
+      ++counters_.ambiguity_continued;
+      continue;
+    }
+    ambiguous_.items[static_cast<std::size_t>(kept++)] = a;
+  }
+  ambiguous_.num = kept;
+}
+
+// Each matched beacon's blob track, for ContinueTracks at the next frame sets.
+void Tracker::RememberTracks(const MatchSet& matches) {
+  if (steady_ == nullptr) return;
+  for (int i = 0; i < matches.num_matches; ++i) {
+    const Match& m = matches.matches[static_cast<std::size_t>(i)];
+    if (m.camera < 0 || m.camera >= limits::kMaxCameras || m.beacon < 0 || m.beacon >= limits::kMaxBeacons) continue;
+    beacon_track_[static_cast<std::size_t>(m.camera * limits::kMaxBeacons + m.beacon)] = blob_tracks_.id(m.blob);
+  }
+}
+
+// The steady blobs of this frame set whose track is a remembered beacon's (RememberTracks):
+// their identity is known from the image alone, whatever the pose. Returns how many.
+int Tracker::ContinuingBlobs(const TrackOptions& o) {
+  num_continuing_ = 0;
+  if (!o.continue_blob_tracks || steady_ == nullptr) return 0;
+  for (int i = 0; i < num_blobs_; ++i) {
+    if (!blob_tracks_.steady(i)) continue;
+    const std::uint32_t id = blob_tracks_.id(i);
+    const int camera = blobs_[i].camera;
+    for (int b = 0; b < rig_->num_beacons; ++b) {
+      if (beacon_track_[static_cast<std::size_t>(camera * limits::kMaxBeacons + b)] != id) continue;
+      continuing_[static_cast<std::size_t>(num_continuing_++)] = ContinuingBlob{i, b};
+      break;
+    }
+  }
+  return num_continuing_;
+}
+
+// Whether a pose names every continuing blob (ContinuingBlobs) its remembered beacon: a pose that
+// explains such a blob as another beacon, or not at all, contradicts the image tracks.
+bool Tracker::KeepsContinuingBlobs(const BodyPose& pose, const TrackOptions& o) {
+  if (num_continuing_ == 0) return true;
+  matcher_.MatchPose(pose, o.lis.refine_match, &twin_set_);
+  for (int i = 0; i < num_continuing_; ++i) {
+    const ContinuingBlob& c = continuing_[static_cast<std::size_t>(i)];
+    if (twin_set_.BeaconOfBlob(c.blob) != c.beacon) return false;
+  }
+  return true;
+}
+
 // set_ = the unambiguous matches plus, for ambiguous beacon i < n, its nearer blob (bit i of
 // choice clear) or its farther one (set). False when a blob would be used twice.
 bool Tracker::ChooseAmbiguous(std::uint32_t choice, int n) {
@@ -350,6 +422,7 @@ bool Tracker::PublishAmbiguous(const TrackOptions& o, TrackResult* r) {
     r->solve.covariance(d + 3, d + 3) += ambiguity_spread_rad_ * ambiguity_spread_rad_;
   }
   ++counters_.ambiguous_published;
+  RememberTracks(r->matches);
   PublishUnfollowed(r);
   return true;
 }
@@ -461,6 +534,13 @@ bool Tracker::Acquire(std::uint64_t t_ns, const TrackOptions& o, TrackResult* r)
   // next frame set: from the prediction again while the last accepted pose may seed it (a
   // refuted prediction is forgotten by Track, from its missing beacons), else without a prior.
   acquisition_.Follow(l, t_ns);
+  // A followed pose that names a blob continuing a beacon's image track another beacon (or
+  // leaves it unexplained) is not the truth, when the track was that beacon's in an accepted
+  // pose: after a gap with fewer than three beacons, the two that stayed in view keep their
+  // identities, and poses resting on spurious blobs in their place drop out.
+  if (acquisition_.seeded() && ContinuingBlobs(o) > 0)
+    counters_.continuity_refuted += static_cast<std::uint32_t>(
+        acquisition_.Retain([&](const BodyPose& p) { return KeepsContinuingBlobs(p, o); }));
   r->acquisition_poses = acquisition_.size();
   // The last pose must be confirmed by this frame set. A chain seeded by an accepted pose
   // holds the truth when the frame sets had three true beacons; one started from
@@ -577,6 +657,7 @@ void Tracker::Accept(std::uint64_t t_ns, const TrackOptions& o, TrackResult* r) 
               r->solve.has_covariance ? &r->solve.covariance : nullptr);
   has_pose_ = true;
   acquisition_.Clear();
+  RememberTracks(r->matches);
   // Fix or degraded, judged on the pose's whole 1-sigma: centroid noise and the map's error
   // (the covariance Navigator publishes), so that a fix never carries a 1-sigma above the bounds.
   const double total = noise_.TotalToCentroid();

@@ -193,6 +193,11 @@ struct TrackOptions {
   bool steady_blobs_first = true;
   double steady_gate_px = 3.0;        // BlobTrackOptions::tight_gate_px
   double steady_gate_fraction = 0.2;  // BlobTrackOptions::tight_gate_fraction
+  // With steady_blobs_first: a beacon with two blobs in its tracking gate takes the one that
+  // continues the steady image track of its last accepted blob when the other blob is new (a
+  // track of one frame set: a flickering reflection, a glint), instead of trying both
+  // (Tracker::ContinueTracks). Both steady (a reflection that moves with the scene): tried.
+  bool continue_blob_tracks = true;
   int lis_fix_min_beacons = 4;       // a lost-in-space fix on its own needs this many beacons
                                      // (three fit exactly, so a reflection among them shows not)
   double chain_stale_s = 1.0;        // a followed pose unconfirmed this long restarts it all
@@ -274,6 +279,8 @@ struct TrackCounters {
   std::uint32_t previous_refused = 0;  // an acquired pose that does not explain the previous frame set
   std::uint32_t steady_unexplained = 0;  // an acquired three-beacon pose that leaves a steady blob unexplained
   std::uint32_t chain_restarts = 0;    // an unseeded acquisition's survivor outscored: restarted
+  std::uint32_t ambiguity_continued = 0;  // an ambiguous beacon given the blob that continues its track
+  std::uint32_t continuity_refuted = 0;   // a followed pose that names a continuing blob another beacon
   SolveCounters solve;
 };
 static_assert(std::tuple_size_v<decltype(TrackCounters::by_status)> == static_cast<std::size_t>(TrackStatus::kCount),
@@ -329,6 +336,10 @@ class Tracker {
   bool PublishAmbiguous(const TrackOptions& o, TrackResult* r);
   bool DecideByMotion(const BodyPose& predicted, const PoseBounds& bounds, const TrackOptions& o, TrackResult* r);
   bool Unambiguous(const TrackOptions& o, TrackResult* r);
+  void ContinueTracks(const TrackOptions& o);
+  void RememberTracks(const MatchSet& matches);
+  int ContinuingBlobs(const TrackOptions& o);
+  bool KeepsContinuingBlobs(const BodyPose& pose, const TrackOptions& o);
   void SameTolerance(const TrackResult& b, const TrackOptions& o, double* tol_m, double* tol_rad) const;
   void SameTolerance(const Matrix6d* cov, const TrackOptions& o, double* tol_m, double* tol_rad) const;
   bool SamePoseWithin(const TrackResult& a, const TrackResult& b, const TrackOptions& o) const;
@@ -372,6 +383,17 @@ class Tracker {
   LisResult lis_res_;
   BlobTracks blob_tracks_;  // the blobs' image tracks: steady ones are searched first
   const std::uint8_t* steady_ = nullptr;  // blob_tracks_'s flags for this frame set, or nullptr
+  // The blob track id (BlobTracks::id) of each beacon's last accepted blob, by camera and
+  // beacon (0: none; an id that no blob carries any more matches nothing).
+  std::array<std::uint32_t, limits::kMaxCameras * limits::kMaxBeacons> beacon_track_{};
+  // This frame set's steady blobs that continue a remembered beacon's track (ContinuingBlobs):
+  // blob index and beacon.
+  struct ContinuingBlob {
+    int blob = 0;
+    int beacon = 0;
+  };
+  std::array<ContinuingBlob, limits::kMaxObservations> continuing_{};
+  int num_continuing_ = 0;
   int cold_steady_ = 0;  // steady blobs when the cold search in progress began
   int lis_budget_left_ = 0;  // work units left to this frame set
   std::uint64_t cold_t_ns_ = 0;  // the frame set of the cold search in progress
