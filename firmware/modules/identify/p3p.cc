@@ -181,14 +181,15 @@ int PolynomialRealRoots(const double* c, int n, double* roots) {
 
 namespace {
 
-// Sign changes in b[0..n], zeros skipped (Descartes' rule for the Bernstein form: at least the
-// number of roots in the open interval, with the same parity; 0 or 1 exactly).
+// Sign changes in b[0..n], zeros skipped, counted up to 2 (Descartes' rule for the Bernstein
+// form: at least the number of roots in the open interval, with the same parity; 0 or 1
+// exactly, and the callers only tell 0, 1 and more apart).
 int SignVariations(const double* b, int n) {
   int v = 0;
   double prev = 0.0;
   for (int i = 0; i <= n; ++i) {
     if (b[i] == 0.0) continue;
-    if (prev != 0.0 && (b[i] < 0.0) != (prev < 0.0)) ++v;
+    if (prev != 0.0 && (b[i] < 0.0) != (prev < 0.0) && ++v == 2) break;
     prev = b[i];
   }
   return v;
@@ -208,8 +209,8 @@ double BracketedRoot(const double* c, int n, double a, double b, double fa, doub
     else b = x;
     double next = x - f / d;
     if (!(next > a && next < b)) next = 0.5 * (a + b);
-    // 1e-12: the callers polish on their own equations afterwards.
-    const double tol = 1e-12 * std::max(1.0, std::abs(x));
+    // 1e-11: the callers polish on their own equations afterwards.
+    const double tol = 1e-11 * std::max(1.0, std::abs(x));
     const bool done = std::abs(next - x) <= tol || b - a <= tol;
     x = next;
     if (done) break;
@@ -219,9 +220,13 @@ double BracketedRoot(const double* c, int n, double a, double b, double fa, doub
 
 }  // namespace
 
-int PolynomialRealRootsIn(const double* c, int n, double lo, double hi, double* roots) {
-  while (n > 0 && c[n] == 0.0) --n;
-  if (n <= 0 || n > 8 || !(lo < hi) || !std::isfinite(hi - lo)) return 0;
+namespace {
+
+// PolynomialRealRootsIn for degree kN (0: the degree n at run time). The fixed degree lets
+// the compiler unroll the short loops of the P3P's octic.
+template <int kN>
+int RealRootsInImpl(const double* c, int n_runtime, double lo, double hi, double* roots) {
+  const int n = kN > 0 ? kN : n_runtime;
   // q(t) = p(lo + h t) on t in [0, 1]: a Taylor shift (repeated synthetic division), then the
   // scaling of t.
   const double h = hi - lo;
@@ -237,6 +242,7 @@ int PolynomialRealRootsIn(const double* c, int n, double lo, double hi, double* 
       {1, 3, 3, 1, 0, 0, 0, 0, 0},       {1, 4, 6, 4, 1, 0, 0, 0, 0},        {1, 5, 10, 10, 5, 1, 0, 0, 0},
       {1, 6, 15, 20, 15, 6, 1, 0, 0},    {1, 7, 21, 35, 35, 21, 7, 1, 0},    {1, 8, 28, 56, 70, 56, 28, 8, 1}}};
   const auto sn = static_cast<std::size_t>(n);
+  for (std::size_t k = 1; k < sn; ++k) q[k] /= kBinomial[sn][k];  // (q_k / C(n, k) once)
   struct Node {
     std::array<double, 9> b;
     double a, w;
@@ -250,7 +256,7 @@ int PolynomialRealRootsIn(const double* c, int n, double lo, double hi, double* 
   Node& root = stack[0];
   for (std::size_t i = 0; i <= sn; ++i) {
     double s = 0.0;
-    for (std::size_t k = 0; k <= i; ++k) s += kBinomial[i][k] / kBinomial[sn][k] * q[k];
+    for (std::size_t k = 0; k <= i; ++k) s += kBinomial[i][k] * q[k];
     root.b[i] = s;
   }
   root.a = lo;
@@ -291,6 +297,13 @@ int PolynomialRealRootsIn(const double* c, int n, double lo, double hi, double* 
   for (int guard = 0; top > 0 && guard < kMaxNodes; ++guard) {
     const Node node = stack[static_cast<std::size_t>(--top)];
     const int v = SignVariations(node.b.data(), n);
+    if (v == 1 && node.b[0] != 0.0 && node.b[sn] != 0.0) {  // exactly one root
+      if (count < n) {
+        roots[count++] = BracketedRoot(c, n, node.a, node.a + node.w, node.b[0], node.b[sn]);
+        last_is_cluster = false;
+      }
+      continue;
+    }
     // Rounding of the values on the piece: relative to the terms' magnitude there (the
     // coefficients carry the rounding of their own derivation, hence 1e-12 rather than 1e-16).
     const double xm = std::max(std::abs(node.a), std::abs(node.a + node.w));
@@ -327,13 +340,6 @@ int PolynomialRealRootsIn(const double* c, int n, double lo, double hi, double* 
         continue;
       }
     }
-    if (v == 1 && node.b[0] != 0.0 && node.b[sn] != 0.0) {
-      if (count < n) {
-        roots[count++] = BracketedRoot(c, n, node.a, node.a + node.w, node.b[0], node.b[sn]);
-        last_is_cluster = false;
-      }
-      continue;
-    }
     if (node.w <= min_width || node.depth >= kMaxDepth) {
       // Roots closer than the width (or an extremum too flat to place): one candidate; the
       // callers check it on their own equations.
@@ -366,6 +372,14 @@ int PolynomialRealRootsIn(const double* c, int n, double lo, double hi, double* 
   }
   std::sort(roots, roots + count);
   return count;
+}
+
+}  // namespace
+
+int PolynomialRealRootsIn(const double* c, int n, double lo, double hi, double* roots) {
+  while (n > 0 && c[n] == 0.0) --n;
+  if (n <= 0 || n > 8 || !(lo < hi) || !std::isfinite(hi - lo)) return 0;
+  return n == 8 ? RealRootsInImpl<8>(c, 8, lo, hi, roots) : RealRootsInImpl<0>(c, n, lo, hi, roots);
 }
 
 namespace {
