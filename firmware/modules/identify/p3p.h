@@ -19,13 +19,20 @@
 // (two branches each, l_k = m_k(l_1) +- sqrt(g_k(l_1))); the (2,3) distance residual is
 // A + s_2 B r_2 + s_3 C r_3 + s_2 s_3 E r_2 r_3 with r_k = sqrt(g_k) and polynomials A, B, C, E.
 // Squaring twice removes the square roots and the signs: one octic in l_1 whose roots are
-// every branch pair's. Its real roots in [min_depth_m, max_depth_m] are bracketed between the
-// roots of its derivatives (recursively, on the interval only); critical points where it
-// touches zero within a tolerance are candidates too (near-double roots). Each candidate is
-// assigned to the branch pairs whose residual nearly vanishes there and polished by Newton on
-// the three distance equations; only solutions satisfying all three are kept.
+// every branch pair's. Its real roots in [min_depth_m, max_depth_m] come from Bernstein
+// subdivision (PolynomialRealRootsIn), with candidates where it only touches zero (near-double
+// roots). Each candidate is assigned to the branch pairs whose residual nearly vanishes there
+// and polished by Newton on the three distance equations; only solutions satisfying all three
+// are kept. The two squarings cancel near close roots and branch ends (the octic's roots then
+// move by up to ~1e-4 m or hide): where a polish fails or moves l_1 by more than 1e-7, the
+// exact branch residuals are searched around the place (sign changes, dips, branch ends).
 //
-// No heap, every loop bounded (polynomial degrees, limits::kMaxBisectionIterations).
+// Both cases: from every solution, its near twin (two solutions merging, J singular) is sought
+// along the null direction of the distance equations' Jacobian and kept if it polishes to a
+// solution; the tracker refuses an ambiguous three-beacon fix by seeing that twin.
+//
+// No heap, every loop bounded (fixed iteration and subdivision limits,
+// limits::kMaxBisectionIterations).
 #pragma once
 
 #include <Eigen/Core>
