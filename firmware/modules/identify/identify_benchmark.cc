@@ -19,6 +19,7 @@
 #include "common/rotation/rotation.h"
 #include "firmware/modules/identify/lost_in_space.h"
 #include "firmware/modules/identify/p3p.h"
+#include "firmware/modules/identify/p3p_scan_reference.h"
 #include "firmware/modules/identify/tracker.h"
 #include "firmware/modules/solve/synthetic_scene.h"
 
@@ -266,26 +267,68 @@ void P3pOneHypothesis(benchmark::State& state) {
 BENCHMARK(P3pOneHypothesis)->Unit(benchmark::kMicrosecond);
 
 // Lost-in-space sets the ray triple once per blob triple and solves it for many beacon triples.
-// separate_m > 0 moves rays 2 and 3's origins that far apart: the general (multi-camera) scan
-// instead of the central closed form, the cost of a cross-camera hypothesis.
-void P3pSolveOnly(benchmark::State& state, double separate_m) {
-  const Rig& rig = PaperRigOnce();
-  const P3pCase c = OneCameraP3pCase();
-  static P3pRayTriple triple;
+// separate_m > 0 moves rays 2 and 3's origins that far apart: the generalized (multi-camera)
+// solve instead of the central one on the same rays and points (until 2026-12-03 the 1-D scan,
+// benchmark name general_scan).
+template <class Solver>
+void SolveRays(benchmark::State& state, const std::array<BodyRay, 3>& rays, const std::array<Eigen::Vector3d, 3>& P_w) {
+  static Solver triple;
   static std::array<BodyPose, limits::kMaxP3pSolutions> poses;
-  std::array<BodyRay, 3> rays = {RayOfBlob(rig, c.blobs[0]), RayOfBlob(rig, c.blobs[1]), RayOfBlob(rig, c.blobs[2])};
-  rays[1].o_b.x() += separate_m;
-  rays[2].o_b.y() += separate_m;
   triple.Set(rays, P3pOptions{});
   int n = 0;
   for (auto _ : state) {
-    n = triple.Solve(c.P_w, &poses);
+    n = triple.Solve(P_w, &poses);
     benchmark::DoNotOptimize(poses[0].r_w_wb.data());
   }
   state.counters["solutions"] = n;
 }
+
+template <class Solver>
+void P3pSolveOnlyWith(benchmark::State& state, double separate_m) {
+  const Rig& rig = PaperRigOnce();
+  const P3pCase c = OneCameraP3pCase();
+  std::array<BodyRay, 3> rays = {RayOfBlob(rig, c.blobs[0]), RayOfBlob(rig, c.blobs[1]), RayOfBlob(rig, c.blobs[2])};
+  rays[1].o_b.x() += separate_m;
+  rays[2].o_b.y() += separate_m;
+  SolveRays<Solver>(state, rays, c.P_w);
+}
+
+// One blob in each of the rig's three cameras (the same pixels as the one-camera case, the
+// same depths along the rays): a cross-camera hypothesis proper. No OpenCV equivalent.
+template <class Solver>
+void P3pThreeCamerasWith(benchmark::State& state) {
+  const Rig& rig = PaperRigOnce();
+  const BodyPose truth = testing::YawPose(DegToRad(20.0));
+  const Eigen::Vector2d spots[] = {{300, 250}, {1000, 800}, {950, 200}};
+  const double depth[] = {0.6, 0.75, 0.9};
+  std::array<BodyRay, 3> rays;
+  std::array<Eigen::Vector3d, 3> P_w;
+  for (std::size_t i = 0; i < 3; ++i) {
+    BlobObs blob;
+    blob.camera = static_cast<int>(i);
+    blob.uv_px = spots[i];
+    Unproject(rig.cameras[i].intrinsics, spots[i], &blob.x_n);
+    rays[i] = RayOfBlob(rig, blob);
+    P_w[i] = truth.C_w_b * (rays[i].o_b + depth[i] * rays[i].d_b) + truth.r_w_wb;
+  }
+  SolveRays<Solver>(state, rays, P_w);
+}
+
+void P3pSolveOnly(benchmark::State& state, double separate_m) { P3pSolveOnlyWith<P3pRayTriple>(state, separate_m); }
 BENCHMARK_CAPTURE(P3pSolveOnly, central, 0.0)->Unit(benchmark::kMicrosecond);
-BENCHMARK_CAPTURE(P3pSolveOnly, general_scan, 1e-9)->Unit(benchmark::kMicrosecond);
+BENCHMARK_CAPTURE(P3pSolveOnly, general, 1e-9)->Unit(benchmark::kMicrosecond);
+void P3pThreeCameras(benchmark::State& state) { P3pThreeCamerasWith<P3pRayTriple>(state); }
+BENCHMARK(P3pThreeCameras)->Unit(benchmark::kMicrosecond);
+
+// The solver before 2026-12-03 (Grunert's quartic, the 128-step scan; p3p_scan_reference.h,
+// test and benchmark only), in the same run.
+void P3pScanReference(benchmark::State& state, double separate_m) {
+  P3pSolveOnlyWith<scan_reference::ScanP3p>(state, separate_m);
+}
+BENCHMARK_CAPTURE(P3pScanReference, central, 0.0)->Unit(benchmark::kMicrosecond);
+BENCHMARK_CAPTURE(P3pScanReference, general, 1e-9)->Unit(benchmark::kMicrosecond);
+void P3pScanReferenceThreeCameras(benchmark::State& state) { P3pThreeCamerasWith<scan_reference::ScanP3p>(state); }
+BENCHMARK(P3pScanReferenceThreeCameras)->Unit(benchmark::kMicrosecond);
 
 #ifdef MFNS_HAVE_OPENCV
 // Baseline: OpenCV's P3P (Gao et al., with undistortion of the three pixels) on the same case.

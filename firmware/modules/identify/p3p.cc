@@ -5,6 +5,7 @@
 #include <Eigen/SVD>
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 namespace mfns::fw {
 
@@ -25,24 +26,13 @@ bool P3pOptions::IsValid(const char** why) const {
   return bad == nullptr;
 }
 
-// Along ray 1 at depth l, with u_k = o1 - o_k:  m_k(l) = d_k . (P1 - o_k) = a_k + b_k l and
-// |P1 - o_k|^2 = c_k + 2 e_k l + l^2, so q_k(l) = |P1 - o_k|^2 - m_k^2 (the squared distance of
-// P1 from ray k) is a quadratic in l.
-P3pRayTriple::Sample P3pRayTriple::At(double l1) const {
-  Sample s;
-  s.l1 = l1;
-  s.m2 = ray2_.a + ray2_.b * l1;
-  s.q2 = std::max(0.0, ray2_.c + (2.0 * ray2_.e + l1) * l1 - s.m2 * s.m2);
-  s.m3 = ray3_.a + ray3_.b * l1;
-  s.q3 = std::max(0.0, ray3_.c + (2.0 * ray3_.e + l1) * l1 - s.m3 * s.m3);
-  return s;
-}
-
 bool P3pRayTriple::Set(const std::array<BodyRay, 3>& rays, const P3pOptions& options) {
-  n_ = 0;
+  valid_ = false;
   if (!options.IsValid()) return false;
   rays_ = rays;
   options_ = options;
+  // Along ray 1 at depth l, with u_k = o1 - o_k: m_k(l) = d_k . (P1 - o_k) = a_k + b_k l and
+  // |P1 - o_k|^2 = c_k + 2 e_k l + l^2.
   auto coefficients = [&](const BodyRay& r) {
     const Eigen::Vector3d u = rays[0].o_b - r.o_b;
     return RayCoefficients{r.d_b.dot(u), r.d_b.dot(rays[0].d_b), u.squaredNorm(), rays[0].d_b.dot(u)};
@@ -54,46 +44,17 @@ bool P3pRayTriple::Set(const std::array<BodyRay, 3>& rays, const P3pOptions& opt
   d2_o23_ = rays[1].d_b.dot(o23);
   d3_o23_ = rays[2].d_b.dot(o23);
   d2_d3_ = rays[1].d_b.dot(rays[2].d_b);
-  // One camera: the closed form (SolveCentral) needs no scan.
+  // One camera: the central closed form.
   const double scale = 1.0 + rays[0].o_b.norm();
   central_ = (rays[1].o_b - rays[0].o_b).norm() <= 1e-12 * scale && (rays[2].o_b - rays[0].o_b).norm() <= 1e-12 * scale;
   cos_a_ = rays[1].d_b.dot(rays[2].d_b);
   cos_b_ = rays[0].d_b.dot(rays[2].d_b);
   cos_c_ = rays[0].d_b.dot(rays[1].d_b);
-  if (central_) {
-    n_ = options.scan_steps;
-    return true;
-  }
-  // Geometric grid: the same relative depth resolution near and far (computed once per depth
-  // range).
-  if (options.min_depth_m != grid_min_ || options.max_depth_m != grid_max_ || options.scan_steps != grid_n_) {
-    const double ratio = std::log(options.max_depth_m / options.min_depth_m);
-    for (int j = 0; j < options.scan_steps; ++j)
-      depth_grid_[static_cast<std::size_t>(j)] = options.min_depth_m * std::exp(ratio * j / (options.scan_steps - 1));
-    grid_min_ = options.min_depth_m;
-    grid_max_ = options.max_depth_m;
-    grid_n_ = options.scan_steps;
-  }
-  for (int j = 0; j < options.scan_steps; ++j) grid_[static_cast<std::size_t>(j)] = At(depth_grid_[static_cast<std::size_t>(j)]);
-  n_ = options.scan_steps;
+  valid_ = true;
   return true;
 }
 
 namespace {
-
-// Depth along ray 2 or 3 on branch s; false where the discriminant is negative (no point of
-// the ray at distance D), with a rounding allowance at the branch's end. Depths below the
-// minimum are refused only at emission, so that the residual stays one smooth function per
-// branch up to the branch's end.
-bool Branch(double m, double q, double D_sq, int s, double* l) {
-  double disc = D_sq - q;
-  if (disc < 0.0) {
-    if (disc < -1e-12 * (D_sq + q)) return false;
-    disc = 0.0;
-  }
-  *l = m + s * std::sqrt(disc);
-  return true;
-}
 
 // Real roots of A x^2 + B x + C = 0 (A may vanish); returns how many.
 int Quadratic(double A, double B, double C, double* x0, double* x1) {
@@ -111,216 +72,13 @@ int Quadratic(double A, double B, double C, double* x0, double* x1) {
   return 2;
 }
 
-// Whether the extremum of f between three samples may reach zero (most extrema are far from
-// zero and skipped): the vertex of the parabola through them lies between them and crosses
-// zero, or the middle sample is nearer zero than to its farther neighbour.
-bool DipMayCross(double x0, double f0, double x1, double f1, double x2, double f2) {
-  const double s01 = (f1 - f0) / (x1 - x0), s12 = (f2 - f1) / (x2 - x1);
-  const double curv = (s12 - s01) / (x2 - x0);  // half the second derivative
-  if (curv == 0.0) return false;
-  // f(x) = f1 + s (x - x1) + curv (x - x1)^2 with s the slope at x1 of the parabola.
-  const double s = s01 + curv * (x1 - x0);
-  const double xv = x1 - s / (2.0 * curv);  // the vertex
-  const double slack = 0.5 * std::abs(x2 - x0);
-  if (xv < std::min(x0, x2) - slack || xv > std::max(x0, x2) + slack) return false;
-  const double fv = f1 - s * s / (4.0 * curv);
-  // Near a (double) root f is V-shaped rather than parabolic: also search when the middle
-  // sample is closer to zero than to its farther neighbour.
-  return (fv >= 0.0) != (f1 >= 0.0) || std::abs(f1) < std::max(std::abs(f0 - f1), std::abs(f2 - f1));
-}
-
 }  // namespace
-
-bool P3pRayTriple::Eval(double l1, int s2, int s3, const Distances& D, double* f, double* l2, double* l3) const {
-  const Sample s = At(l1);
-  if (!Branch(s.m2, s.q2, D.d12_sq, s2, l2) || !Branch(s.m3, s.q3, D.d13_sq, s3, l3)) return false;
-  const double d_sq = o23_sq_ + *l2 * *l2 + *l3 * *l3 + 2.0 * *l2 * d2_o23_ - 2.0 * *l3 * d3_o23_ -
-                      2.0 * *l2 * *l3 * d2_d3_;
-  *f = d_sq - D.d23_sq;  // same sign as |P2 - P3| - D23
-  return true;
-}
-
-// The depth l1 in [lo, hi] where a discriminant of ray 2 or 3 vanishes, nearest to `near`:
-// q_k(l1) = D_k^2 is a quadratic in l1. False if none lies in the interval.
-bool P3pRayTriple::BranchEnd(double lo, double hi, double near, const Distances& D, double* l1) const {
-  bool found = false;
-  double best = 0.0;
-  auto consider = [&](const RayCoefficients& r, double D_sq) {
-    double x[2] = {0.0, 0.0};
-    const int n = Quadratic(1.0 - r.b * r.b, 2.0 * (r.e - r.a * r.b), r.c - r.a * r.a - D_sq, &x[0], &x[1]);
-    for (int i = 0; i < n; ++i) {
-      if (x[i] < lo || x[i] > hi) continue;
-      if (!found || std::abs(x[i] - near) < std::abs(best - near)) best = x[i];
-      found = true;
-    }
-  };
-  consider(ray2_, D.d12_sq);
-  consider(ray3_, D.d13_sq);
-  *l1 = best;
-  return found;
-}
-
-// Root of f on [a, b] (valid at both ends, opposite signs) by the Illinois variant of regula
-// falsi (superlinear, bracketing), to about 1e-13 relative.
-bool P3pRayTriple::Root(double a, double b, int s2, int s3, const Distances& D, double* l1) const {
-  double fa = 0.0, fb = 0.0, l2 = 0.0, l3 = 0.0;
-  if (!Eval(a, s2, s3, D, &fa, &l2, &l3) || !Eval(b, s2, s3, D, &fb, &l2, &l3)) return false;
-  if ((fa < 0.0) == (fb < 0.0)) return false;
-  int side = 0;
-  double c = a;
-  for (int it = 0; it < limits::kMaxBisectionIterations; ++it) {
-    double next = (a * fb - b * fa) / (fb - fa);
-    if (!(next > std::min(a, b) && next < std::max(a, b))) next = 0.5 * (a + b);
-    const bool done = std::abs(next - c) <= 1e-13 * std::abs(next);
-    c = next;
-    double fc = 0.0;
-    if (!Eval(c, s2, s3, D, &fc, &l2, &l3)) return false;
-    if (fc == 0.0 || done || std::abs(b - a) <= 1e-14 * std::abs(c)) break;
-    if ((fc < 0.0) == (fb < 0.0)) {
-      b = c;
-      fb = fc;
-      if (side == -1) fa *= 0.5;
-      side = -1;
-    } else {
-      a = c;
-      fa = fc;
-      if (side == 1) fb *= 0.5;
-      side = 1;
-    }
-  }
-  *l1 = c;
-  return true;
-}
 
 int P3pRayTriple::Solve(const std::array<Eigen::Vector3d, 3>& P_w,
                         std::array<BodyPose, limits::kMaxP3pSolutions>* poses,
                         std::array<Eigen::Vector3d, limits::kMaxP3pSolutions>* depths) const {
-  if (central_) return n_ > 0 ? SolveCentral(P_w, poses, depths) : 0;
-  const Distances D{(P_w[1] - P_w[0]).squaredNorm(), (P_w[2] - P_w[0]).squaredNorm(),
-                    (P_w[2] - P_w[1]).squaredNorm()};
-  int count = 0;
-  std::array<double, limits::kMaxP3pSolutions> emitted_l1{};
-  std::array<int, limits::kMaxP3pSolutions> emitted_branch{};
-  auto emit = [&](double l1, int s2, int s3) {
-    double f = 0.0, l2 = 0.0, l3 = 0.0;
-    if (count >= limits::kMaxP3pSolutions || !Eval(l1, s2, s3, D, &f, &l2, &l3)) return;
-    if (l2 < options_.min_depth_m || l3 < options_.min_depth_m) return;  // behind or too near
-    const int branch = (s2 > 0 ? 1 : 0) + (s3 > 0 ? 2 : 0);
-    for (int i = 0; i < count; ++i)  // one root found from two overlapping searches
-      if (emitted_branch[static_cast<std::size_t>(i)] == branch &&
-          std::abs(emitted_l1[static_cast<std::size_t>(i)] - l1) <= 1e-9 * l1)
-        return;
-    const std::array<Eigen::Vector3d, 3> q = {rays_[0].o_b + l1 * rays_[0].d_b, rays_[1].o_b + l2 * rays_[1].d_b,
-                                              rays_[2].o_b + l3 * rays_[2].d_b};
-    BodyPose pose;
-    if (!TriangleOrientation(q, P_w, &pose)) return;
-    (*poses)[static_cast<std::size_t>(count)] = pose;
-    if (depths != nullptr) (*depths)[static_cast<std::size_t>(count)] = Eigen::Vector3d(l1, l2, l3);
-    emitted_l1[static_cast<std::size_t>(count)] = l1;
-    emitted_branch[static_cast<std::size_t>(count)] = branch;
-    ++count;
-  };
-
-  // Square roots of the two discriminants, once per sample for all four branch pairs.
-  std::array<double, limits::kMaxP3pScanSteps> r2{}, r3{}, f{};
-  std::array<bool, limits::kMaxP3pScanSteps> ok{};
-  for (int j = 0; j < n_; ++j) {
-    const Sample& g = grid_[static_cast<std::size_t>(j)];
-    const double disc2 = D.d12_sq - g.q2, disc3 = D.d13_sq - g.q3;
-    const auto sj = static_cast<std::size_t>(j);
-    ok[sj] = disc2 >= 0.0 && disc3 >= 0.0;
-    r2[sj] = ok[sj] ? std::sqrt(disc2) : 0.0;
-    r3[sj] = ok[sj] ? std::sqrt(disc3) : 0.0;
-  }
-  auto L = [&](int j) { return grid_[static_cast<std::size_t>(j)].l1; };
-  auto F = [&](int j) { return f[static_cast<std::size_t>(j)]; };
-  auto OK = [&](int j) { return j >= 0 && j < n_ && ok[static_cast<std::size_t>(j)]; };
-
-  for (int c = 0; c < 4; ++c) {
-    const int s2 = (c & 1) != 0 ? 1 : -1, s3 = (c & 2) != 0 ? 1 : -1;
-    for (int j = 0; j < n_; ++j) {
-      const Sample& g = grid_[static_cast<std::size_t>(j)];
-      const double l2 = g.m2 + s2 * r2[static_cast<std::size_t>(j)];
-      const double l3 = g.m3 + s3 * r3[static_cast<std::size_t>(j)];
-      f[static_cast<std::size_t>(j)] =
-          o23_sq_ + l2 * l2 + l3 * l3 + 2.0 * l2 * d2_o23_ - 2.0 * l3 * d3_o23_ - 2.0 * l2 * l3 * d2_d3_ - D.d23_sq;
-    }
-    // Roots on [lo, hi] (f valid at both ends) where f has the same sign at both ends: an
-    // extremum heading towards zero may cross it twice.
-    auto search_dip = [&](double lo, double hi, bool positive) {
-      double x = 0.0, fx = 0.0, l1 = 0.0;
-      if (!Extremum(lo, hi, s2, s3, D, positive, &x, &fx) || (fx >= 0.0) == positive) return;
-      if (Root(lo, x, s2, s3, D, &l1)) emit(l1, s2, s3);
-      if (Root(x, hi, s2, s3, D, &l1)) emit(l1, s2, s3);
-    };
-    for (int j = 1; j < n_; ++j) {
-      double l1 = 0.0;
-      if (OK(j - 1) && OK(j)) {
-        const bool pos0 = F(j - 1) >= 0.0, pos1 = F(j) >= 0.0;
-        if (pos0 != pos1) {
-          if (Root(L(j - 1), L(j), s2, s3, D, &l1)) emit(l1, s2, s3);
-        } else if (OK(j - 2) && (F(j - 2) >= 0.0) == pos0) {
-          // Two roots inside one cell leave no sign change at the samples but an extremum
-          // of f between j - 2 and j heading towards zero.
-          const bool dip = pos0 ? (F(j - 1) < F(j - 2) && F(j - 1) < F(j)) : (F(j - 1) > F(j - 2) && F(j - 1) > F(j));
-          if (dip && DipMayCross(L(j - 2), F(j - 2), L(j - 1), F(j - 1), L(j), F(j))) search_dip(L(j - 2), L(j), pos0);
-        }
-      } else if (OK(j - 1) != OK(j)) {
-        // The branch ends inside the cell (a discriminant crosses zero, analytically located):
-        // look for roots between the end and the valid samples next to it (f bends sharply
-        // there, like a square root, so the cell before it is searched too).
-        const int v = OK(j - 1) ? j - 1 : j;      // the valid sample
-        const int w = OK(j - 1) ? j - 2 : j + 1;  // the one before it, away from the end
-        double end = 0.0, f_end = 0.0, l2 = 0.0, l3 = 0.0;
-        if (!BranchEnd(L(j - 1), L(j), L(v), D, &end) || !Eval(end, s2, s3, D, &f_end, &l2, &l3)) continue;
-        const bool pos = F(v) >= 0.0;
-        if ((f_end >= 0.0) != pos) {
-          if (Root(std::min(L(v), end), std::max(L(v), end), s2, s3, D, &l1)) emit(l1, s2, s3);
-        } else if (!OK(w) || (F(w) >= 0.0) != pos) {
-          search_dip(std::min(L(v), end), std::max(L(v), end), pos);
-        } else {
-          // In t = sqrt(|end - l1|) the branch is smooth again: the parabola test applies.
-          const double tw = std::sqrt(std::abs(end - L(w))), tv = std::sqrt(std::abs(end - L(v)));
-          // Also when the end is nearer zero than the samples are to it: a dip just before
-          // the end hides from the samples.
-          if (DipMayCross(tw, F(w), tv, F(v), 0.0, f_end) || std::abs(f_end) < std::abs(F(v) - f_end))
-            search_dip(std::min(L(w), end), std::max(L(w), end), pos);
-        }
-      }
-    }
-  }
-  return count;
-}
-
-// Golden-section search for the minimum (minimum = true) or maximum of f on [a, b]; stops as
-// soon as the extremum has crossed zero (the roots are then bracketed).
-bool P3pRayTriple::Extremum(double a, double b, int s2, int s3, const Distances& D, bool minimum, double* x,
-                            double* fx) const {
-  constexpr double kInvPhi = 0.6180339887498949;
-  const double sign = minimum ? 1.0 : -1.0;
-  double l2 = 0.0, l3 = 0.0, f1 = 0.0, f2 = 0.0;
-  double x1 = b - kInvPhi * (b - a), x2 = a + kInvPhi * (b - a);
-  if (!Eval(x1, s2, s3, D, &f1, &l2, &l3) || !Eval(x2, s2, s3, D, &f2, &l2, &l3)) return false;
-  for (int it = 0; it < limits::kMaxBisectionIterations && b - a > 1e-8 * b; ++it) {
-    if ((f1 >= 0.0) != minimum || (f2 >= 0.0) != minimum) break;
-    if (sign * f1 < sign * f2) {
-      b = x2;
-      x2 = x1;
-      f2 = f1;
-      x1 = b - kInvPhi * (b - a);
-      if (!Eval(x1, s2, s3, D, &f1, &l2, &l3)) return false;
-    } else {
-      a = x1;
-      x1 = x2;
-      f1 = f2;
-      x2 = a + kInvPhi * (b - a);
-      if (!Eval(x2, s2, s3, D, &f2, &l2, &l3)) return false;
-    }
-  }
-  const bool first = sign * f1 < sign * f2;
-  *x = first ? x1 : x2;
-  *fx = first ? f1 : f2;
-  return true;
+  if (!valid_) return 0;
+  return central_ ? SolveCentral(P_w, poses, depths) : SolveGeneral(P_w, poses, depths);
 }
 
 namespace {
@@ -342,23 +100,6 @@ double Horner(const double* c, int n, double x, double* derivative) {
   }
   *derivative = dp;
   return p;
-}
-
-// Newton steps on the three depths s of a central P3P: |s_i y_i - s_j y_j|^2 = D_ij^2, i.e.
-// s_i^2 + s_j^2 - 2 s_i s_j cos_ij = D_ij^2 (pairs (2,3), (1,3), (1,2) with cosines ca, cb, cg).
-void PolishDepths(double ca, double cb, double cg, double a2, double b2, double c2, Eigen::Vector3d* s) {
-  for (int it = 0; it < 2; ++it) {
-    const double s1 = (*s)(0), s2 = (*s)(1), s3 = (*s)(2);
-    const Eigen::Vector3d r(s2 * s2 + s3 * s3 - 2.0 * s2 * s3 * ca - a2, s1 * s1 + s3 * s3 - 2.0 * s1 * s3 * cb - b2,
-                            s1 * s1 + s2 * s2 - 2.0 * s1 * s2 * cg - c2);
-    Eigen::Matrix3d J;
-    J << 0.0, 2.0 * (s2 - s3 * ca), 2.0 * (s3 - s2 * ca),  //
-        2.0 * (s1 - s3 * cb), 0.0, 2.0 * (s3 - s1 * cb),   //
-        2.0 * (s1 - s2 * cg), 2.0 * (s2 - s1 * cg), 0.0;
-    const Eigen::Vector3d step = J.inverse() * r;  // (cofactors: a 3 x 3 needs no pivoting here)
-    if (!step.allFinite()) return;
-    *s -= step;
-  }
 }
 
 }  // namespace
@@ -438,77 +179,212 @@ int PolynomialRealRoots(const double* c, int n, double* roots) {
   return count;
 }
 
-// Grunert: with s2 = u s1, s3 = v s1, W(v) = 1 + v^2 - 2 v cb, K1 = a^2/b^2, K2 = c^2/b^2,
-// the distance equations over the (1,3) one read
-//   E1: u^2 - 2 u v ca + v^2 = K1 W,    E2: u^2 - 2 u cg + 1 = K2 W.
-// E1 - E2 is linear in u: u M = N with M = 2 (cg - v ca), N = 1 - v^2 + (K1 - K2) W; into E2
-// times M^2: N^2 - 2 cg N M + (1 - K2 W) M^2 = 0, a quartic in v. For each root v > 0,
-// s1 = b / sqrt(W) and u from E2's two roots (no division by M, which may vanish), kept when
-// the depths satisfy all three distances (after two Newton steps).
-int P3pRayTriple::SolveCentral(const std::array<Eigen::Vector3d, 3>& P_w,
-                               std::array<BodyPose, limits::kMaxP3pSolutions>* poses,
-                               std::array<Eigen::Vector3d, limits::kMaxP3pSolutions>* depths) const {
-  const double a2 = (P_w[2] - P_w[1]).squaredNorm(), b2 = (P_w[2] - P_w[0]).squaredNorm();
-  const double c2 = (P_w[1] - P_w[0]).squaredNorm();
-  if (!(a2 > 0.0) || !(b2 > 0.0) || !(c2 > 0.0) || !std::isfinite(a2 + b2 + c2)) return 0;
-  const double ca = cos_a_, cb = cos_b_, cg = cos_c_;
-  const double K1 = a2 / b2, K2 = c2 / b2, k = K1 - K2;
-  const double W[3] = {1.0, -2.0 * cb, 1.0};
-  const double N[3] = {1.0 + k, -2.0 * k * cb, k - 1.0};
-  const double M[2] = {2.0 * cg, -2.0 * ca};
-  const double E[3] = {1.0 - K2, 2.0 * K2 * cb, -K2};  // 1 - K2 W
-  std::array<double, 5> NN{}, M2{}, quartic{};
-  std::array<double, 4> NM{};
-  std::array<double, 5> EM2{};
-  PolyMul(N, 2, N, 2, &NN);
-  PolyMul(N, 2, M, 1, &NM);
-  PolyMul(M, 1, M, 1, &M2);
-  PolyMul(E, 2, M2.data(), 2, &EM2);
-  for (std::size_t i = 0; i < 5; ++i) quartic[i] = NN[i] + EM2[i] - (i < 4 ? 2.0 * cg * NM[i] : 0.0);
-  std::array<double, 4> vs{};
-  const int nv = PolynomialRealRoots(quartic.data(), 4, vs.data());
-  const std::array<Eigen::Vector3d, 3> y = {rays_[0].d_b, rays_[1].d_b, rays_[2].d_b};
-  const Eigen::Vector3d& o = rays_[0].o_b;
-  int count = 0;
-  for (int i = 0; i < nv; ++i) {
-    const double v = vs[static_cast<std::size_t>(i)];
-    const double w = W[0] + v * (W[1] + v * W[2]);
-    if (!(v > 0.0) || !(w > 0.0)) continue;
-    const double s1 = std::sqrt(b2 / w);
-    const double disc = cg * cg - 1.0 + K2 * w;
-    if (disc < -1e-9) continue;
-    const double root = std::sqrt(std::max(0.0, disc));
-    for (int branch = 0; branch < (root > 0.0 ? 2 : 1) && count < limits::kMaxP3pSolutions; ++branch) {
-      const double u = cg + (branch == 0 ? root : -root);
-      Eigen::Vector3d s(s1, u * s1, v * s1);
-      if (!(s.minCoeff() > 0.0)) continue;
-      PolishDepths(ca, cb, cg, a2, b2, c2, &s);
-      const double e_a = s(1) * s(1) + s(2) * s(2) - 2.0 * s(1) * s(2) * ca - a2;
-      const double e_b = s(0) * s(0) + s(2) * s(2) - 2.0 * s(0) * s(2) * cb - b2;
-      const double e_c = s(0) * s(0) + s(1) * s(1) - 2.0 * s(0) * s(1) * cg - c2;
-      if (std::abs(e_a) > 1e-9 * a2 || std::abs(e_b) > 1e-9 * b2 || std::abs(e_c) > 1e-9 * c2) continue;
-      if (s(0) < options_.min_depth_m || s(0) > options_.max_depth_m || s(1) < options_.min_depth_m ||
-          s(2) < options_.min_depth_m)
-        continue;
-      const std::array<Eigen::Vector3d, 3> q = {o + s(0) * y[0], o + s(1) * y[1], o + s(2) * y[2]};
-      BodyPose pose;
-      if (!TriangleOrientation(q, P_w, &pose)) continue;
-      bool same = false;  // both branches may polish onto one solution
-      for (int j = 0; j < count && !same; ++j) {
-        const BodyPose& p = (*poses)[static_cast<std::size_t>(j)];
-        same = (p.r_w_wb - pose.r_w_wb).norm() <= 1e-9 * (1.0 + pose.r_w_wb.norm()) &&
-               (p.C_w_b - pose.C_w_b).norm() <= 1e-9;
-      }
-      if (same) continue;
-      (*poses)[static_cast<std::size_t>(count)] = pose;
-      if (depths != nullptr) (*depths)[static_cast<std::size_t>(count)] = s;
-      ++count;
-    }
+namespace {
+
+// Sign changes in b[0..n], zeros skipped, counted up to 2 (Descartes' rule for the Bernstein
+// form: at least the number of roots in the open interval, with the same parity; 0 or 1
+// exactly, and the callers only tell 0, 1 and more apart).
+int SignVariations(const double* b, int n) {
+  int v = 0;
+  double prev = 0.0;
+  for (int i = 0; i <= n; ++i) {
+    if (b[i] == 0.0) continue;
+    if (prev != 0.0 && (b[i] < 0.0) != (prev < 0.0) && ++v == 2) break;
+    prev = b[i];
   }
+  return v;
+}
+
+// The root of c (degree n) in [a, b] where f(a) = fa and f(b) = fb have opposite signs:
+// Newton from the secant point, kept inside the shrinking bracket (bisection otherwise).
+double BracketedRoot(const double* c, int n, double a, double b, double fa, double fb) {
+  double x = a - fa * (b - a) / (fb - fa);
+  if (!(x > a && x < b)) x = 0.5 * (a + b);
+  const bool rising = fa < 0.0;
+  double d = 0.0;
+  for (int it = 0; it < limits::kMaxBisectionIterations; ++it) {
+    const double f = Horner(c, n, x, &d);
+    if (f == 0.0) break;
+    if ((f < 0.0) == rising) a = x;
+    else b = x;
+    double next = x - f / d;
+    if (!(next > a && next < b)) next = 0.5 * (a + b);
+    // 1e-11: the callers polish on their own equations afterwards.
+    const double tol = 1e-11 * std::max(1.0, std::abs(x));
+    const bool done = std::abs(next - x) <= tol || b - a <= tol;
+    x = next;
+    if (done) break;
+  }
+  return x;
+}
+
+}  // namespace
+
+namespace {
+
+// PolynomialRealRootsIn for degree kN (0: the degree n at run time). The fixed degree lets
+// the compiler unroll the short loops of the P3P's octic.
+template <int kN>
+int RealRootsInImpl(const double* c, int n_runtime, double lo, double hi, double* roots) {
+  const int n = kN > 0 ? kN : n_runtime;
+  // q(t) = p(lo + h t) on t in [0, 1]: a Taylor shift (repeated synthetic division), then the
+  // scaling of t.
+  const double h = hi - lo;
+  std::array<double, 9> q{};
+  for (int i = 0; i <= n; ++i) q[static_cast<std::size_t>(i)] = c[i];
+  for (int i = 0; i < n; ++i)
+    for (int k = n - 1; k >= i; --k) q[static_cast<std::size_t>(k)] += lo * q[static_cast<std::size_t>(k + 1)];
+  double hk = 1.0;
+  for (int k = 1; k <= n; ++k) q[static_cast<std::size_t>(k)] *= (hk *= h);
+  // Bernstein coefficients: b_i = sum_k C(i, k) / C(n, k) q_k.
+  static constexpr std::array<std::array<double, 9>, 9> kBinomial = {{
+      {1, 0, 0, 0, 0, 0, 0, 0, 0},       {1, 1, 0, 0, 0, 0, 0, 0, 0},        {1, 2, 1, 0, 0, 0, 0, 0, 0},
+      {1, 3, 3, 1, 0, 0, 0, 0, 0},       {1, 4, 6, 4, 1, 0, 0, 0, 0},        {1, 5, 10, 10, 5, 1, 0, 0, 0},
+      {1, 6, 15, 20, 15, 6, 1, 0, 0},    {1, 7, 21, 35, 35, 21, 7, 1, 0},    {1, 8, 28, 56, 70, 56, 28, 8, 1}}};
+  const auto sn = static_cast<std::size_t>(n);
+  for (std::size_t k = 1; k < sn; ++k) q[k] /= kBinomial[sn][k];  // (q_k / C(n, k) once)
+  struct Node {
+    std::array<double, 9> b;
+    double a, w;
+    int depth;
+  };
+  // Depth-first, left child first (ascending roots); one pending sibling per level.
+  constexpr int kMaxDepth = 40;  // 2^-40 of the interval: far below the 1e-7 cluster width
+  constexpr int kMaxNodes = 2 * 8 * (kMaxDepth + 1);
+  std::array<Node, kMaxDepth + 2> stack;
+  int top = 0;
+  Node& root = stack[0];
+  for (std::size_t i = 0; i <= sn; ++i) {
+    double s = 0.0;
+    for (std::size_t k = 0; k <= i; ++k) s += kBinomial[i][k] * q[k];
+    root.b[i] = s;
+  }
+  root.a = lo;
+  root.w = h;
+  root.depth = 0;
+  top = 1;
+  int count = 0;
+  if (root.b[0] == 0.0) roots[count++] = lo;
+  // Pieces are not split below 1e-7 of the interval: where rounding makes the sign changes
+  // meaningless (near a multiple root) this keeps the pieces few; the callers polish every
+  // candidate on their own equations.
+  const double min_width = 1e-7 * h;
+
+  // Each node either ends or splits into two narrower ones, at most kMaxDepth deep. A node
+  // splits only while it may hold two or more roots or an extremum near zero; the children
+  // of a node share its sign variations, so few nodes per level split. kMaxNodes bounds the
+  // loop (far above what a degree-8 polynomial needs: each root or cluster costs at most two
+  // nodes per level).
+  // A candidate for a double root or a cluster: kept once per place (the one nearer zero when
+  // two pieces of one flat stretch both report).
+  double last_cluster_value = 0.0;
+  bool last_is_cluster = false;
+  auto add_cluster = [&](double x) {
+    double d = 0.0;
+    const double fx = std::abs(Horner(c, n, x, &d));
+    if (count > 0 && last_is_cluster && x - roots[count - 1] <= 1e-6 * h) {
+      if (fx < last_cluster_value) {
+        roots[count - 1] = x;
+        last_cluster_value = fx;
+      }
+      return;
+    }
+    if (count >= n) return;
+    roots[count++] = x;
+    last_cluster_value = fx;
+    last_is_cluster = true;
+  };
+  for (int guard = 0; top > 0 && guard < kMaxNodes; ++guard) {
+    const Node node = stack[static_cast<std::size_t>(--top)];
+    const int v = SignVariations(node.b.data(), n);
+    if (v == 1 && node.b[0] != 0.0 && node.b[sn] != 0.0) {  // exactly one root
+      if (count < n) {
+        roots[count++] = BracketedRoot(c, n, node.a, node.a + node.w, node.b[0], node.b[sn]);
+        last_is_cluster = false;
+      }
+      continue;
+    }
+    // Rounding of the values on the piece: relative to the terms' magnitude there (the
+    // coefficients carry the rounding of their own derivation, hence 1e-12 rather than 1e-16).
+    const double xm = std::max(std::abs(node.a), std::abs(node.a + node.w));
+    double mag = 0.0;
+    for (int k = n; k >= 0; --k) mag = mag * xm + std::abs(c[k]);
+    double closest = std::abs(node.b[0]), largest = closest;
+    for (std::size_t i = 1; i <= sn; ++i) {
+      closest = std::min(closest, std::abs(node.b[i]));
+      largest = std::max(largest, std::abs(node.b[i]));
+    }
+    if (largest <= 1e-14 * mag) {
+      // The whole piece is within rounding of zero (a root of multiplicity two or more seen
+      // through noise, whose sign changes mean nothing): one candidate.
+      add_cluster(node.a + 0.5 * node.w);
+      continue;
+    }
+    if (v == 0) {
+      // No root here, unless the polynomial comes within rounding of zero (a double root may
+      // touch zero without crossing it once its coefficients are rounded): the Bernstein
+      // coefficients bound the polynomial on the piece, so it is that close only if one is.
+      if (closest > 1e-12 * mag) continue;
+      // Then its extremum: where the derivative's Bernstein coefficients (differences of
+      // these) change sign once, found on the derivative; monotone: none here.
+      std::array<double, 8> db{};
+      for (std::size_t i = 0; i < sn; ++i) db[i] = node.b[i + 1] - node.b[i];
+      const int dv = SignVariations(db.data(), n - 1);
+      if (dv == 0) continue;
+      if (dv == 1 && db[0] != 0.0 && db[sn - 1] != 0.0) {
+        std::array<double, 8> dc{};
+        for (int k = 1; k <= n; ++k) dc[static_cast<std::size_t>(k - 1)] = k * c[k];
+        const double x = BracketedRoot(dc.data(), n - 1, node.a, node.a + node.w, db[0], db[sn - 1]);
+        double d = 0.0;
+        if (std::abs(Horner(c, n, x, &d)) <= 1e-12 * mag) add_cluster(x);
+        continue;
+      }
+    }
+    if (node.w <= min_width || node.depth >= kMaxDepth) {
+      // Roots closer than the width (or an extremum too flat to place): one candidate; the
+      // callers check it on their own equations.
+      add_cluster(node.a + 0.5 * node.w);
+      continue;
+    }
+    // de Casteljau at t = 1/2: the left child's coefficients are the first of each level, the
+    // right child's the last.
+    Node left, right;
+    std::array<double, 9> t = node.b;
+    left.b[0] = t[0];
+    right.b[sn] = t[sn];
+    for (std::size_t r = 1; r <= sn; ++r) {
+      for (std::size_t i = 0; i + r <= sn; ++i) t[i] = 0.5 * (t[i] + t[i + 1]);
+      left.b[r] = t[0];
+      right.b[sn - r] = t[sn - r];
+    }
+    left.a = node.a;
+    right.a = node.a + 0.5 * node.w;
+    left.w = right.w = 0.5 * node.w;
+    left.depth = right.depth = node.depth + 1;
+    // A root exactly at the split point: the children's variations skip zeros, so report it
+    // here (out of order: sorted below).
+    if (left.b[sn] == 0.0 && count < n) {
+      roots[count++] = right.a;
+      last_is_cluster = false;
+    }
+    stack[static_cast<std::size_t>(top++)] = right;
+    stack[static_cast<std::size_t>(top++)] = left;
+  }
+  std::sort(roots, roots + count);
   return count;
 }
 
+}  // namespace
+
+int PolynomialRealRootsIn(const double* c, int n, double lo, double hi, double* roots) {
+  while (n > 0 && c[n] == 0.0) --n;
+  if (n <= 0 || n > 8 || !(lo < hi) || !std::isfinite(hi - lo)) return 0;
+  return n == 8 ? RealRootsInImpl<8>(c, 8, lo, hi, roots) : RealRootsInImpl<0>(c, n, lo, hi, roots);
+}
+
 namespace {
+
+// Orthonormal frame of a triangle: x along p1 - p0, z its normal. False when (nearly) collinear.
 bool TriangleFrame(const std::array<Eigen::Vector3d, 3>& p, Eigen::Matrix3d* F) {
   const Eigen::Vector3d e1 = p[1] - p[0], x2 = p[2] - p[0];
   const Eigen::Vector3d e3 = e1.cross(x2);
@@ -519,7 +395,569 @@ bool TriangleFrame(const std::array<Eigen::Vector3d, 3>& p, Eigen::Matrix3d* F) 
   F->col(1) = F->col(2).cross(F->col(0));
   return F->allFinite();
 }
+
+// The world triangle's frame and centroid, computed once per Solve for all its solutions.
+struct WorldTriangle {
+  Eigen::Matrix3d F;
+  Eigen::Vector3d centroid;
+  bool ok = false;
+};
+
+WorldTriangle MakeWorldTriangle(const std::array<Eigen::Vector3d, 3>& P_w) {
+  WorldTriangle w;
+  w.ok = TriangleFrame(P_w, &w.F);
+  w.centroid = (P_w[0] + P_w[1] + P_w[2]) / 3.0;
+  return w;
+}
+
+// TriangleOrientation with the world side precomputed.
+bool PoseFromBodyPoints(const WorldTriangle& w, const std::array<Eigen::Vector3d, 3>& q_b, BodyPose* pose) {
+  Eigen::Matrix3d Fb;
+  if (!w.ok || !TriangleFrame(q_b, &Fb)) return false;
+  pose->C_w_b = w.F * Fb.transpose();
+  pose->r_w_wb = w.centroid - pose->C_w_b * ((q_b[0] + q_b[1] + q_b[2]) / 3.0);
+  return pose->C_w_b.allFinite() && pose->r_w_wb.allFinite();
+}
+
+// The three distance equations of depths l along the rays, in the scalars of P3pRayTriple:
+// with u = o1 - o_k, |o1 + l1 d1 - o_k - lk dk|^2 = c + l1^2 + lk^2 + 2 e l1 - 2 a lk - 2 b l1 lk
+// (a = dk.u, b = d1.dk, c = |u|^2, e = d1.u), and the same for rays 2 and 3 with o23 = o2 - o3.
+// (One camera: a = c = e = 0 and o23 = 0, the law of cosines.)
+struct DepthEquations {
+  double a2, b2, c2, e2;      // ray 2 against ray 1
+  double a3, b3, c3, e3;      // ray 3 against ray 1
+  double o23_sq, d2_o23, d3_o23, d23;
+  double D12, D13, D23;       // squared beacon distances
+
+  // Largest residual relative to its squared distance.
+  double Residuals(const Eigen::Vector3d& l, Eigen::Vector3d* r) const {
+    const double l1 = l(0), l2 = l(1), l3 = l(2);
+    (*r)(0) = c2 + l1 * l1 + l2 * l2 + 2.0 * (e2 * l1 - a2 * l2 - b2 * l1 * l2) - D12;
+    (*r)(1) = c3 + l1 * l1 + l3 * l3 + 2.0 * (e3 * l1 - a3 * l3 - b3 * l1 * l3) - D13;
+    (*r)(2) = o23_sq + l2 * l2 + l3 * l3 + 2.0 * (d2_o23 * l2 - d3_o23 * l3 - d23 * l2 * l3) - D23;
+    return std::max(std::max(std::abs((*r)(0)) / D12, std::abs((*r)(1)) / D13), std::abs((*r)(2)) / D23);
+  }
+
+  // Where two solutions nearly merge, the other one (the "twin") from a solution l: J is
+  // nearly singular with right and left null vectors v and u (a column and a row of its
+  // adjugate, which is ~ sigma_1 sigma_2 v u^T); the equations are exactly quadratic, so along
+  // l + t v the residual is r + t J v + t^2 q(v) (q: each equation's quadratic part), and its
+  // component along u vanishes again at t = -u.Jv / u.q(v). False when that is not a near
+  // twin (more than 5 % of the depths away: an isolated solution's J is far from singular and
+  // t large); the caller polishes and checks it. (Cheaper and surer than judging from det J
+  // how close the twin is.)
+  bool Twin(const Eigen::Vector3d& l, Eigen::Vector3d* twin) const {
+    const double l1 = l(0), l2 = l(1), l3 = l(2);
+    const double j11 = l1 + e2 - b2 * l2, j12 = l2 - a2 - b2 * l1;
+    const double j21 = l1 + e3 - b3 * l3, j23 = l3 - a3 - b3 * l1;
+    const double j32 = l2 + d2_o23 - d23 * l3, j33 = l3 - d3_o23 - d23 * l2;
+    Eigen::Matrix3d J;  // (half the Jacobian: the factor 2 cancels in t)
+    J << j11, j12, 0.0, j21, 0.0, j23, 0.0, j32, j33;
+    Eigen::Matrix3d adj;  // adjugate = transposed cofactors
+    adj << -j23 * j32, -j12 * j33, j12 * j23,  //
+        -j21 * j33, j11 * j33, -j11 * j23,      //
+        j21 * j32, -j11 * j32, -j12 * j21;
+    Eigen::Index col = 0, row = 0;
+    adj.colwise().squaredNorm().maxCoeff(&col);
+    adj.rowwise().squaredNorm().maxCoeff(&row);
+    const Eigen::Vector3d v = adj.col(col).normalized(), u = adj.row(row).transpose().normalized();
+    if (!v.allFinite() || !u.allFinite()) return false;
+    const Eigen::Vector3d q(v(0) * v(0) + v(1) * v(1) - 2.0 * b2 * v(0) * v(1),
+                            v(0) * v(0) + v(2) * v(2) - 2.0 * b3 * v(0) * v(2),
+                            v(1) * v(1) + v(2) * v(2) - 2.0 * d23 * v(1) * v(2));
+    const double uq = u.dot(q), uJv = 2.0 * u.dot(J * v);
+    if (uq == 0.0) return false;
+    const double t = -uJv / uq;
+    if (!(std::abs(t) <= 0.05 * l.norm())) return false;
+    *twin = l + t * v;
+    return true;
+  }
+
+  // Newton steps on the three equations, each kept only if it lowers the largest relative
+  // residual (near a double root the Jacobian is nearly singular and a step may overshoot);
+  // returns that residual.
+  double Polish(Eigen::Vector3d* l) const {
+    Eigen::Vector3d r;
+    double err = Residuals(*l, &r);
+    // (Usually two steps; up to 16 from near a double root, or from a root of the octic near a
+    // branch end, which its squarings determine to a few digits only.)
+    for (int it = 0; it < 16 && err > 1e-15; ++it) {
+      const double l1 = (*l)(0), l2 = (*l)(1), l3 = (*l)(2);
+      // Jacobian [[j11 j12 0] [j21 0 j23] [0 j32 j33]], inverted by its cofactors.
+      const double j11 = 2.0 * (l1 + e2 - b2 * l2), j12 = 2.0 * (l2 - a2 - b2 * l1);
+      const double j21 = 2.0 * (l1 + e3 - b3 * l3), j23 = 2.0 * (l3 - a3 - b3 * l1);
+      const double j32 = 2.0 * (l2 + d2_o23 - d23 * l3), j33 = 2.0 * (l3 - d3_o23 - d23 * l2);
+      const double det = -j11 * j23 * j32 - j12 * j21 * j33;
+      if (det == 0.0) break;
+      const double inv = 1.0 / det;
+      const Eigen::Vector3d step(inv * (-j23 * j32 * r(0) - j12 * j33 * r(1) + j12 * j23 * r(2)),
+                                 inv * (-j21 * j33 * r(0) + j11 * j33 * r(1) - j11 * j23 * r(2)),
+                                 inv * (j21 * j32 * r(0) - j11 * j32 * r(1) - j12 * j21 * r(2)));
+      // Near a double root the full step overshoots (the residual is quadratic there): halve
+      // it until the residual drops (Newton then converges linearly, not quadratically).
+      Eigen::Vector3d trial = *l - step, r_trial;
+      double err_trial = Residuals(trial, &r_trial);
+      double scale = 1.0;
+      for (int h = 0; h < 4 && !(err_trial < err); ++h) {
+        scale *= 0.5;
+        trial = *l - scale * step;
+        err_trial = Residuals(trial, &r_trial);
+      }
+      if (!(err_trial < err)) break;
+      *l = trial;
+      r = r_trial;
+      err = err_trial;
+    }
+    return err;
+  }
+};
+
+// Solutions of a P3P are accepted when the polished depths satisfy every distance to this
+// (relative to the squared distance; the same as the closed form of session 6).
+constexpr double kAcceptResidual = 1e-9;
+
+// The collected solutions of one Solve: depth filter, duplicates, pose.
+class SolutionSink {
+ public:
+  SolutionSink(const std::array<BodyRay, 3>& rays, const P3pOptions& o, const std::array<Eigen::Vector3d, 3>& P_w,
+               std::array<BodyPose, limits::kMaxP3pSolutions>* poses,
+               std::array<Eigen::Vector3d, limits::kMaxP3pSolutions>* depths)
+      : rays_(rays), o_(o), world_(MakeWorldTriangle(P_w)), poses_(poses), depths_(depths) {}
+
+  // Depths l (polished, residual checked): kept when l1 in [min, max] and l2, l3 >= min (the
+  // contract of the scan before), not a duplicate and the body triangle not degenerate.
+  void Add(const Eigen::Vector3d& l) {
+    if (count_ >= limits::kMaxP3pSolutions || !l.allFinite()) return;
+    if (l(0) < o_.min_depth_m || l(0) > o_.max_depth_m || l(1) < o_.min_depth_m || l(2) < o_.min_depth_m) return;
+    for (int i = 0; i < count_; ++i)  // one solution reached from two candidates
+      if ((kept_[static_cast<std::size_t>(i)] - l).cwiseAbs().maxCoeff() <= 1e-9 * l.maxCoeff()) return;
+    const std::array<Eigen::Vector3d, 3> q = {rays_[0].o_b + l(0) * rays_[0].d_b, rays_[1].o_b + l(1) * rays_[1].d_b,
+                                              rays_[2].o_b + l(2) * rays_[2].d_b};
+    BodyPose pose;
+    if (!PoseFromBodyPoints(world_, q, &pose)) return;
+    (*poses_)[static_cast<std::size_t>(count_)] = pose;
+    if (depths_ != nullptr) (*depths_)[static_cast<std::size_t>(count_)] = l;
+    kept_[static_cast<std::size_t>(count_)] = l;
+    ++count_;
+  }
+  int count() const { return count_; }
+
+ private:
+  const std::array<BodyRay, 3>& rays_;
+  const P3pOptions& o_;
+  WorldTriangle world_;
+  std::array<BodyPose, limits::kMaxP3pSolutions>* poses_;
+  std::array<Eigen::Vector3d, limits::kMaxP3pSolutions>* depths_;
+  std::array<Eigen::Vector3d, limits::kMaxP3pSolutions> kept_{};
+  int count_ = 0;
+};
+
+// Cofactor matrix (= adjugate, symmetric input) of a symmetric 3 x 3.
+Eigen::Matrix3d SymmetricAdjugate(const Eigen::Matrix3d& M) {
+  Eigen::Matrix3d A;
+  A(0, 0) = M(1, 1) * M(2, 2) - M(1, 2) * M(1, 2);
+  A(1, 1) = M(0, 0) * M(2, 2) - M(0, 2) * M(0, 2);
+  A(2, 2) = M(0, 0) * M(1, 1) - M(0, 1) * M(0, 1);
+  A(0, 1) = A(1, 0) = M(0, 2) * M(1, 2) - M(0, 1) * M(2, 2);
+  A(0, 2) = A(2, 0) = M(0, 1) * M(1, 2) - M(0, 2) * M(1, 1);
+  A(1, 2) = A(2, 1) = M(0, 1) * M(0, 2) - M(0, 0) * M(1, 2);
+  return A;
+}
+
+// A real root of x^3 + k2 x^2 + k1 x + k0 (there always is one). With three real roots, the
+// one farthest from the other two (largest |derivative|): where two roots nearly merge, the
+// degenerate conics they give are ill-determined, the isolated one is not (two P3P solutions
+// merging make two roots of the cubic merge, see SolveCentral). Cardano, then Newton steps.
+double CubicRoot(double k2, double k1, double k0) {
+  const double shift = k2 / 3.0;
+  const double p = k1 - k2 * shift;                                // depressed: t^3 + p t + q
+  const double q = k0 - k1 * shift + 2.0 * shift * shift * shift;  // x = t - k2/3
+  const double half_q = 0.5 * q, third_p = p / 3.0;
+  const double disc = half_q * half_q + third_p * third_p * third_p;
+  double t = 0.0;
+  if (disc >= 0.0) {
+    // One real root (or a multiple one): the sum of the two cube roots, without cancellation.
+    const double u = -std::copysign(std::cbrt(std::abs(half_q) + std::sqrt(disc)), half_q);
+    t = u != 0.0 ? u - third_p / u : 0.0;
+  } else {
+    // Three real roots t_k = 2 sqrt(-p/3) cos(phi/3 - 2 pi k/3).
+    constexpr double kTwoPiThirds = 2.0943951023931957;
+    const double r = std::sqrt(-third_p);
+    const double phi = std::acos(std::clamp(-half_q / (r * r * r), -1.0, 1.0)) / 3.0;
+    double best = 0.0;
+    for (int k = 0; k < 3; ++k) {
+      const double tk = 2.0 * r * std::cos(phi - kTwoPiThirds * k);
+      const double slope = std::abs(3.0 * tk * tk + p);
+      if (k == 0 || slope > best) {
+        best = slope;
+        t = tk;
+      }
+    }
+  }
+  double x = t - shift;
+  for (int it = 0; it < 2; ++it) {  // Cardano loses digits when the terms cancel
+    const double f = ((x + k2) * x + k1) * x + k0, df = (3.0 * x + 2.0 * k2) * x + k1;
+    if (df == 0.0) break;
+    const double next = x - f / df;
+    if (!std::isfinite(next)) break;
+    x = next;
+  }
+  return x;
+}
+
+// Lines l and m with D = l m^T + m l^T for a degenerate symmetric D (rank 2: two real lines;
+// rank 1: a double line). False when the lines are complex (their one real point is no base
+// point of the pencil unless two solutions coincide, which the caller's isolated root avoids).
+bool SplitLinePair(const Eigen::Matrix3d& D, Eigen::Vector3d* l, Eigen::Vector3d* m) {
+  const Eigen::Matrix3d A = SymmetricAdjugate(D);  // = -(l x m)(l x m)^T
+  int i = 0;
+  if (-A(1, 1) > -A(i, i)) i = 1;
+  if (-A(2, 2) > -A(i, i)) i = 2;
+  const double scale = D.cwiseAbs().maxCoeff();
+  if (!(scale > 0.0) || !std::isfinite(scale)) return false;
+  if (-A(i, i) > 1e-12 * scale * scale) {
+    // D + [w]x with w = -+ l x m is 2 l m^T or 2 m l^T: its largest entry's row and column.
+    const Eigen::Vector3d w = A.col(i) / std::sqrt(-A(i, i));
+    Eigen::Matrix3d R = D;
+    R(0, 1) -= w(2);
+    R(0, 2) += w(1);
+    R(1, 2) -= w(0);
+    R(1, 0) += w(2);
+    R(2, 0) -= w(1);
+    R(2, 1) += w(0);
+    Eigen::Index r = 0, c = 0;
+    R.cwiseAbs().maxCoeff(&r, &c);
+    *l = R.row(r).transpose();
+    *m = R.col(c);
+    return true;
+  }
+  if (A.cwiseAbs().maxCoeff() <= 1e-10 * scale * scale) {
+    // Rank 1: D = +-l l^T, a double line.
+    Eigen::Index j = 0;
+    D.diagonal().cwiseAbs().maxCoeff(&j);
+    *l = *m = D.col(j);
+    return true;
+  }
+  return false;
+}
+
 }  // namespace
+
+// Central P3P (one camera). Depths l along unit rays y_i with cosines c01, c02, c12 and squared
+// distances a01, a02, a12: l_i^2 + l_j^2 - 2 c_ij l_i l_j = a_ij, three quadratic forms F_ij(l).
+// With the longest side r and the other two i, j, the homogeneous conics
+// M1 = F_i - (a_i / a_r) F_r and M2 = F_j - (a_j / a_r) F_r (each distance against the longest,
+// so that neither conic degenerates when a side is short) meet in the direction of every
+// solution (up to four base points). A real degenerate member M(s) = M_lead + s M_other
+// (det = 0, a cubic in s; the member of larger determinant leads so the cubic stays monic
+// without overflow) is a pair of lines through the base points; each line meets M_lead in two
+// directions (a homogeneous quadratic); the scale comes from the distances. A line tangent to
+// the conic (discriminant zero within rounding) is a double root, kept: the tracker needs to
+// see the twin of a pose near the danger cylinder.
+int P3pRayTriple::SolveCentral(const std::array<Eigen::Vector3d, 3>& P_w,
+                               std::array<BodyPose, limits::kMaxP3pSolutions>* poses,
+                               std::array<Eigen::Vector3d, limits::kMaxP3pSolutions>* depths) const {
+  const double a12 = (P_w[2] - P_w[1]).squaredNorm(), a02 = (P_w[2] - P_w[0]).squaredNorm();
+  const double a01 = (P_w[1] - P_w[0]).squaredNorm();
+  if (!(a01 > 0.0) || !(a02 > 0.0) || !(a12 > 0.0) || !std::isfinite(a01 + a02 + a12)) return 0;
+  const double c01 = cos_c_, c02 = cos_b_, c12 = cos_a_;
+  // The quadratic forms of the three pairs.
+  std::array<Eigen::Matrix3d, 3> F;
+  F[0] << 1.0, -c01, 0.0, -c01, 1.0, 0.0, 0.0, 0.0, 0.0;  // (0,1)
+  F[1] << 1.0, 0.0, -c02, 0.0, 0.0, 0.0, -c02, 0.0, 1.0;  // (0,2)
+  F[2] << 0.0, 0.0, 0.0, 0.0, 1.0, -c12, 0.0, -c12, 1.0;  // (1,2)
+  const std::array<double, 3> a = {a01, a02, a12};
+  int r = 0;
+  if (a[1] > a[static_cast<std::size_t>(r)]) r = 1;
+  if (a[2] > a[static_cast<std::size_t>(r)]) r = 2;
+  const auto sr = static_cast<std::size_t>(r);
+  const auto si = static_cast<std::size_t>((r + 1) % 3), sj = static_cast<std::size_t>((r + 2) % 3);
+  Eigen::Matrix3d M1 = F[si] - (a[si] / a[sr]) * F[sr];
+  Eigen::Matrix3d M2 = F[sj] - (a[sj] / a[sr]) * F[sr];
+  // det(A + s B) = det A + s tr(adj(A) B) + s^2 tr(adj(B) A) + s^3 det B.
+  const Eigen::Matrix3d adj1 = SymmetricAdjugate(M1), adj2 = SymmetricAdjugate(M2);
+  const double det1 = M1.row(0).dot(adj1.col(0)), det2 = M2.row(0).dot(adj2.col(0));
+  const bool two_leads = std::abs(det2) >= std::abs(det1);
+  const Eigen::Matrix3d& lead = two_leads ? M2 : M1;
+  const Eigen::Matrix3d& other = two_leads ? M1 : M2;
+  const Eigen::Matrix3d& adj_lead = two_leads ? adj2 : adj1;
+  const Eigen::Matrix3d& adj_other = two_leads ? adj1 : adj2;
+  const double det_lead = two_leads ? det2 : det1, det_other = two_leads ? det1 : det2;
+  if (det_lead == 0.0) return 0;  // both conics degenerate: the rays or beacons are degenerate
+  // Monic in s for other + s lead: s^3 + k2 s^2 + k1 s + k0 (|k0| <= 1).
+  const double inv = 1.0 / det_lead;
+  const double k2 = adj_lead.cwiseProduct(other).sum() * inv;
+  const double k1 = adj_other.cwiseProduct(lead).sum() * inv;
+  const double k0 = det_other * inv;
+  const double s = CubicRoot(k2, k1, k0);
+  const Eigen::Matrix3d D = other + s * lead;
+
+  Eigen::Vector3d lines[2];
+  if (!SplitLinePair(D, &lines[0], &lines[1])) return 0;
+  const DepthEquations eq{0.0, c01, 0.0, 0.0, 0.0, c02, 0.0, 0.0, 0.0, 0.0, 0.0, c12, a01, a02, a12};
+  const double sum_a = a01 + a02 + a12;
+  SolutionSink sink(rays_, options_, P_w, poses, depths);
+  for (int li = 0; li < (lines[0] == lines[1] ? 1 : 2); ++li) {
+    const Eigen::Vector3d& p = lines[li];
+    // On the line p . l = 0: l_k from the other two (k the largest |p_k|), l = T mu.
+    Eigen::Index k = 0;
+    p.cwiseAbs().maxCoeff(&k);
+    if (p(k) == 0.0) continue;
+    const int i = (static_cast<int>(k) + 1) % 3, j = (static_cast<int>(k) + 2) % 3;
+    Eigen::Matrix<double, 3, 2> T = Eigen::Matrix<double, 3, 2>::Zero();
+    T(i, 0) = 1.0;
+    T(j, 1) = 1.0;
+    T(k, 0) = -p(i) / p(k);
+    T(k, 1) = -p(j) / p(k);
+    const Eigen::Matrix2d Q = T.transpose() * lead * T;  // alpha mu0^2 + 2 beta mu0 mu1 + gamma mu1^2
+    const double alpha = Q(0, 0), beta = Q(0, 1), gamma = Q(1, 1);
+    double disc = beta * beta - alpha * gamma;
+    if (disc < 0.0) {
+      // Tangent within rounding: a double root (two solutions merging), reported once.
+      if (disc < -1e-10 * (beta * beta + std::abs(alpha * gamma))) continue;
+      disc = 0.0;
+    }
+    // Homogeneous roots (rr, alpha) and (gamma, rr) without cancellation.
+    const double rr = -(beta + std::copysign(std::sqrt(disc), beta));
+    Eigen::Vector2d mus[2] = {Eigen::Vector2d(rr, alpha), Eigen::Vector2d(gamma, rr)};
+    if (rr == 0.0) {  // beta = 0 = disc, so alpha gamma = 0: the root is an axis
+      mus[0] = alpha == 0.0 ? Eigen::Vector2d(1.0, 0.0) : Eigen::Vector2d(0.0, 1.0);
+      mus[1] = mus[0];
+    }
+    for (int h = 0; h < (disc > 0.0 ? 2 : 1); ++h) {
+      Eigen::Vector3d l = T * mus[h];
+      // Scale from the sum of the three distance equations (a positive definite form).
+      const double form = 2.0 * l.squaredNorm() - 2.0 * (c01 * l(0) * l(1) + c02 * l(0) * l(2) + c12 * l(1) * l(2));
+      if (!(form > 0.0)) continue;
+      l *= std::sqrt(sum_a / form);
+      if (l.sum() < 0.0) l = -l;
+      if (!(l.minCoeff() > 0.0)) continue;
+      if (eq.Polish(&l) > kAcceptResidual) continue;
+      sink.Add(l);
+      Eigen::Vector3d twin;  // a tangent line gives one of two merging solutions
+      if (eq.Twin(l, &twin) && eq.Polish(&twin) <= kAcceptResidual) sink.Add(twin);
+    }
+  }
+  return sink.count();
+}
+
+// Generalized P3P. With l = l_1: l_k = m_k + s_k r_k, r_k = sqrt(g_k), g_k = D_1k^2 - q_k (k = 2, 3;
+// m_k, g_k polynomials of degree 1 and 2). The (2,3) residual
+//   f = o23^2 + l2^2 + l3^2 + 2 l2 d2.o23 - 2 l3 d3.o23 - 2 d2.d3 l2 l3 - D23^2
+//     = A + s2 B r2 + s3 C r3 + s2 s3 E r2 r3
+// with A = o23^2 - D23^2 + m2^2 + g2 + m3^2 + g3 + 2 m2 d2.o23 - 2 m3 d3.o23 - 2 d2.d3 m2 m3,
+// B = 2 (m2 + d2.o23 - d2.d3 m3), C = 2 (m3 - d3.o23 - d2.d3 m2), E = -2 d2.d3. Moving the r2
+// and r3 terms apart and squaring: P + s2 s3 Q r2 r3 = 0 with P = A^2 + E^2 g2 g3 - B^2 g2 - C^2 g3
+// and Q = 2 (A E - B C); squaring again: P^2 - Q^2 g2 g3 = 0, an octic in l whose roots hold every
+// branch pair's. (The extra roots the squarings admit are refused by the residual test.)
+int P3pRayTriple::SolveGeneral(const std::array<Eigen::Vector3d, 3>& P_w,
+                               std::array<BodyPose, limits::kMaxP3pSolutions>* poses,
+                               std::array<Eigen::Vector3d, limits::kMaxP3pSolutions>* depths) const {
+  const double D12 = (P_w[1] - P_w[0]).squaredNorm(), D13 = (P_w[2] - P_w[0]).squaredNorm();
+  const double D23 = (P_w[2] - P_w[1]).squaredNorm();
+  if (!(D12 > 0.0) || !(D13 > 0.0) || !(D23 > 0.0) || !std::isfinite(D12 + D13 + D23)) return 0;
+  const RayCoefficients& R2 = ray2_;
+  const RayCoefficients& R3 = ray3_;
+  // g_k = D1k^2 - (|P1 - o_k|^2 - m_k^2), lowest coefficient first.
+  const double g2[3] = {D12 - R2.c + R2.a * R2.a, 2.0 * (R2.a * R2.b - R2.e), R2.b * R2.b - 1.0};
+  const double g3[3] = {D13 - R3.c + R3.a * R3.a, 2.0 * (R3.a * R3.b - R3.e), R3.b * R3.b - 1.0};
+  const double m2[2] = {R2.a, R2.b}, m3[2] = {R3.a, R3.b};
+  const double w = d2_d3_;
+  // m_k^2 + g_k (degree 2).
+  const double s2[3] = {m2[0] * m2[0] + g2[0], 2.0 * m2[0] * m2[1] + g2[1], m2[1] * m2[1] + g2[2]};
+  const double s3[3] = {m3[0] * m3[0] + g3[0], 2.0 * m3[0] * m3[1] + g3[1], m3[1] * m3[1] + g3[2]};
+  const double Ap[3] = {o23_sq_ - D23 + s2[0] + s3[0] + 2.0 * m2[0] * d2_o23_ - 2.0 * m3[0] * d3_o23_ -
+                            2.0 * w * m2[0] * m3[0],
+                        s2[1] + s3[1] + 2.0 * m2[1] * d2_o23_ - 2.0 * m3[1] * d3_o23_ -
+                            2.0 * w * (m2[0] * m3[1] + m2[1] * m3[0]),
+                        s2[2] + s3[2] - 2.0 * w * m2[1] * m3[1]};
+  const double Bp[2] = {2.0 * (m2[0] + d2_o23_ - w * m3[0]), 2.0 * (m2[1] - w * m3[1])};
+  const double Cp[2] = {2.0 * (m3[0] - d3_o23_ - w * m2[0]), 2.0 * (m3[1] - w * m2[1])};
+  const double E = -2.0 * w;
+  std::array<double, 5> AA{}, g23{}, BBg2{}, CCg3{};
+  std::array<double, 3> BB{}, CC{};
+  PolyMul(Ap, 2, Ap, 2, &AA);
+  PolyMul(g2, 2, g3, 2, &g23);
+  PolyMul(Bp, 1, Bp, 1, &BB);
+  PolyMul(Cp, 1, Cp, 1, &CC);
+  PolyMul(BB.data(), 2, g2, 2, &BBg2);
+  PolyMul(CC.data(), 2, g3, 2, &CCg3);
+  std::array<double, 5> P{};
+  for (std::size_t i = 0; i < 5; ++i) P[i] = AA[i] + E * E * g23[i] - BBg2[i] - CCg3[i];
+  std::array<double, 3> BC{};
+  PolyMul(Bp, 1, Cp, 1, &BC);
+  const double Q[3] = {2.0 * (Ap[0] * E - BC[0]), 2.0 * (Ap[1] * E - BC[1]), 2.0 * (Ap[2] * E - BC[2])};
+  std::array<double, 5> QQ{};
+  PolyMul(Q, 2, Q, 2, &QQ);
+  std::array<double, 9> PP{}, QQg23{}, octic{};
+  PolyMul(P.data(), 4, P.data(), 4, &PP);
+  PolyMul(QQ.data(), 4, g23.data(), 4, &QQg23);
+  for (std::size_t i = 0; i < 9; ++i) octic[i] = PP[i] - QQg23[i];
+
+  std::array<double, 8> l1s{};
+  const int n = PolynomialRealRootsIn(octic.data(), 8, options_.min_depth_m, options_.max_depth_m, l1s.data());
+  const DepthEquations eq{R2.a, R2.b, R2.c, R2.e, R3.a, R3.b, R3.c, R3.e, o23_sq_, d2_o23_, d3_o23_, w, D12, D13, D23};
+  const double scale = D12 + D13 + D23 + o23_sq_;
+  SolutionSink sink(rays_, options_, P_w, poses, depths);
+  // Branch pair c (bit 0: s2 = +1, bit 1: s3 = +1) at l1: false beyond a branch's end (with
+  // `clamp`, a little beyond it counts as at it); else the depths and the (2,3) residual.
+  auto branch = [&](double l, int c, bool clamp, Eigen::Vector3d* depth) -> double {
+    double q2 = g2[0] + (g2[1] + g2[2] * l) * l, q3 = g3[0] + (g3[1] + g3[2] * l) * l;
+    if (q2 < 0.0 || q3 < 0.0) {
+      if (!clamp) return std::numeric_limits<double>::quiet_NaN();
+      q2 = std::max(0.0, q2);
+      q3 = std::max(0.0, q3);
+    }
+    const double r2 = std::sqrt(q2), r3 = std::sqrt(q3);
+    const double l2 = m2[0] + m2[1] * l + ((c & 1) != 0 ? r2 : -r2);
+    const double l3 = m3[0] + m3[1] * l + ((c & 2) != 0 ? r3 : -r3);
+    *depth = Eigen::Vector3d(l, l2, l3);
+    return o23_sq_ + l2 * l2 + l3 * l3 + 2.0 * (l2 * d2_o23_ - l3 * d3_o23_ - w * l2 * l3) - D23;
+  };
+  // Polishes a start and keeps it when it satisfies the three distances; returns how far l1
+  // moved (infinite when refused).
+  auto try_depth = [&](Eigen::Vector3d depth) {
+    const double start = depth(0);
+    if (eq.Polish(&depth) > kAcceptResidual) return std::numeric_limits<double>::infinity();
+    sink.Add(depth);
+    // A twin within a few percent may lie closer than the octic resolves.
+    Eigen::Vector3d twin;
+    if (eq.Twin(depth, &twin) && eq.Polish(&twin) <= kAcceptResidual) sink.Add(twin);
+    return std::abs(depth(0) - start);
+  };
+  // Root of branch c's residual between a and b (valid, opposite signs): Illinois.
+  auto branch_root = [&](double a, double fa, double b, double fb, int c) {
+    Eigen::Vector3d depth;
+    int side = 0;
+    double x = a;
+    for (int it = 0; it < limits::kMaxBisectionIterations; ++it) {
+      double next = (a * fb - b * fa) / (fb - fa);
+      if (!(next > std::min(a, b) && next < std::max(a, b))) next = 0.5 * (a + b);
+      const bool done = std::abs(next - x) <= 1e-13 * std::abs(next);
+      x = next;
+      const double fx = branch(x, c, true, &depth);
+      if (fx == 0.0 || done) break;
+      if ((fx < 0.0) == (fb < 0.0)) {
+        b = x;
+        fb = fx;
+        if (side == -1) fa *= 0.5;
+        side = -1;
+      } else {
+        a = x;
+        fa = fx;
+        if (side == 1) fb *= 0.5;
+        side = 1;
+      }
+    }
+    branch(x, c, true, &depth);
+    try_depth(depth);
+  };
+  // Where the octic is poorly conditioned (its two squarings cancel near close roots and branch
+  // ends: a root may move by ~1e-4 m or hide), the residuals themselves are searched around the
+  // place: each branch pair sampled at kLocalSamples points over +-0.3 % of l1, its sign changes
+  // refined, its dips towards zero minimized (golden section) and split at the minimum, its
+  // branch ends located; every find polished and checked like the octic's roots.
+  constexpr int kLocalSamples = 24;
+  auto local_search = [&](double centre) {
+    const double half = 3e-3 * centre;
+    const double lo = std::max(options_.min_depth_m, centre - half), hi = std::min(options_.max_depth_m, centre + half);
+    if (!(lo < hi)) return;
+    for (int c = 0; c < 4; ++c) {
+      std::array<double, kLocalSamples> xs{}, fs{};
+      Eigen::Vector3d depth;
+      for (int j = 0; j < kLocalSamples; ++j) {
+        xs[static_cast<std::size_t>(j)] = lo + (hi - lo) * j / (kLocalSamples - 1);
+        fs[static_cast<std::size_t>(j)] = branch(xs[static_cast<std::size_t>(j)], c, false, &depth);
+      }
+      for (int j = 1; j < kLocalSamples; ++j) {
+        const auto sj = static_cast<std::size_t>(j);
+        const double x0 = xs[sj - 1], x1 = xs[sj], f0 = fs[sj - 1], f1 = fs[sj];
+        const bool ok0 = !std::isnan(f0), ok1 = !std::isnan(f1);
+        if (ok0 && ok1) {
+          if ((f0 < 0.0) != (f1 < 0.0)) {
+            branch_root(x0, f0, x1, f1, c);
+          } else if (j >= 2 && !std::isnan(fs[sj - 2]) && (fs[sj - 2] < 0.0) == (f0 < 0.0) &&
+                     std::abs(f0) < std::abs(fs[sj - 2]) && std::abs(f0) < std::abs(f1)) {
+            // A dip towards zero between samples j - 2 and j: its minimum of |f|.
+            constexpr double kInvPhi = 0.6180339887498949;
+            const double sign = f0 < 0.0 ? -1.0 : 1.0;
+            double a = xs[sj - 2], b = x1;
+            double u = b - kInvPhi * (b - a), v = a + kInvPhi * (b - a);
+            double fu = sign * branch(u, c, true, &depth), fv = sign * branch(v, c, true, &depth);
+            for (int it = 0; it < limits::kMaxBisectionIterations && fu > 0.0 && fv > 0.0 && b - a > 1e-12 * b; ++it) {
+              if (fu < fv) {
+                b = v;
+                v = u;
+                fv = fu;
+                u = b - kInvPhi * (b - a);
+                fu = sign * branch(u, c, true, &depth);
+              } else {
+                a = u;
+                u = v;
+                fu = fv;
+                v = a + kInvPhi * (b - a);
+                fv = sign * branch(v, c, true, &depth);
+              }
+            }
+            const double xm = fu < fv ? u : v, fm = std::min(fu, fv);
+            if (fm <= 0.0) {  // crossed: a root on either side
+              branch_root(xs[sj - 2], fs[sj - 2], xm, sign * fm, c);
+              branch_root(xm, sign * fm, x1, f1, c);
+            } else if (fm <= 1e-12 * scale) {  // touches: a double root
+              branch(xm, c, true, &depth);
+              try_depth(depth);
+            }
+          }
+        } else if (ok0 != ok1) {
+          // A branch end between the samples: bisect on validity, then the end against the
+          // valid sample.
+          double in = ok0 ? x0 : x1, out = ok0 ? x1 : x0;
+          for (int it = 0; it < limits::kMaxBisectionIterations && std::abs(out - in) > 1e-14 * in; ++it) {
+            const double mid = 0.5 * (in + out);
+            (std::isnan(branch(mid, c, false, &depth)) ? out : in) = mid;
+          }
+          const double fe = branch(in, c, true, &depth), fin = ok0 ? f0 : f1, xin = ok0 ? x0 : x1;
+          if ((fe < 0.0) != (fin < 0.0)) branch_root(std::min(in, xin), in < xin ? fe : fin, std::max(in, xin),
+                                                      in < xin ? fin : fe, c);
+          else if (std::abs(fe) <= 1e-9 * scale) try_depth(depth);
+        }
+      }
+    }
+  };
+  // The octic's roots (and clusters): each polished on the branch pairs whose residual nearly
+  // vanishes there; where the polish fails or moves l1 by more than 1e-7 (relative), the
+  // octic was inaccurate there and the residuals are searched around it (at most
+  // kMaxLocalSearches per solve, not twice over one place).
+  constexpr int kMaxLocalSearches = 4;
+  std::array<double, kMaxLocalSearches> searched{};
+  int num_searched = 0;
+  for (int i = 0; i < n; ++i) {
+    const double l = l1s[static_cast<std::size_t>(i)];
+    std::array<double, 4> f{};
+    std::array<Eigen::Vector3d, 4> start;
+    int best = -1;
+    for (int c = 0; c < 4; ++c) {
+      // (Beyond a branch's end by up to 1e-3 of the distance: from the end.)
+      double q2 = g2[0] + (g2[1] + g2[2] * l) * l, q3 = g3[0] + (g3[1] + g3[2] * l) * l;
+      if (q2 < -1e-3 * D12 || q3 < -1e-3 * D13) break;
+      f[static_cast<std::size_t>(c)] = std::abs(branch(l, c, true, &start[static_cast<std::size_t>(c)]));
+      if (best < 0 || f[static_cast<std::size_t>(c)] < f[static_cast<std::size_t>(best)]) best = c;
+    }
+    bool inaccurate = best < 0;
+    for (int c = 0; c < 4 && best >= 0; ++c) {
+      if (c != best && f[static_cast<std::size_t>(c)] > 1e-5 * scale) continue;
+      const double moved = try_depth(start[static_cast<std::size_t>(c)]);
+      if (c == best && !(moved <= 1e-7 * l)) inaccurate = true;
+    }
+    if (!inaccurate || num_searched >= kMaxLocalSearches) continue;
+    bool seen = false;
+    for (int k = 0; k < num_searched; ++k) seen = seen || std::abs(searched[static_cast<std::size_t>(k)] - l) < 1e-3 * l;
+    if (seen) continue;
+    searched[static_cast<std::size_t>(num_searched++)] = l;
+    local_search(l);
+  }
+  return sink.count();
+}
 
 bool TriangleOrientation(const std::array<Eigen::Vector3d, 3>& q_b, const std::array<Eigen::Vector3d, 3>& P_w,
                          BodyPose* pose) {

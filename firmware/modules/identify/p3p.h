@@ -7,22 +7,32 @@
 // q_i = o_i + l_i d_i and the beacons P_i give the pose by absolute orientation
 // (P_w = C_w_b q_b + r_w_wb).
 //
-// Central case (the three rays from one camera, the common case in lost-in-space): Grunert's
-// closed form. With s_2 = u s_1 and s_3 = v s_1, the ratios of the three distance equations
-// give u as a rational function of v and a quartic in v, whose real roots are bracketed
-// between the critical points (roots of its derivative, recursively) and polished; each root
-// gives the depths, each solution is checked against all three distances.
+// Central case (the three rays from one camera, the common case in lost-in-space): the two
+// homogeneous conics in the depths (each distance equation against the one of the longest
+// side) span a pencil; one real degenerate member (a root of a cubic, Cardano) is a pair of
+// lines through the pencil's four base points, and each line meets a conic in two points (a
+// quadratic). Depths are polished by Newton on the three distance equations (the idea of
+// Lambda Twist, Persson & Nordberg ECCV 2018, and of Ding et al. CVPR 2023). A tangent line
+// (a double root, the "twin" of a pose near the danger cylinder) is kept within rounding.
 //
-// Other splits: l_2 and l_3 follow from l_1 through the (1,2)
-// and (1,3) distance quadratics (two branches each); the (2,3) distance residual is then a
-// function of l_1 alone for each of the four branch pairs. It is sampled on a geometric grid
-// over [min_depth_m, max_depth_m], each sign change (including one at a branch's end, where
-// its discriminant vanishes) is refined by bisection, and each extremum of the residual that
-// heads towards zero between samples is searched (golden section) for a pair of close roots
-// or a near-double root. Roots can still be missed where the residual bends sharply within
-// one grid cell (near-degenerate geometry that hardly determines the pose).
+// Other splits: l_2 and l_3 follow from l_1 through the (1,2) and (1,3) distance quadratics
+// (two branches each, l_k = m_k(l_1) +- sqrt(g_k(l_1))); the (2,3) distance residual is
+// A + s_2 B r_2 + s_3 C r_3 + s_2 s_3 E r_2 r_3 with r_k = sqrt(g_k) and polynomials A, B, C, E.
+// Squaring twice removes the square roots and the signs: one octic in l_1 whose roots are
+// every branch pair's. Its real roots in [min_depth_m, max_depth_m] come from Bernstein
+// subdivision (PolynomialRealRootsIn), with candidates where it only touches zero (near-double
+// roots). Each candidate is assigned to the branch pairs whose residual nearly vanishes there
+// and polished by Newton on the three distance equations; only solutions satisfying all three
+// are kept. The two squarings cancel near close roots and branch ends (the octic's roots then
+// move by up to ~1e-4 m or hide): where a polish fails or moves l_1 by more than 1e-7, the
+// exact branch residuals are searched around the place (sign changes, dips, branch ends).
 //
-// No heap, every loop bounded (scan steps, limits::kMaxBisectionIterations).
+// Both cases: from every solution, its near twin (two solutions merging, J singular) is sought
+// along the null direction of the distance equations' Jacobian and kept if it polishes to a
+// solution; the tracker refuses an ambiguous three-beacon fix by seeing that twin.
+//
+// No heap, every loop bounded (fixed iteration and subdivision limits,
+// limits::kMaxBisectionIterations).
 #pragma once
 
 #include <Eigen/Core>
@@ -46,16 +56,18 @@ BodyRay RayOfBlob(const Rig& rig, const BlobObs& blob);
 struct P3pOptions {
   double min_depth_m = 0.1;  // beacons nearer a camera than this are not sought
   double max_depth_m = 5.0;  // nor farther
-  int scan_steps = 128;      // grid samples of l_1, 8..limits::kMaxP3pScanSteps
+  // Grid samples of l_1 of the former 1-D scan, 8..limits::kMaxP3pScanSteps: still validated
+  // (callers set it), unused since the algebraic solve.
+  int scan_steps = 128;
 
   bool IsValid(const char** why = nullptr) const;
 };
 
-// The scan's part that depends on the rays only (reused for every beacon triple of a ray
-// triple). Fixed storage.
+// The part that depends on the rays only (reused for every beacon triple of a ray triple).
+// Fixed storage.
 class P3pRayTriple {
  public:
-  // Precomputes the grid for rays[0..2]; false when the options are invalid.
+  // Precomputes the ray geometry for rays[0..2]; false when the options are invalid.
   bool Set(const std::array<BodyRay, 3>& rays, const P3pOptions& options);
 
   // Solutions for beacons P_w[i] seen along rays[i]: writes up to limits::kMaxP3pSolutions
@@ -64,38 +76,21 @@ class P3pRayTriple {
             std::array<Eigen::Vector3d, limits::kMaxP3pSolutions>* depths = nullptr) const;
 
  private:
-  struct Sample {
-    double l1;
-    double m2, q2;  // ray 2: d2 . (P1 - o2) and |P1 - o2|^2 - m2^2 (squared distance to the ray)
-    double m3, q3;
-  };
-  struct RayCoefficients {  // m(l) = a + b l, |P1 - o|^2 = c + 2 e l + l^2
+  struct RayCoefficients {  // along ray 1 at depth l: m(l) = a + b l, |P1 - o|^2 = c + 2 e l + l^2
     double a, b, c, e;
   };
-  struct Distances {  // squared beacon distances
-    double d12_sq, d13_sq, d23_sq;
-  };
-  Sample At(double l1) const;
-  // Branch pair (s2, s3) at l1: false beyond a branch's end; otherwise the depths and
-  // *f = |P2 - P3|^2 - D23^2.
-  bool Eval(double l1, int s2, int s3, const Distances& D, double* f, double* l2, double* l3) const;
-  bool BranchEnd(double lo, double hi, double near, const Distances& D, double* l1) const;
-  bool Root(double a, double b, int s2, int s3, const Distances& D, double* l1) const;
   int SolveCentral(const std::array<Eigen::Vector3d, 3>& P_w, std::array<BodyPose, limits::kMaxP3pSolutions>* poses,
                    std::array<Eigen::Vector3d, limits::kMaxP3pSolutions>* depths) const;
-  bool Extremum(double a, double b, int s2, int s3, const Distances& D, bool minimum, double* x, double* fx) const;
+  int SolveGeneral(const std::array<Eigen::Vector3d, 3>& P_w, std::array<BodyPose, limits::kMaxP3pSolutions>* poses,
+                   std::array<Eigen::Vector3d, limits::kMaxP3pSolutions>* depths) const;
 
   std::array<BodyRay, 3> rays_{};
   P3pOptions options_{};
-  bool central_ = false;                        // the three rays share their origin
+  bool valid_ = false;
+  bool central_ = false;                            // the three rays share their origin
   double cos_a_ = 0.0, cos_b_ = 0.0, cos_c_ = 0.0;  // angles between rays (2,3), (1,3), (1,2)
   RayCoefficients ray2_{}, ray3_{};
   double o23_sq_ = 0.0, d2_o23_ = 0.0, d3_o23_ = 0.0, d2_d3_ = 0.0;  // o23 = o2 - o3
-  int n_ = 0;
-  std::array<Sample, limits::kMaxP3pScanSteps> grid_{};
-  double grid_min_ = 0.0, grid_max_ = 0.0;
-  int grid_n_ = 0;
-  std::array<double, limits::kMaxP3pScanSteps> depth_grid_{};
 };
 
 // The rigid transform with P_w[i] = C_w_b q_b[i] + r_w_wb for two congruent triangles (the
@@ -106,10 +101,17 @@ bool TriangleOrientation(const std::array<Eigen::Vector3d, 3>& q_b, const std::a
                          BodyPose* pose);
 
 // Real roots of c[0] + c[1] x + ... + c[n] x^n (n <= 4, c[n] != 0), ascending; returns how
-// many. Each monotone stretch between the roots of the derivative (found the same way) that
+// many. (No longer used by the P3P itself; kept as a tested utility.) Each monotone stretch between the roots of the derivative (found the same way) that
 // changes sign holds one root, found by safeguarded Newton steps; a double root where the
 // polynomial only touches zero counts when it does so within rounding.
 int PolynomialRealRoots(const double* c, int n, double* roots);
+
+// Real roots of c[0] + ... + c[n] x^n (n <= 8) in [lo, hi], ascending; returns how many (at
+// most n). Bernstein form on the interval, halved (de Casteljau) until Descartes' rule of signs
+// shows no root or exactly one (then bracketed Newton steps); a piece narrower than 1e-7 of the
+// interval that still may hold two or more roots is a cluster (a double root, or roots closer
+// than that) and reported once, at its middle, for the caller to verify on its own equations.
+int PolynomialRealRootsIn(const double* c, int n, double lo, double hi, double* roots);
 
 // Least-squares rigid transform with P_w[i] = C_w_b q_b[i] + r_w_wb (Kabsch/Horn, SVD of the
 // 3x3 cross-covariance, reflection excluded). False when the points are (nearly) collinear

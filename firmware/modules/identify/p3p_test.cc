@@ -2,7 +2,10 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <random>
+
+#include "firmware/modules/identify/p3p_scan_reference.h"
 
 #include "common/rig/paper_rig.h"
 #include "common/rotation/rotation.h"
@@ -143,8 +146,8 @@ TEST(P3pTest, PolynomialRealRootsFindsEveryRealRoot) {
   EXPECT_NEAR(roots[1], 2.0, 1e-12);
 }
 
-// The central closed form (one camera) against the general scan on the same rays with their
-// origins moved apart by 1e-9 m (which takes the scan's path): the same solutions.
+// The central closed form (one camera) against the general (octic) solve on the same rays with
+// their origins moved apart by 1e-9 m (which takes the general path): the same solutions.
 TEST(P3pTest, CentralClosedFormMatchesTheGeneralScan) {
   const Rig rig = PaperRig();
   std::mt19937_64 rng(17);
@@ -173,6 +176,208 @@ TEST(P3pTest, CentralClosedFormMatchesTheGeneralScan) {
               missing);
   EXPECT_LE(missing, 1 + trials / 1000);
   EXPECT_GE(closed_total, scan_total - trials / 1000);
+}
+
+// Every solution of the solver before the algebraic one (p3p_scan_reference.h: Grunert's
+// quartic for one camera, the 1-D scan for several) is among the new solver's, to 1e-6 (m and
+// rad); the truth to 1e-7; the new ones the old lacked still reproduce the three rays.
+void CheckAgainstScanReference(int force_camera, std::uint64_t seed, double min_depth, double max_depth) {
+  const Rig rig = PaperRig();
+  std::mt19937_64 rng(seed);
+  P3pOptions o;
+  o.min_depth_m = min_depth;
+  o.max_depth_m = max_depth;
+  P3pRayTriple ours;
+  scan_reference::ScanP3p old;
+  std::array<BodyPose, limits::kMaxP3pSolutions> a, b;
+  const int trials = testing::Trials(20000, 2000);
+  int ours_total = 0, old_total = 0, missing = 0, truth_missing = 0, old_truth_missing = 0;
+  for (int i = 0; i < trials; ++i) {
+    const Trial t = RandomTrial(rig, &rng, force_camera);
+    ASSERT_TRUE(ours.Set(t.rays, o));
+    ASSERT_TRUE(old.Set(t.rays, o));
+    const int n = ours.Solve(t.P_w, &a);
+    const int m = old.Solve(t.P_w, &b);
+    ours_total += n;
+    old_total += m;
+    ExpectAllSolutionsConsistent(t, a, n);
+    for (int j = 0; j < m; ++j) {
+      const bool found = ContainsTruth(a, n, b[static_cast<std::size_t>(j)], 1e-6);
+      missing += !found;
+      EXPECT_TRUE(found) << "trial " << i << " old solution " << j;
+    }
+    truth_missing += !ContainsTruth(a, n, t.truth, 1e-7);
+    old_truth_missing += !ContainsTruth(b, m, t.truth, 1e-7);
+  }
+  std::printf("camera %d, depths %.1f-%.1f m: ours %d solutions, old %d, old's not in ours %d; truth missed: ours %d, "
+              "old %d (of %d)\n",
+              force_camera, min_depth, max_depth, ours_total, old_total, missing, truth_missing, old_truth_missing,
+              trials);
+  // (No count comparison: the old solver reports some near-double roots twice, 1e-9 apart.)
+  EXPECT_EQ(missing, 0);
+  EXPECT_EQ(truth_missing, 0);
+}
+
+TEST(P3pTest, FindsEveryScanReferenceSolutionAnySplit) { CheckAgainstScanReference(-1, 21, 0.1, 4.0); }
+TEST(P3pTest, FindsEveryScanReferenceSolutionOneCamera) { CheckAgainstScanReference(0, 22, 0.1, 4.0); }
+TEST(P3pTest, FindsEveryScanReferenceSolutionWideDepths) { CheckAgainstScanReference(-1, 23, 0.05, 10.0); }
+
+// Near the danger cylinder (the camera centre on the cylinder through the three beacons,
+// perpendicular to their plane) two solutions merge: configurations at relative distances
+// 1e-2..1e-7 from it, one camera and three cameras (ray origins up to 5 cm apart, the rig's
+// scale). The old solver's close pairs (the "twin" root the tracker refuses three-beacon fixes
+// by) are all found again; no pose is non-finite or not a rotation. Merging solutions are
+// determined to ~sqrt(rounding) only, and at a few metres from a small triangle the residuals
+// stay within rounding over ~1e-4 m (both solvers land anywhere there): every old solution and
+// the truth have one of ours within 1e-3 (m and rad; the tracker's twin scale is 1e-3), and
+// within 1e-5 in >= 99.5 % of the cases.
+void CheckNearDangerCylinder(bool multi_camera, std::uint64_t seed) {
+  std::mt19937_64 rng(seed);
+  std::uniform_real_distribution<double> u(-1.0, 1.0), ang(0.0, 2.0 * M_PI), lexp(-7.0, -2.0);
+  P3pOptions o;
+  o.min_depth_m = 0.1;
+  o.max_depth_m = 6.0;
+  P3pRayTriple ours;
+  scan_reference::ScanP3p old;
+  std::array<BodyPose, limits::kMaxP3pSolutions> a, b;
+  const int trials = testing::Trials(5000, 1000);
+  int old_pairs = 0, our_pairs = 0, missing = 0, old_total = 0, ours_total = 0, truth_missing = 0;
+  int coarse_missing = 0, truth_coarse = 0, compared = 0;
+  auto close_pairs = [](const std::array<BodyPose, limits::kMaxP3pSolutions>& s, int n) {
+    int pairs = 0;
+    for (int i = 0; i < n; ++i)
+      for (int j = i + 1; j < n; ++j)
+        pairs += (s[static_cast<std::size_t>(i)].r_w_wb - s[static_cast<std::size_t>(j)].r_w_wb).norm() < 2e-2;
+    return pairs;
+  };
+  for (int trial = 0; trial < trials; ++trial) {
+    // Beacons on a random triangle, camera centre near its circumscribed cylinder.
+    std::array<Eigen::Vector3d, 3> P;
+    for (auto& p : P) p = Eigen::Vector3d(u(rng), u(rng), 0.3 * u(rng));
+    const Eigen::Vector3d e1 = P[1] - P[0], e2 = P[2] - P[0], nrm = e1.cross(e2);
+    if (nrm.norm() < 0.2) continue;
+    // Circumcentre: P0 + (|e1|^2 (e2 x n) ... ) / (2 |n|^2) with n = e1 x e2.
+    const Eigen::Vector3d cc =
+        P[0] + (e1.squaredNorm() * e2.cross(nrm) + e2.squaredNorm() * nrm.cross(e1)) / (2.0 * nrm.squaredNorm());
+    const double R = (P[0] - cc).norm();
+    const Eigen::Vector3d z = nrm.normalized(), x = (P[0] - cc).normalized(), y = z.cross(x);
+    const double th = ang(rng), eps = std::pow(10.0, lexp(rng)) * (u(rng) < 0.0 ? -1.0 : 1.0);
+    const Eigen::Vector3d centre = cc + R * (1.0 + eps) * (std::cos(th) * x + std::sin(th) * y) + 0.8 * u(rng) * z;
+    BodyPose truth;
+    truth.C_w_b = testing::RandomRotation(&rng);
+    truth.r_w_wb = centre;
+    Trial t;
+    t.truth = truth;
+    t.P_w = P;
+    bool ok = true;
+    for (std::size_t i = 0; i < 3; ++i) {
+      t.rays[i].o_b = multi_camera ? Eigen::Vector3d(0.05 * u(rng), 0.05 * u(rng), 0.05 * u(rng)) : Eigen::Vector3d::Zero();
+      const Eigen::Vector3d q = truth.C_w_b.transpose() * (P[i] - truth.r_w_wb) - t.rays[i].o_b;
+      ok = ok && q.norm() > 0.15 && q.norm() < 5.5;
+      t.rays[i].d_b = q.normalized();
+    }
+    if (!ok) continue;
+    ASSERT_TRUE(ours.Set(t.rays, o));
+    ASSERT_TRUE(old.Set(t.rays, o));
+    const int n = ours.Solve(t.P_w, &a);
+    const int m = old.Solve(t.P_w, &b);
+    for (int s = 0; s < n; ++s) {
+      ASSERT_TRUE(a[static_cast<std::size_t>(s)].C_w_b.allFinite() && a[static_cast<std::size_t>(s)].r_w_wb.allFinite());
+    }
+    ExpectAllSolutionsConsistent(t, a, n);
+    ours_total += n;
+    old_total += m;
+    old_pairs += close_pairs(b, m);
+    our_pairs += close_pairs(a, n);
+    truth_missing += !ContainsTruth(a, n, t.truth, 1e-6);
+    truth_coarse += !ContainsTruth(a, n, t.truth, 1e-3);
+    for (int j = 0; j < m; ++j) {
+      const BodyPose& q = b[static_cast<std::size_t>(j)];
+      missing += !ContainsTruth(a, n, q, 1e-5);
+      const bool found = ContainsTruth(a, n, q, 1e-3);
+      coarse_missing += !found;
+      EXPECT_TRUE(found) << "trial " << trial << " eps " << eps << " old solution " << j << " of " << m << ", ours " << n;
+    }
+    compared += m;
+  }
+  std::printf("%s near the danger cylinder: ours %d solutions (%d close pairs), old %d (%d close pairs); old's not in "
+              "ours within 1e-5: %d, within 1e-3: %d; truth not within 1e-6: %d, 1e-3: %d\n",
+              multi_camera ? "three cameras" : "one camera", ours_total, our_pairs, old_total, old_pairs, missing,
+              coarse_missing, truth_missing, truth_coarse);
+  EXPECT_EQ(coarse_missing, 0);
+  EXPECT_EQ(truth_coarse, 0);
+  EXPECT_LE(missing, compared / 200);
+  EXPECT_LE(truth_missing, trials / 200);
+  EXPECT_GE(our_pairs, old_pairs);
+}
+
+TEST(P3pTest, NearTheDangerCylinderOneCamera) { CheckNearDangerCylinder(false, 31); }
+TEST(P3pTest, NearTheDangerCylinderThreeCameras) { CheckNearDangerCylinder(true, 32); }
+
+// Octics built from known roots (real ones inside and outside the interval, a double root,
+// complex pairs): every real root in the interval is found, a double root once at least.
+TEST(P3pTest, PolynomialRealRootsInFindsEveryRootInTheInterval) {
+  std::mt19937_64 rng(33);
+  std::uniform_real_distribution<double> u(-1.0, 6.0), im(0.01, 2.0);
+  int double_roots = 0;
+  for (int trial = 0; trial < 5000; ++trial) {
+    // Quadratic factors x^2 - 2 re x + (re^2 + im^2) or (x - r1)(x - r2).
+    std::array<double, 9> c = {1.0, 0, 0, 0, 0, 0, 0, 0, 0};
+    std::vector<double> real;
+    int deg = 0;
+    for (int f = 0; f < 4; ++f) {
+      double q[3];
+      if (trial % 3 == 0 && f == 3) {  // complex pair
+        const double re = u(rng), m = im(rng);
+        q[0] = re * re + m * m;
+        q[1] = -2.0 * re;
+      } else {
+        const double r1 = u(rng), r2 = (trial % 4 == 1 && f == 0) ? r1 : u(rng);
+        double_roots += r1 == r2;
+        real.push_back(r1);
+        real.push_back(r2);
+        q[0] = r1 * r2;
+        q[1] = -(r1 + r2);
+      }
+      q[2] = 1.0;
+      std::array<double, 9> next{};
+      for (int i = 0; i <= deg; ++i)
+        for (int k = 0; k < 3; ++k) next[static_cast<std::size_t>(i + k)] += c[static_cast<std::size_t>(i)] * q[k];
+      c = next;
+      deg += 2;
+    }
+    const double lo = 0.1, hi = 5.0;
+    std::array<double, 8> roots{};
+    const int n = PolynomialRealRootsIn(c.data(), 8, lo, hi, roots.data());
+    ASSERT_LE(n, 8);
+    for (int i = 0; i + 1 < n; ++i) EXPECT_LE(roots[static_cast<std::size_t>(i)], roots[static_cast<std::size_t>(i + 1)]);
+    for (double r : real) {
+      if (r < lo + 1e-6 || r > hi - 1e-6) continue;
+      // A simple root is determined to its condition number (terms' magnitude over the
+      // slope) times the rounding, here with a 1000x margin (and 1e-9: the P3P polishes its
+      // roots); a double root, or one within 1e-2 of others, to ~sqrt or cbrt(rounding x that
+      // magnitude) only: 1e-2.
+      int copies = 0, within_5cm = 0;
+      double nearest_other = 1e9;
+      for (double o : real) {
+        copies += o == r;
+        within_5cm += std::abs(o - r) < 0.05;
+        if (o != r) nearest_other = std::min(nearest_other, std::abs(o - r));
+      }
+      double slope = 0.0, mag = 0.0;
+      for (int k = 8; k >= 0; --k) mag = mag * r + std::abs(c[static_cast<std::size_t>(k)]);
+      for (int k = 8; k >= 1; --k) slope = slope * r + k * c[static_cast<std::size_t>(k)];
+      // Three or more roots within 0.05 (never from a P3P: its multiple roots are at most
+      // double near the danger cylinder) may come out as one candidate of the cluster.
+      const double tol = within_5cm >= 3                     ? 0.05
+                         : copies > 1 || nearest_other < 1e-2 ? 1e-2
+                                                              : std::min(1e-3, 1e-9 + 1e-13 * mag / std::abs(slope));
+      bool hit = false;
+      for (int i = 0; i < n; ++i) hit = hit || std::abs(roots[static_cast<std::size_t>(i)] - r) < tol;
+      EXPECT_TRUE(hit) << "trial " << trial << " root " << r;
+    }
+  }
+  EXPECT_GT(double_roots, 1000);
 }
 
 TEST(P3pTest, AbsoluteOrientationExactAndRefusesCollinear) {
