@@ -406,7 +406,9 @@ TEST(NavMatrix, SeenWrongFixesStayFixed) {
 // view: its P3P root 72 mm off, refuted by a missing beacon) and its survivor, one beacon and
 // two reflections, was published as a fix 147 mm and 10 deg off (frame set 441). An acquired
 // three-beacon pose that leaves a steady blob unexplained is now refused (TrackCounters::
-// steady_unexplained).
+// steady_unexplained). The scenario is run as it was found, without the blob tracks' continuity
+// (TrackOptions::continue_blob_tracks, which keeps that track and avoids the situation: 80
+// fixes, the rule not needed), and with it.
 TEST(NavMatrix, ReflectionsMovingWithTheSceneGiveNoWrongFix) {
   RunSpec r;
   r.preset = "station-box";
@@ -415,14 +417,20 @@ TEST(NavMatrix, ReflectionsMovingWithTheSceneGiveNoWrongFix) {
   r.facing = false;
   r.frames = 450;
   r.static_reflections = 20;
-  const RunResult result = RunNavigation(MatrixScenario(r), NavMatrixOptions{});
+  NavMatrixOptions as_found;
+  as_found.navigator.track.continue_blob_tracks = false;
+  const RunResult result = RunNavigation(MatrixScenario(r), as_found);
+  const RunResult with_tracks = RunNavigation(MatrixScenario(r), NavMatrixOptions{});
   std::printf("station-box 64 seed 4, no facing, 20 static reflections: fixes %d, degraded %d, wrong %d/%d, "
-              "refused for a steady blob %u\n",
+              "refused for a steady blob %u; with the blob tracks' continuity: fixes %d, wrong %d/%d\n",
               result.fixes, result.degraded, result.wrong_fixes, result.wrong_degraded,
-              result.counters.steady_unexplained);
+              result.counters.steady_unexplained, with_tracks.fixes, with_tracks.wrong_fixes,
+              with_tracks.wrong_degraded);
   EXPECT_GT(result.fixes, 20);  // (41 measured: its first fix comes late, at frame set 287)
   EXPECT_EQ(result.wrong_fixes, 0);
   EXPECT_GT(result.counters.steady_unexplained, 0u);
+  EXPECT_EQ(with_tracks.wrong_fixes, 0);
+  EXPECT_GT(with_tracks.fixes, 20);
 }
 
 }  // namespace
