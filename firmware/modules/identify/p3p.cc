@@ -102,6 +102,30 @@ double Horner(const double* c, int n, double x, double* derivative) {
   return p;
 }
 
+
+// The root of c (degree n) in [a, b] where f(a) = fa and f(b) = fb have opposite signs:
+// Newton from the secant point, kept inside the shrinking bracket (bisection otherwise), until
+// a step or the bracket is below rel_tol (relative to max(1, |x|)).
+double BracketedRoot(const double* c, int n, double a, double b, double fa, double fb, double rel_tol) {
+  double x = a - fa * (b - a) / (fb - fa);
+  if (!(x > a && x < b)) x = 0.5 * (a + b);
+  const bool rising = fa < 0.0;
+  double d = 0.0;
+  for (int it = 0; it < limits::kMaxBisectionIterations; ++it) {
+    const double f = Horner(c, n, x, &d);
+    if (f == 0.0) break;
+    if ((f < 0.0) == rising) a = x;
+    else b = x;
+    double next = x - f / d;
+    if (!(next > a && next < b)) next = 0.5 * (a + b);
+    const double tol = rel_tol * std::max(1.0, std::abs(x));
+    const bool done = std::abs(next - x) <= tol || b - a <= tol;
+    x = next;
+    if (done) break;
+  }
+  return x;
+}
+
 }  // namespace
 
 int PolynomialRealRoots(const double* c, int n, double* roots) {
@@ -156,30 +180,17 @@ int PolynomialRealRoots(const double* c, int n, double* roots) {
       continue;
     }
     if ((fa < 0.0) == (fb < 0.0) || fb == 0.0) continue;
-    // Newton from the secant point, kept inside the shrinking bracket (bisection otherwise).
-    double x = a - fa * (b - a) / (fb - fa);
-    if (!(x > a && x < b)) x = 0.5 * (a + b);
-    const bool rising = fa < 0.0;
-    for (int it = 0; it < limits::kMaxBisectionIterations; ++it) {
-      const double f = Horner(c, n, x, &d);
-      if (f == 0.0) break;
-      if ((f < 0.0) == rising) a = x;
-      else b = x;
-      double next = x - f / d;
-      if (!(next > a && next < b)) next = 0.5 * (a + b);
-      // (Near the root the rounding of f makes Newton jitter by more than an ulp: stop at
-      // 1e-13; the P3P polishes its depths on the distance equations afterwards.)
-      const double tol = 1e-13 * std::max(1.0, std::abs(x));
-      const bool done = std::abs(next - x) <= tol || b - a <= tol;
-      x = next;
-      if (done) break;
-    }
-    add(x);
+    // (Near the root the rounding of f makes Newton jitter by more than an ulp: stop at 1e-13;
+    // the P3P polishes its depths on the distance equations afterwards.)
+    add(BracketedRoot(c, n, a, b, fa, fb, 1e-13));
   }
   return count;
 }
 
 namespace {
+
+// Bernstein roots are bracketed to 1e-11: the callers polish on their own equations afterwards.
+constexpr double kRootTol = 1e-11;
 
 // Sign changes in b[0..n], zeros skipped, counted up to 2 (Descartes' rule for the Bernstein
 // form: at least the number of roots in the open interval, with the same parity; 0 or 1
@@ -195,28 +206,6 @@ int SignVariations(const double* b, int n) {
   return v;
 }
 
-// The root of c (degree n) in [a, b] where f(a) = fa and f(b) = fb have opposite signs:
-// Newton from the secant point, kept inside the shrinking bracket (bisection otherwise).
-double BracketedRoot(const double* c, int n, double a, double b, double fa, double fb) {
-  double x = a - fa * (b - a) / (fb - fa);
-  if (!(x > a && x < b)) x = 0.5 * (a + b);
-  const bool rising = fa < 0.0;
-  double d = 0.0;
-  for (int it = 0; it < limits::kMaxBisectionIterations; ++it) {
-    const double f = Horner(c, n, x, &d);
-    if (f == 0.0) break;
-    if ((f < 0.0) == rising) a = x;
-    else b = x;
-    double next = x - f / d;
-    if (!(next > a && next < b)) next = 0.5 * (a + b);
-    // 1e-11: the callers polish on their own equations afterwards.
-    const double tol = 1e-11 * std::max(1.0, std::abs(x));
-    const bool done = std::abs(next - x) <= tol || b - a <= tol;
-    x = next;
-    if (done) break;
-  }
-  return x;
-}
 
 }  // namespace
 
@@ -299,7 +288,7 @@ int RealRootsInImpl(const double* c, int n_runtime, double lo, double hi, double
     const int v = SignVariations(node.b.data(), n);
     if (v == 1 && node.b[0] != 0.0 && node.b[sn] != 0.0) {  // exactly one root
       if (count < n) {
-        roots[count++] = BracketedRoot(c, n, node.a, node.a + node.w, node.b[0], node.b[sn]);
+        roots[count++] = BracketedRoot(c, n, node.a, node.a + node.w, node.b[0], node.b[sn], kRootTol);
         last_is_cluster = false;
       }
       continue;
@@ -334,7 +323,7 @@ int RealRootsInImpl(const double* c, int n_runtime, double lo, double hi, double
       if (dv == 1 && db[0] != 0.0 && db[sn - 1] != 0.0) {
         std::array<double, 8> dc{};
         for (int k = 1; k <= n; ++k) dc[static_cast<std::size_t>(k - 1)] = k * c[k];
-        const double x = BracketedRoot(dc.data(), n - 1, node.a, node.a + node.w, db[0], db[sn - 1]);
+        const double x = BracketedRoot(dc.data(), n - 1, node.a, node.a + node.w, db[0], db[sn - 1], kRootTol);
         double d = 0.0;
         if (std::abs(Horner(c, n, x, &d)) <= 1e-12 * mag) add_cluster(x);
         continue;
