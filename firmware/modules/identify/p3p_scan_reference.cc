@@ -317,17 +317,6 @@ void PolyMul(const double* a, int na, const double* b, int nb, std::array<double
     for (int j = 0; j <= nb; ++j) (*out)[static_cast<std::size_t>(i + j)] += a[i] * b[j];
 }
 
-// Value and derivative of c[0] + ... + c[n] x^n at x (Horner).
-double Horner(const double* c, int n, double x, double* derivative) {
-  double p = c[n], dp = 0.0;
-  for (int i = n - 1; i >= 0; --i) {
-    dp = dp * x + p;
-    p = p * x + c[i];
-  }
-  *derivative = dp;
-  return p;
-}
-
 // Newton steps on the three depths s of a central P3P: |s_i y_i - s_j y_j|^2 = D_ij^2, i.e.
 // s_i^2 + s_j^2 - 2 s_i s_j cos_ij = D_ij^2 (pairs (2,3), (1,3), (1,2) with cosines ca, cb, cg).
 void PolishDepths(double ca, double cb, double cg, double a2, double b2, double c2, Eigen::Vector3d* s) {
@@ -346,81 +335,6 @@ void PolishDepths(double ca, double cb, double cg, double a2, double b2, double 
 }
 
 }  // namespace
-
-int PolynomialRealRoots(const double* c, int n, double* roots) {
-  while (n > 0 && c[n] == 0.0) --n;
-  if (n <= 0 || n > 4) return 0;
-  if (n == 1) {
-    roots[0] = -c[0] / c[1];
-    return 1;
-  }
-  if (n == 2) {
-    double x0 = 0.0, x1 = 0.0;
-    const int k = Quadratic(c[2], c[1], c[0], &x0, &x1);
-    if (k == 0) return 0;
-    if (x0 > x1) std::swap(x0, x1);
-    roots[0] = x0;
-    if (k == 1 || x1 == x0) return 1;
-    roots[1] = x1;
-    return 2;
-  }
-  // Fujiwara's bound on |root|: 2 max |c[n-k] / c[n]|^(1/k), the last term halved (far
-  // tighter than Cauchy's, so the outer stretches need fewer safeguarded steps).
-  double bound = 0.0;
-  for (int k = 1; k <= n; ++k) {
-    const double r = std::abs(c[n - k] / c[n]) * (k == n ? 0.5 : 1.0);
-    bound = std::max(bound, k == 1 ? r : std::pow(r, 1.0 / k));
-  }
-  bound = 2.0 * bound * (1.0 + 1e-12) + 1e-300;
-  std::array<double, 4> dc{};
-  for (int i = 1; i <= n; ++i) dc[static_cast<std::size_t>(i - 1)] = i * c[i];
-  std::array<double, 5> pts{};
-  int np = 0;
-  pts[static_cast<std::size_t>(np++)] = -bound;
-  std::array<double, 3> crit{};
-  const int nc = PolynomialRealRoots(dc.data(), n - 1, crit.data());
-  for (int i = 0; i < nc; ++i)
-    if (crit[static_cast<std::size_t>(i)] > -bound && crit[static_cast<std::size_t>(i)] < bound)
-      pts[static_cast<std::size_t>(np++)] = crit[static_cast<std::size_t>(i)];
-  pts[static_cast<std::size_t>(np++)] = bound;
-  int count = 0;
-  auto add = [&](double x) {
-    if (count > 0 && std::abs(roots[count - 1] - x) <= 1e-12 * std::max(1.0, std::abs(x))) return;
-    roots[count++] = x;
-  };
-  for (int i = 0; i + 1 < np; ++i) {
-    double a = pts[static_cast<std::size_t>(i)], b = pts[static_cast<std::size_t>(i + 1)], d = 0.0;
-    const double fa = Horner(c, n, a, &d), fb = Horner(c, n, b, &d);
-    // A critical point on zero (within rounding of the terms): a double root.
-    double mag = 0.0;
-    for (int k = n; k >= 0; --k) mag = mag * std::abs(a) + std::abs(c[k]);
-    if (i > 0 && std::abs(fa) <= 1e-13 * mag) {
-      add(a);
-      continue;
-    }
-    if ((fa < 0.0) == (fb < 0.0) || fb == 0.0) continue;
-    // Newton from the secant point, kept inside the shrinking bracket (bisection otherwise).
-    double x = a - fa * (b - a) / (fb - fa);
-    if (!(x > a && x < b)) x = 0.5 * (a + b);
-    const bool rising = fa < 0.0;
-    for (int it = 0; it < limits::kMaxBisectionIterations; ++it) {
-      const double f = Horner(c, n, x, &d);
-      if (f == 0.0) break;
-      if ((f < 0.0) == rising) a = x;
-      else b = x;
-      double next = x - f / d;
-      if (!(next > a && next < b)) next = 0.5 * (a + b);
-      // (Near the root the rounding of f makes Newton jitter by more than an ulp: stop at
-      // 1e-13; the P3P polishes its depths on the distance equations afterwards.)
-      const double tol = 1e-13 * std::max(1.0, std::abs(x));
-      const bool done = std::abs(next - x) <= tol || b - a <= tol;
-      x = next;
-      if (done) break;
-    }
-    add(x);
-  }
-  return count;
-}
 
 // Grunert: with s2 = u s1, s3 = v s1, W(v) = 1 + v^2 - 2 v cb, K1 = a^2/b^2, K2 = c^2/b^2,
 // the distance equations over the (1,3) one read

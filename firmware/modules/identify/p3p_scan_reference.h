@@ -1,5 +1,6 @@
 // The generalized P3P as it was before the algebraic solve (session 8): Grunert's quartic for
-// one camera, a 1-D scan of l_1 for several. Test-only reference: p3p_test checks that the
+// one camera (its quartic's roots by fw::PolynomialRealRoots, unchanged), a 1-D scan of l_1 for
+// several. Test-only reference: p3p_test checks that the
 // algebraic solver finds every solution this one finds. Not part of the flight library.
 #pragma once
 
@@ -53,11 +54,5 @@ class ScanP3p {
   int grid_n_ = 0;
   std::array<double, limits::kMaxP3pScanSteps> depth_grid_{};
 };
-
-// Real roots of c[0] + c[1] x + ... + c[n] x^n (n <= 4, c[n] != 0), ascending; returns how
-// many. Each monotone stretch between the roots of the derivative (found the same way) that
-// changes sign holds one root, found by safeguarded Newton steps; a double root where the
-// polynomial only touches zero counts when it does so within rounding.
-int PolynomialRealRoots(const double* c, int n, double* roots);
 
 }  // namespace mfns::fw::scan_reference
