@@ -79,6 +79,15 @@ struct MatchList {
       if (matches[static_cast<std::size_t>(i)].blob == blob) return matches[static_cast<std::size_t>(i)].beacon;
     return -1;
   }
+  // Appends m and counts its beacon; false (nothing changed) when m's blob is already matched
+  // or the list is full.
+  bool Add(const Match& m) {
+    if (num_matches >= kCapacity || BeaconOfBlob(m.blob) >= 0) return false;
+    matches[static_cast<std::size_t>(num_matches++)] = m;
+    beacons.Set(m.beacon);
+    num_beacons = beacons.Count();
+    return true;
+  }
   // Keeps the matches for which keep(index, match) is true, in order, and recounts the
   // beacons (num_predicted, num_missing and sum_sq_px stay as they were).
   template <class Keep>

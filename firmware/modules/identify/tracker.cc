@@ -300,17 +300,13 @@ void Tracker::ContinueTracks(const TrackOptions& o) {
   int kept = 0;
   for (int i = 0; i < ambiguous_.num; ++i) {
     const AmbiguousMatch a = ambiguous_.items[static_cast<std::size_t>(i)];
-    const std::uint32_t id = beacon_track_[static_cast<std::size_t>(a.camera * limits::kMaxBeacons + a.beacon)];
-    int blob = -1;
-    if (id != 0 && blob_tracks_.id(a.blob_near) == id && blob_tracks_.steady(a.blob_near) && blob_tracks_.age(a.blob_far) == 1)
-      blob = a.blob_near;
-    else if (id != 0 && blob_tracks_.id(a.blob_far) == id && blob_tracks_.steady(a.blob_far) &&
-             blob_tracks_.age(a.blob_near) == 1)
-      blob = a.blob_far;
-    if (blob >= 0 && base_.BeaconOfBlob(blob) < 0 && base_.num_matches < limits::kMaxMatches) {
-      base_.matches[static_cast<std::size_t>(base_.num_matches++)] = Match{blob, a.beacon, a.camera};
-      base_.beacons.Set(a.beacon);
-      base_.num_beacons = base_.beacons.Count();
+    const std::uint32_t id = BeaconTrack(a.camera, a.beacon);
+    // `own` continues the beacon's track and `other` is new.
+    const auto continues = [&](int own, int other) {
+      return id != 0 && blob_tracks_.id(own) == id && blob_tracks_.steady(own) && blob_tracks_.age(other) == 1;
+    };
+    const int blob = continues(a.blob_near, a.blob_far) ? a.blob_near : continues(a.blob_far, a.blob_near) ? a.blob_far : -1;
+    if (blob >= 0 && base_.Add(Match{blob, a.beacon, a.camera})) {
       ++counters_.ambiguity_continued;
       continue;
     }
@@ -325,7 +321,7 @@ void Tracker::RememberTracks(const MatchSet& matches) {
   for (int i = 0; i < matches.num_matches; ++i) {
     const Match& m = matches.matches[static_cast<std::size_t>(i)];
     if (m.camera < 0 || m.camera >= limits::kMaxCameras || m.beacon < 0 || m.beacon >= limits::kMaxBeacons) continue;
-    beacon_track_[static_cast<std::size_t>(m.camera * limits::kMaxBeacons + m.beacon)] = blob_tracks_.id(m.blob);
+    BeaconTrack(m.camera, m.beacon) = blob_tracks_.id(m.blob);
   }
 }
 
@@ -339,7 +335,7 @@ int Tracker::ContinuingBlobs(const TrackOptions& o) {
     const std::uint32_t id = blob_tracks_.id(i);
     const int camera = blobs_[i].camera;
     for (int b = 0; b < rig_->num_beacons; ++b) {
-      if (beacon_track_[static_cast<std::size_t>(camera * limits::kMaxBeacons + b)] != id) continue;
+      if (BeaconTrack(camera, b) != id) continue;
       continuing_[static_cast<std::size_t>(num_continuing_++)] = ContinuingBlob{i, b};
       break;
     }
@@ -366,13 +362,8 @@ bool Tracker::ChooseAmbiguous(std::uint32_t choice, int n) {
   for (int i = 0; i < n; ++i) {
     const AmbiguousMatch& a = ambiguous_.items[static_cast<std::size_t>(i)];
     const int blob = (choice >> i & 1U) != 0 ? a.blob_far : a.blob_near;
-    for (int j = 0; j < set_.num_matches; ++j)
-      if (set_.matches[static_cast<std::size_t>(j)].blob == blob) return false;
-    if (set_.num_matches >= limits::kMaxMatches) return false;
-    set_.matches[static_cast<std::size_t>(set_.num_matches++)] = Match{blob, a.beacon, a.camera};
-    set_.beacons.Set(a.beacon);
+    if (!set_.Add(Match{blob, a.beacon, a.camera})) return false;
   }
-  set_.num_beacons = set_.beacons.Count();
   return true;
 }
 

@@ -386,6 +386,9 @@ class Tracker {
   // The blob track id (BlobTracks::id) of each beacon's last accepted blob, by camera and
   // beacon (0: none; an id that no blob carries any more matches nothing).
   std::array<std::uint32_t, limits::kMaxCameras * limits::kMaxBeacons> beacon_track_{};
+  std::uint32_t& BeaconTrack(int camera, int beacon) {
+    return beacon_track_[static_cast<std::size_t>(camera * limits::kMaxBeacons + beacon)];
+  }
   // This frame set's steady blobs that continue a remembered beacon's track (ContinuingBlobs):
   // blob index and beacon.
   struct ContinuingBlob {
