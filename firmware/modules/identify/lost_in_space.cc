@@ -144,9 +144,16 @@ void LostInSpace::CoVisibilityTable() {
     return Eigen::Vector3d(lo + Eigen::Vector3d((ix + 0.5) * size.x() / n[0], (iy + 0.5) * size.y() / n[1],
                                                 (iz + 0.5) * size.z() / n[2]));
   };
+  // (A beacon whose beam covers every direction, e.g. one whose facing InferFacing could not
+  // tell, carries no wall normal: it bounds nothing. Seen: such beacons on a box's end walls,
+  // with the placeholder normal +z, cut the sampled region at their height, and true beacon
+  // pairs seen from below it were refused by the table.)
+  std::array<bool, limits::kMaxBeacons> bounds{};
+  for (int m = 0; m < nb; ++m) bounds[static_cast<std::size_t>(m)] = FacingCosine(rig, m, 0.0) > -1.0;
   const auto inside = [&](const Eigen::Vector3d& p) {
     for (int m = 0; m < nb; ++m)
-      if (rig.beacon_normal_w[static_cast<std::size_t>(m)].dot(p - rig.beacons_w[static_cast<std::size_t>(m)]) <= 0.0)
+      if (bounds[static_cast<std::size_t>(m)] &&
+          rig.beacon_normal_w[static_cast<std::size_t>(m)].dot(p - rig.beacons_w[static_cast<std::size_t>(m)]) <= 0.0)
         return false;
     return true;
   };
@@ -286,12 +293,12 @@ void LostInSpace::Score(const BodyPose& pose, const LisOptions& o, LisResult* re
   ++result->poses_scored;
   // In a large map a three-beacon pose is never a fix and its exact twins are too many to
   // follow: a pose that explains no fourth blob is not worth the full reprojection.
-  if (prior_ == nullptr && rig_->num_beacons >= o.fourth_blob_min_beacons &&
+  if (!PosePrior() && rig_->num_beacons >= o.fourth_blob_min_beacons &&
       !ExplainsAFourth(pose, cur_i_, cur_j_, cur_k_, fourth_cos_sq_))
     return;
   // Under a prior no fourth-blob test filters the poses: their full reprojection is work the
   // budget counts (a frame set's time would otherwise grow with the map; seen: 22 ms).
-  if (prior_ != nullptr) ++result->work;
+  if (PosePrior()) ++result->work;
   matcher_.MatchPose(pose, o.hypothesis_match, &match_scratch_);
   // Too few beacons, or refuted even allowing for the raw pose's error at the margins.
   if (match_scratch_.num_beacons < o.min_beacons || match_scratch_.num_missing > o.max_missing + 1) return;
@@ -321,7 +328,9 @@ void LostInSpace::Confirm(Candidate* c, const LisOptions& o, LisResult* result) 
 
 void LostInSpace::SelectBlobs(const LisOptions& o, const std::uint8_t* steady) {
   // Steady first, then brightest first within each camera; cameras in turn.
-  const auto is_steady = [&](short b) { return steady != nullptr && steady[b] != 0; };
+  // (An anchored blob counts as steady, and comes first: every searched triple holds it.)
+  const auto anchored = [&](short b) { return blob_anchor_[static_cast<std::size_t>(b)] >= 0; };
+  const auto is_steady = [&](short b) { return anchored(b) || (steady != nullptr && steady[b] != 0); };
   std::array<std::array<short, limits::kMaxBlobsPerFrame>, limits::kMaxCameras> order{};
   for (int k = 0; k < rig_->num_cameras; ++k) {
     auto& ok = order[static_cast<std::size_t>(k)];
@@ -329,6 +338,7 @@ void LostInSpace::SelectBlobs(const LisOptions& o, const std::uint8_t* steady) {
     for (int j = 0; j < n; ++j) ok[static_cast<std::size_t>(j)] = static_cast<short>(matcher_.BlobOfCamera(k, j));
     // (std::sort with the index as tie-break: deterministic like a stable sort, and no heap.)
     std::sort(ok.begin(), ok.begin() + n, [&](short a, short b) {
+      if (anchored(a) != anchored(b)) return anchored(a);
       if (is_steady(a) != is_steady(b)) return is_steady(a);
       return blobs_[a].flux > blobs_[b].flux || (blobs_[a].flux == blobs_[b].flux && a < b);
     });
@@ -348,6 +358,7 @@ void LostInSpace::SelectBlobs(const LisOptions& o, const std::uint8_t* steady) {
     rays_[si] = RayOfBlob(*rig_, blobs_[sel_[si]]);
     sel_steady_[si] = is_steady(static_cast<short>(sel_[si]));
     num_sel_steady_ += sel_steady_[si] ? 1 : 0;
+    sel_anchored_[si] = anchored(static_cast<short>(sel_[si]));
   }
 }
 
@@ -444,6 +455,9 @@ void LostInSpace::OrderItems(bool near_pass) {
   for (int k = 2; k < num_sel_; ++k)
     for (int j = 1; j < k; ++j)
       for (int i = 0; i < j; ++i, ++t) {
+        if (sel_anchored_[static_cast<std::size_t>(i)] + sel_anchored_[static_cast<std::size_t>(j)] +
+                sel_anchored_[static_cast<std::size_t>(k)] < anchors_per_triple_)
+          continue;
         triples_[static_cast<std::size_t>(t)] =
             Triple{static_cast<std::uint8_t>(i), static_cast<std::uint8_t>(j), static_cast<std::uint8_t>(k)};
         const int ci = blobs_[sel_[static_cast<std::size_t>(i)]].camera;
@@ -571,6 +585,37 @@ bool LostInSpace::NearPrior(const BodyPose& pose, double slack_m, double slack_r
   return false;
 }
 
+// The prior's anchors over this search's blob list (blob_anchor_): each valid one once.
+void LostInSpace::SetAnchors() {
+  std::fill(blob_anchor_.begin(), blob_anchor_.begin() + num_blobs_, static_cast<short>(-1));
+  num_anchors_ = 0;
+  if (prior_ == nullptr || prior_->anchors == nullptr) return;
+  for (int i = 0; i < prior_->num_anchors && i < limits::kMaxObservations; ++i) {
+    const LisAnchor& a = prior_->anchors[i];
+    if (a.blob < 0 || a.blob >= num_blobs_ || a.beacon < 0 || a.beacon >= rig_->num_beacons) continue;
+    bool taken = blob_anchor_[static_cast<std::size_t>(a.blob)] >= 0;
+    for (int b = 0; b < num_blobs_ && !taken; ++b)
+      taken = blob_anchor_[static_cast<std::size_t>(b)] == a.beacon && blobs_[b].camera == blobs_[a.blob].camera;
+    if (taken) continue;
+    blob_anchor_[static_cast<std::size_t>(a.blob)] = static_cast<short>(a.beacon);
+    ++num_anchors_;
+  }
+}
+
+// Whether a candidate names at least min(anchors, 3) anchored blobs their beacons, the poses the
+// anchored triples enumerate (matched afresh: its kept set holds at most
+// limits::kMaxLisCandidateMatches of its matches).
+bool LostInSpace::KeepsAnchors(const Candidate& c, const LisOptions& o) {
+  if (num_anchors_ == 0) return true;
+  matcher_.MatchPose(c.pose, o.refine_match, &match_scratch_);
+  int kept = 0;
+  for (int b = 0; b < num_blobs_; ++b) {
+    const int beacon = blob_anchor_[static_cast<std::size_t>(b)];
+    kept += beacon >= 0 && match_scratch_.BeaconOfBlob(b) == beacon;
+  }
+  return kept >= anchors_per_triple_;
+}
+
 LisStatus LostInSpace::Identify(const BlobObs* blobs, int num_blobs, const LisOptions& o, LisResult* result,
                                 const LisPrior* prior, std::uint32_t cameras, const std::uint8_t* steady) {
   const LisStatus s = Begin(blobs, num_blobs, o, result, prior, cameras, steady);
@@ -612,6 +657,7 @@ LisStatus LostInSpace::Begin(const BlobObs* blobs, int num_blobs, const LisOptio
   blobs_ = own_blobs_.data();
   num_blobs_ = num_blobs;
   matcher_.SetBlobs(blobs_, num_blobs, cameras);
+  SetAnchors();
   SelectBlobs(o, steady);
   const bool near_pass = o.near_depth_m > 0.0 && o.near_depth_m < p3p_.max_depth_m && o.near_depth_m > p3p_.min_depth_m;
   near_max_m_ = near_pass ? o.near_depth_m : p3p_.max_depth_m;
@@ -619,6 +665,25 @@ LisStatus LostInSpace::Begin(const BlobObs* blobs, int num_blobs, const LisOptio
   pair_tol_rad_ = o.pair_angle_tolerance_rad;
   fourth_cos_sq_ = static_cast<float>(std::cos(o.fourth_blob_max_rad) * std::cos(o.fourth_blob_max_rad));
   for (int i = 0; i < num_sel_; ++i) allowed_[static_cast<std::size_t>(i)] = PriorBeacons(i);
+  // An anchored blob is its beacon, and no other blob of its camera is.
+  int anchored_sel = 0;
+  for (int i = 0; i < num_sel_; ++i) {
+    const int beacon = blob_anchor_[static_cast<std::size_t>(sel_[static_cast<std::size_t>(i)])];
+    if (beacon < 0) continue;
+    ++anchored_sel;
+    const int camera = blobs_[sel_[static_cast<std::size_t>(i)]].camera;
+    for (int j = 0; j < num_sel_; ++j) {
+      BeaconSet& allowed = allowed_[static_cast<std::size_t>(j)];
+      if (j == i) {
+        const bool had = allowed.Has(beacon);
+        allowed = BeaconSet{};
+        if (had) allowed.Set(beacon);
+      } else if (blobs_[sel_[static_cast<std::size_t>(j)]].camera == camera) {
+        allowed.Clear(beacon);
+      }
+    }
+  }
+  anchors_per_triple_ = std::min(anchored_sel, 3);
   for (auto& done : feasible_done_) done.fill(false);
   OrderItems(near_pass);
   cur_ = Cursor{};
@@ -644,7 +709,7 @@ LisStatus LostInSpace::Decide(bool budget_out, const LisOptions& o, LisResult* r
   for (int i = 0; i < num_cand_; ++i) {
     Candidate& c = cand_[static_cast<std::size_t>(i)];
     if (!c.refined && !Refine(&c, o)) continue;
-    if (c.set.num_missing > o.max_missing || !NearPrior(c.pose, 0.0, 0.0)) continue;
+    if (c.set.num_missing > o.max_missing || !NearPrior(c.pose, 0.0, 0.0) || !KeepsAnchors(c, o)) continue;
     bool merged = false;
     for (int j = 0; j < kept && !merged; ++j) {
       Candidate& k = cand_[static_cast<std::size_t>(j)];

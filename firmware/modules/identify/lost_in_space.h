@@ -146,6 +146,13 @@ struct LisResult {
   bool complete = false;
 };
 
+// A blob whose beacon is known before the search (LisPrior::anchors): its index in the blob
+// list given to Identify / Begin, and the beacon.
+struct LisAnchor {
+  int blob = -1;
+  int beacon = -1;
+};
+
 // Optional prior for Identify: only poses within max_m / max_rad of one of `poses` are
 // considered (the tracker passes the poses it still follows). Raw P3P poses get raw_slack_m /
 // raw_slack_rad more, for their noise.
@@ -156,6 +163,16 @@ struct LisPrior {
   double max_rad = 0.0;
   double raw_slack_m = 0.05;
   double raw_slack_rad = 0.05;
+  // Identities known before the search (optional; the tracker's image tracks of beacons it
+  // identified in an accepted pose, blob_tracks.h): the poses sought name at least
+  // n = min(anchored blobs, 3) anchored blobs their beacons. Only blob triples holding n
+  // anchored blobs are searched (such a pose is a root of one), and a consistent pose must keep
+  // n anchors: "complete" means every consistent pose near the prior poses that keeps n of
+  // the anchors (with four or more anchors, one wrong anchor - a track that hopped to a
+  // spurious blob - still leaves the truth). Anchors with a blob or beacon out of range, or
+  // naming a blob or a beacon (in one camera) twice, are ignored. Copied by Begin.
+  const LisAnchor* anchors = nullptr;
+  int num_anchors = 0;
 };
 
 // The expected number of poses, among `tests` wrong hypotheses, that would match as many
@@ -230,6 +247,9 @@ class LostInSpace {
   void Insert(const Candidate& c, const LisOptions& o);
   bool InWorkspace(const Eigen::Vector3d& r_w_wb, const LisOptions& o) const;
   bool NearPrior(const BodyPose& pose, double slack_m, double slack_rad) const;
+  bool PosePrior() const { return prior_ != nullptr && prior_->num_poses > 0; }
+  void SetAnchors();
+  bool KeepsAnchors(const Candidate& c, const LisOptions& o);
   LisStatus Decide(bool budget_out, const LisOptions& o, LisResult* result);
 
   const Rig* rig_ = nullptr;
@@ -265,6 +285,12 @@ class LostInSpace {
   std::array<int, limits::kMaxLisBlobs> sel_{};  // selected blob indices
   std::array<bool, limits::kMaxLisBlobs> sel_steady_{};  // the selected blob's image track is steady
   int num_sel_steady_ = 0;
+  // Anchors (LisPrior::anchors): the beacon of each blob of the list (-1: none), the anchored
+  // blobs among the selected ones, and how many of them every searched triple holds.
+  std::array<short, limits::kMaxObservations> blob_anchor_{};
+  std::array<bool, limits::kMaxLisBlobs> sel_anchored_{};
+  int num_anchors_ = 0;
+  int anchors_per_triple_ = 0;
   std::array<BodyRay, limits::kMaxLisBlobs> rays_{};
   // feasible_[range][pair(i, j)][a]: bit b set when beacons (a, b) may be seen along rays (i, j)
   // (range 0: the full depth range, 1: the near one).

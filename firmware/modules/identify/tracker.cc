@@ -343,6 +343,42 @@ int Tracker::ContinuingBlobs(const TrackOptions& o) {
   return num_continuing_;
 }
 
+// Near a recent pose, the blobs that continue the image tracks of beacons it identified are
+// those beacons (ContinuingBlobs): lost-in-space then searches only the poses that keep them,
+// a small fraction of the hypotheses, so that the search near a prediction whose bounds grew
+// over a gap ends within the frame set's budget (seen: a 2 s gap with two beacons in view, then
+// four; the truth found but the search cut every frame set for 100 frame sets). The same trust
+// in the image tracks as Acquire's pruning of followed poses (KeepsContinuingBlobs).
+// At most kMaxAnchors anchors: the oldest image tracks, cameras in turn (the wider the anchors,
+// the better the poses they fix). Lost-in-space searches their triples (ten for five anchors,
+// so that a degenerate triple or one wrong anchor still leaves the truth). When every pose is
+// refuted, SettleLis looks without the prior.
+void Tracker::AnchorContinuingBlobs(const TrackOptions& o, LisPrior* prior) {
+  if (!o.anchor_blob_tracks || ContinuingBlobs(o) == 0) return;
+  std::array<bool, limits::kMaxObservations> taken{};
+  int n = 0;
+  for (bool progress = true; progress && n < kMaxAnchors;) {
+    progress = false;
+    for (int k = 0; k < rig_->num_cameras && n < kMaxAnchors; ++k) {
+      int best = -1;
+      for (int i = 0; i < num_continuing_; ++i) {
+        const int blob = continuing_[static_cast<std::size_t>(i)].blob;
+        if (taken[static_cast<std::size_t>(i)] || blobs_[blob].camera != k) continue;
+        if (best < 0 || blob_tracks_.age(blob) > blob_tracks_.age(continuing_[static_cast<std::size_t>(best)].blob))
+          best = i;
+      }
+      if (best < 0) continue;
+      taken[static_cast<std::size_t>(best)] = true;
+      const ContinuingBlob& c = continuing_[static_cast<std::size_t>(best)];
+      anchors_[static_cast<std::size_t>(n++)] = LisAnchor{c.blob, c.beacon};
+      progress = true;
+    }
+  }
+  prior->anchors = anchors_.data();
+  prior->num_anchors = n;
+  ++counters_.anchored_searches;
+}
+
 // Whether a pose names every continuing blob (ContinuingBlobs) its remembered beacon: a pose that
 // explains such a blob as another beacon, or not at all, contradicts the image tracks.
 bool Tracker::KeepsContinuingBlobs(const BodyPose& pose, const TrackOptions& o) {
@@ -835,6 +871,7 @@ TrackStatus Tracker::Reidentify(const BlobObs* blobs, int num_blobs, std::uint64
   // near them: cheaper, and complete far more often when spurious blobs multiply the poses.
   LisPrior prior;
   const bool use_prior = ChainPrior(t_ns, o, &prior);
+  if (use_prior) AnchorContinuingBlobs(o, &prior);
   if (!use_prior && rig_->num_beacons >= o.lis.fourth_blob_min_beacons) {
     // Nothing to follow, and a map too large for complete lists of three-beacon poses (the
     // acquisition's chain): the search may span frame sets (ColdSearch).

@@ -198,6 +198,10 @@ struct TrackOptions {
   // track of one frame set: a flickering reflection, a glint), instead of trying both
   // (Tracker::ContinueTracks). Both steady (a reflection that moves with the scene): tried.
   bool continue_blob_tracks = true;
+  // With continue_blob_tracks: lost-in-space near a recent pose (the acquisition's seeded and
+  // followed poses) searches only the poses that name each continuing blob its beacon
+  // (LisPrior::anchors; Tracker::AnchorContinuingBlobs).
+  bool anchor_blob_tracks = true;
   int lis_fix_min_beacons = 4;       // a lost-in-space fix on its own needs this many beacons
                                      // (three fit exactly, so a reflection among them shows not)
   double chain_stale_s = 1.0;        // a followed pose unconfirmed this long restarts it all
@@ -281,6 +285,7 @@ struct TrackCounters {
   std::uint32_t chain_restarts = 0;    // an unseeded acquisition's survivor outscored: restarted
   std::uint32_t ambiguity_continued = 0;  // an ambiguous beacon given the blob that continues its track
   std::uint32_t continuity_refuted = 0;   // a followed pose that names a continuing blob another beacon
+  std::uint32_t anchored_searches = 0;    // lost-in-space searches near a pose with continuing blobs anchored
   SolveCounters solve;
 };
 static_assert(std::tuple_size_v<decltype(TrackCounters::by_status)> == static_cast<std::size_t>(TrackStatus::kCount),
@@ -340,6 +345,7 @@ class Tracker {
   void RememberTracks(const MatchSet& matches);
   int ContinuingBlobs(const TrackOptions& o);
   bool KeepsContinuingBlobs(const BodyPose& pose, const TrackOptions& o);
+  void AnchorContinuingBlobs(const TrackOptions& o, LisPrior* prior);
   void SameTolerance(const TrackResult& b, const TrackOptions& o, double* tol_m, double* tol_rad) const;
   void SameTolerance(const Matrix6d* cov, const TrackOptions& o, double* tol_m, double* tol_rad) const;
   bool SamePoseWithin(const TrackResult& a, const TrackResult& b, const TrackOptions& o) const;
@@ -397,6 +403,8 @@ class Tracker {
   };
   std::array<ContinuingBlob, limits::kMaxObservations> continuing_{};
   int num_continuing_ = 0;
+  static constexpr int kMaxAnchors = 5;
+  std::array<LisAnchor, kMaxAnchors> anchors_{};  // continuing blobs as anchors (AnchorContinuingBlobs)
   int cold_steady_ = 0;  // steady blobs when the cold search in progress began
   int lis_budget_left_ = 0;  // work units left to this frame set
   std::uint64_t cold_t_ns_ = 0;  // the frame set of the cold search in progress
