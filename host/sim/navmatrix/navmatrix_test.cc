@@ -311,8 +311,9 @@ TEST(NavMatrix, PaperSweepAtBlobLevelAcquiresThenFixesEveryFrameSet) {
 // without facing data fixes (before the inference: box 256 never did, cylinder 128 was posed
 // in 21 % of its frame sets), and at most one station run with facing data never fixes in 300
 // frame sets (measured: cylinder 64 seed 3, 3.6 beacons in view on average); after the first
-// fix, the frame sets with >= 3 beacons in view carry a pose in >= 85 % of each row (pooled;
-// measured 88-100 %) and >= 50 % of each run.
+// fix, the frame sets with >= 3 beacons in view carry a pose in >= 90 % of each row (pooled;
+// measured 93.8-100 % since lost-in-space's anchors, session 16; 88-100 % before) and >= 80 % of
+// each run (measured >= 89.9 %; 50 % before).
 TEST(NavMatrix, ReducedMatrixNeverPublishesAWrongFix) {
   MatrixSpec stations;
   stations.presets = {"station-cylinder", "station-box"};
@@ -358,13 +359,13 @@ TEST(NavMatrix, ReducedMatrixNeverPublishesAWrongFix) {
     }
     never += r.first_fix < 0;
     if (r.first_fix >= 0) {
-      EXPECT_GE(r.PosedShare(), 0.5) << what;
+      EXPECT_GE(r.PosedShare(), 0.8) << what;
     }
   }
   EXPECT_LE(never, 1);
   for (const MatrixRow& row : rows) {
     ASSERT_GT(row.eligible, 0) << row.preset << " " << row.count;
-    EXPECT_GE(static_cast<double>(row.posed) / static_cast<double>(row.eligible), 0.85) << row.preset << " " << row.count;
+    EXPECT_GE(static_cast<double>(row.posed) / static_cast<double>(row.eligible), 0.9) << row.preset << " " << row.count;
   }
 }
 
