@@ -82,7 +82,9 @@ class MotionModel {
   // The pose at t_ns: constant velocity from the last pose, or the last pose held.
   BodyPose Predict(std::uint64_t t_ns) const;
   // How far the truth may lie from Predict(last + since_s): the acceleration bounds over the
-  // elapsed time (with a velocity; the speed bounds for a held pose), lim.sigmas of the last
+  // elapsed time (with a velocity; the speed bounds for a held pose) and, for a velocity taken
+  // across a gap (its baseline beyond lim.velocity_window_s: a mean over the gap), the
+  // accelerations over half its baseline times since_s; lim.sigmas of the last
   // pose's 1-sigma, grown by the velocity's lever (its baseline is that much shorter than the
   // extrapolation), and the slack for what the model leaves out.
   PoseBounds Bounds(double since_s, const MotionLimits& lim) const;
