@@ -97,6 +97,21 @@ void IdentifyAndCheck(const Scene& s, const LisOptions& o, Tally* t, const std::
   }
 }
 
+// Lost-in-space reset on a random station cylinder of `beacons` facing beacons; the rig lives
+// in static storage (the search keeps a pointer to it). Null when the reset fails.
+const Rig* ResetOnCylinder(int beacons, std::mt19937_64* rng) {
+  static Rig rig;
+  rig = testing::RandomCylinderRig(beacons, true, rng);
+  return g_lis.Reset(rig) ? &rig : nullptr;
+}
+
+// The tracker's budget of one frame set (TrackOptions::lis_budget_per_frame).
+LisOptions TrackerBudget() {
+  LisOptions o;
+  o.max_hypotheses = 2500;
+  return o;
+}
+
 // The paper rig's yaw sweep (body at the origin, 1 deg steps), 0.2 px centroid noise, with 0-3
 // spurious blobs as bright as beacons anywhere in any image.
 TEST(LostInSpaceTest, PaperYawSweepNeverWrong) {
@@ -406,11 +421,10 @@ TEST(LostInSpaceTest, StationModuleFixesAnywhereFromNoPrior) {
 // never give a wrong one.
 TEST(LostInSpaceTest, SteadyBlobsAreSearchedFirst) {
   std::mt19937_64 rng(901);
-  static Rig rig;
-  rig = testing::RandomCylinderRig(128, true, &rng);
-  ASSERT_TRUE(g_lis.Reset(rig));
-  LisOptions o;
-  o.max_hypotheses = 2500;
+  const Rig* cylinder = ResetOnCylinder(128, &rng);
+  ASSERT_NE(cylinder, nullptr);
+  const Rig& rig = *cylinder;
+  const LisOptions o = TrackerBudget();
   Tally plain, marked, misled;
   std::array<std::uint8_t, limits::kMaxObservations> beacon_marks{}, clutter_marks{};
   for (int trial = 0; trial < testing::Trials(40, 24); ++trial) {
@@ -477,11 +491,10 @@ TEST(LostInSpaceTest, SteadyMarksLeaveACompleteSearchAlone) {
 // blob), the truth still keeps three and is listed.
 TEST(LostInSpaceTest, AnchorsKeepTheSearchSmallAndTheTruth) {
   std::mt19937_64 rng(1301);
-  static Rig rig;
-  rig = testing::RandomCylinderRig(128, true, &rng);
-  ASSERT_TRUE(g_lis.Reset(rig));
-  LisOptions o;
-  o.max_hypotheses = 2500;
+  const Rig* cylinder = ResetOnCylinder(128, &rng);
+  ASSERT_NE(cylinder, nullptr);
+  const Rig& rig = *cylinder;
+  const LisOptions o = TrackerBudget();
   const auto truth_listed = [](const LisResult& r, const BodyPose& truth) {
     for (int i = 0; i < r.num_consistent; ++i) {
       const BodyPose& q = r.consistent_poses[static_cast<std::size_t>(i)];
