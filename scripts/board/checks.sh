@@ -1,0 +1,185 @@
+#!/bin/sh
+# The checks that run on the emulated board (scripts/test-board.sh, docs/board.md). Each prints
+# one "BOARD PASS name: detail" or "BOARD FAIL name: detail" line on the serial console; the
+# host counts them. Settings come from /board/board.env, written by the host script.
+. /board/board.env
+pass() { echo "BOARD PASS $*"; }
+fail() { echo "BOARD FAIL $*"; }
+info() { echo "BOARD INFO $*"; }
+
+# 1. vivid and its dependencies (modules.dep made by depmod on the host for this subset).
+if modprobe vivid $VIVID_PARAMS 2>/tmp/modprobe.err; then
+  pass "vivid: modprobe vivid $VIVID_PARAMS"
+else
+  fail "vivid: modprobe: $(cat /tmp/modprobe.err)"
+fi
+n=0
+while [ $n -lt 50 ] && [ ! -c /dev/video$((NUM_CAMERAS - 1)) ]; do usleep 100000; n=$((n + 1)); done
+k=0
+while [ $k -lt "$NUM_CAMERAS" ]; do
+  name=$(cat /sys/class/video4linux/video$k/name 2>/dev/null)
+  if [ -c /dev/video$k ] && [ "$name" = "vivid-00$k-vid-cap" ]; then
+    pass "video$k: /dev/video$k is $name"
+  else
+    fail "video$k: /dev/video$k missing or not vivid capture ('$name')"
+  fi
+  k=$((k + 1))
+done
+
+# 2. The project's arm64 .deb through dpkg (busybox's dpkg applet; the libraries it depends on
+#    are listed as installed in /var/lib/dpkg/status by the host script, their files are in /lib).
+if dpkg -i /board/mfns.deb >/tmp/dpkg.out 2>&1 && [ -x /usr/bin/mfns-navd ] && [ -x /usr/bin/mfns-paramctl ]; then
+  pass "dpkg-install: $(dpkg -l mfns 2>/dev/null | grep mfns | tr -s ' ' | cut -c1-60)"
+else
+  fail "dpkg-install: $(tr '\n' ' ' </tmp/dpkg.out)"
+fi
+if mfns-paramctl install --store /var/lib/mfns/params /board/params.bin >/tmp/paramctl.out 2>&1; then
+  pass "params: $(tr '\n' ' ' </tmp/paramctl.out)"
+else
+  fail "params: mfns-paramctl install: $(tr '\n' ' ' </tmp/paramctl.out)"
+fi
+
+# 3. The GPIO controller: QEMU virt's PL061 as a GPIO character device.
+chip=""
+for c in /sys/class/gpio/gpiochip*; do
+  [ -e "$c/label" ] || continue
+  label=$(cat "$c/label")
+  cdev=$(ls "$c/device" 2>/dev/null | grep '^gpiochip[0-9]' | head -n 1)
+  info "gpio: $label ($(cat "$c/ngpio") lines) /dev/$cdev"
+  case "$label" in *pl061*) chip=$cdev ;; esac
+done
+if [ -n "$chip" ] && [ -c "/dev/$chip" ]; then
+  pass "gpiochip: PL061 is /dev/$chip"
+  trigger="--trigger $chip:$TRIGGER_LINE"
+else
+  fail "gpiochip: no PL061 GPIO character device"
+  trigger=""
+fi
+
+[ -x /board/extra/run.sh ] && /board/extra/run.sh 2>&1 | sed 's/^/BOARD INFO extra: /'
+
+# 4. mfns-navd on the three vivid capture devices. The V4L2 core logs what navd asks of each
+#    device to the kernel log (dev_debug: 0x01 ioctls, 0x02 their arguments, 0x04 file
+#    operations such as mmap, 0x08 streaming ioctls QBUF/DQBUF, 0x10 poll): the driver's side of
+#    the handshake, read back with dmesg after the run.
+k=0
+while [ $k -lt "$NUM_CAMERAS" ]; do echo 0x1f >/sys/class/video4linux/video$k/dev_debug; k=$((k + 1)); done
+dmesg -c >/dev/null
+mfns-navd --params /var/lib/mfns/params --source v4l2 --frames "$FRAMES" --log /tmp/poses.csv \
+  --pid-file '' --quiet $trigger $NAVD_EXTRA >/tmp/navd.out 2>&1 &
+pid=$!
+maps=0
+gpioline=""
+t0=$(cut -d' ' -f1 /proc/uptime)
+while kill -0 $pid 2>/dev/null; do
+  m=$(grep -c '/dev/video' /proc/$pid/maps 2>/dev/null)
+  [ -n "$m" ] && [ "$m" -gt "$maps" ] && maps=$m
+  [ -z "$gpioline" ] && gpioline=$(grep 'mfns-navd' /sys/kernel/debug/gpio 2>/dev/null | tr -s ' ')
+  usleep 50000
+done
+wait $pid
+rc=$?
+t1=$(cut -d' ' -f1 /proc/uptime)
+dmesg -s 4194304 | tr -d '\r' >/tmp/v4l2.log
+k=0
+while [ $k -lt "$NUM_CAMERAS" ]; do echo 0 >/sys/class/video4linux/video$k/dev_debug; k=$((k + 1)); done
+sed 's/^/BOARD LOG navd: /' /tmp/navd.out
+info "navd ran $(awk -v a="$t0" -v b="$t1" 'BEGIN{printf "%.1f", b - a}') s"
+done_line=$(grep 'done:' /tmp/navd.out)
+if [ $rc -eq 0 ] && echo "$done_line" | grep -q "done: $FRAMES frame sets" && ! grep -q 'did not start' /tmp/navd.out; then
+  pass "navd-run: exit 0, $(echo "$done_line" | sed 's/^mfns-navd: //')"
+else
+  fail "navd-run: exit $rc, $(tail -n 2 /tmp/navd.out | tr '\n' ' ')"
+fi
+if [ "$maps" -ge $((NUM_CAMERAS * 4)) ]; then
+  pass "mmap: $maps /dev/video* mappings in navd's address space (>= $NUM_CAMERAS cameras x 4 buffers)"
+else
+  fail "mmap: $maps /dev/video* mappings seen in navd's address space, expected >= $((NUM_CAMERAS * 4))"
+fi
+# Per camera, from the kernel's log of the device: S_FMT GREY at the rig size, REQBUFS MMAP,
+# the buffers mmapped, STREAMON, poll called, and every DQBUF stamped CLOCK_MONOTONIC
+# (V4L2_BUF_FLAG_TIMESTAMP_MONOTONIC, 0x2000) with increasing timestamps; sequence gaps are
+# frames the driver dropped while navd held its buffers (drops, not errors).
+k=0
+kernel_gaps=0
+while [ $k -lt "$NUM_CAMERAS" ]; do
+  r=$(awk -v dev="video$k:" -v w="$WIDTH" -v h="$HEIGHT" '
+    index($0, dev) == 0 { next }
+    /VIDIOC_S_FMT/ && index($0, "width=" w ", height=" h) && /pixelformat=GREY/ { fmt = 1 }
+    /VIDIOC_REQBUFS/ && /memory=mmap/ { reqbufs = 1 }
+    / mmap \(/ { mm++ }
+    /VIDIOC_STREAMON/ { on = 1 }
+    /poll: / { polls++ }
+    /VIDIOC_DQBUF/ && !/error/ {
+      dq++
+      if (match($0, /VIDIOC_DQBUF: [0-9]+:[0-9]+:[0-9]+\.[0-9]+/)) {
+        split(substr($0, RSTART + 14, RLENGTH - 14), a, /[:.]/)
+        t = ((a[1] * 60 + a[2]) * 60 + a[3]) * 1e6 + a[4]  # the log prints tv_usec
+        if (dq > 1 && t <= last) back++
+        last = t
+      }
+      if (match($0, /flags=0x[0-9a-f]+/)) {
+        f = substr($0, RSTART + 8, RLENGTH - 8); v = 0
+        for (i = 1; i <= length(f); ++i) v = v * 16 + index("0123456789abcdef", substr(f, i, 1)) - 1
+        if (int(v / 8192) % 2 != 1) notmono++   # 0x2000
+      }
+      if (match($0, /sequence=[0-9]+/)) {
+        q = substr($0, RSTART + 9, RLENGTH - 9) + 0
+        if (dq > 1 && q > lastq + 1) gaps += q - lastq - 1
+        lastq = q
+      }
+    }
+    END {
+      ok = fmt && reqbufs && mm >= 4 && on && polls > 0 && dq > 0 && back + notmono == 0
+      printf "%s S_FMT GREY %dx%d %s, REQBUFS mmap %s, %d mmap, STREAMON %s, %d poll, %d DQBUF, %d not increasing, %d not monotonic, %d frames dropped by the driver (sequence gaps)\n", \
+        ok ? "ok" : "bad", w, h, fmt ? "yes" : "no", reqbufs ? "yes" : "no", mm, on ? "yes" : "no", polls, dq, back, notmono, gaps
+    }' /tmp/v4l2.log)
+  kernel_gaps=$((kernel_gaps + $(echo "$r" | sed -n 's/.*, \([0-9]*\) frames dropped by the driver.*/\1/p')))
+  case "$r" in
+    ok*) pass "v4l2-video$k: ${r#ok }" ;;
+    *) fail "v4l2-video$k: ${r#bad }" ;;
+  esac
+  k=$((k + 1))
+done
+faults=$(grep 'faults:' /tmp/navd.out | sed 's/^mfns-navd: faults: //')
+info "faults: ${faults:-none}"
+navd_drops=$(echo "$faults" | sed -n 's/.*dropped \([0-9]*\).*/\1/p')
+if [ "${navd_drops:-0}" -eq "$kernel_gaps" ]; then
+  pass "drops: navd counted ${navd_drops:-0} dropped frames, the sequence gaps of the kernel's DQBUF log add up to $kernel_gaps"
+else
+  fail "drops: navd counted ${navd_drops:-0} dropped frames, the kernel's DQBUF sequence gaps add up to $kernel_gaps"
+fi
+bad=$(echo "$faults" | awk -F', ' '{for (i = 1; i <= NF; ++i) if ($i ~ /^(timeouts|driver errors|clock faults|trigger errors) [1-9]/) print $i}' | tr '\n' ' ')
+if [ -z "$bad" ]; then
+  pass "driver-faults: no timeouts, driver errors, clock faults or trigger errors"
+else
+  fail "driver-faults: $bad"
+fi
+# The poses CSV's t_ns is the frame set's driver timestamp (CLOCK_MONOTONIC): strictly increasing,
+# and on the guest's monotonic clock (between navd's start and end in /proc/uptime's seconds).
+rows=$(awk -F, 'NR > 1' /tmp/poses.csv 2>/dev/null | wc -l)
+mono=$(awk -F, -v t0="$t0" -v t1="$t1" '
+  NR == 1 { for (i = 1; i <= NF; ++i) if ($i == "t_ns") c = i; next }
+  { t = $c + 0; if (n > 0 && t <= last) back++; if (t / 1e9 < t0 - 1 || t / 1e9 > t1 + 1) off++; last = t; n++ }
+  END { printf "%d rows, %d not increasing, %d off the monotonic clock", n, back + 0, off + 0; exit (n > 0 && back + off == 0) ? 0 : 1 }' /tmp/poses.csv)
+if [ $? -eq 0 ] && [ "$rows" -eq "$FRAMES" ]; then
+  pass "timestamps: $mono"
+else
+  fail "timestamps: $mono (expected $FRAMES rows)"
+fi
+awk -F, 'NR == 1 { for (i = 1; i <= NF; ++i) { if ($i == "status") s = i; if ($i == "reason") r = i }; next }
+  { c[$s " " $r]++ } END { for (k in c) printf "BOARD INFO poses: %d x %s\n", c[k], k }' /tmp/poses.csv
+if [ -n "$trigger" ]; then
+  if [ -n "$gpioline" ]; then
+    pass "gpio-claim: navd held the line:$gpioline"
+  else
+    fail "gpio-claim: line $TRIGGER_LINE of $chip never seen claimed by mfns-navd in /sys/kernel/debug/gpio"
+  fi
+fi
+
+# 5. The package removes cleanly and keeps the parameter store.
+if dpkg -r mfns >/tmp/dpkg-r.out 2>&1 && [ ! -e /usr/bin/mfns-navd ] && [ -d /var/lib/mfns/params ]; then
+  pass "dpkg-remove: binaries gone, store kept ($(ls /var/lib/mfns/params | tr '\n' ' '))"
+else
+  fail "dpkg-remove: $(tr '\n' ' ' </tmp/dpkg-r.out)"
+fi

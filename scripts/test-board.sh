@@ -1,0 +1,197 @@
+#!/usr/bin/env bash
+# The flyer's software on a real Linux kernel (issue 19, docs/board.md): boots Debian 12's own
+# arm64 kernel on QEMU's emulated `virt` board (Cortex-A72, TCG, no network) with an initramfs
+# made here from Debian arm64 packages: busybox-static, the vivid test driver and the modules it
+# needs, the arm64 libraries mfns-navd links, and the project's arm64 .deb, installed in the
+# guest with dpkg (busybox's applet). The checks (scripts/board/checks.sh) run on the board and
+# report over the serial console; this script prints one "board: N passed, M failed" line and
+# exits non-zero on any failure or a timeout.
+#
+# Usage: scripts/test-board.sh            (after scripts/install-deps.sh)
+# Environment:
+#   MFNS_BOARD_TIMEOUT  seconds for the whole guest run (default 420)
+#   MFNS_BOARD_FRAMES   frame sets mfns-navd runs (default 10)
+#   MFNS_BOARD_SMP      guest CPUs (default 2)
+#   MFNS_BOARD_NAVD_ARGS extra mfns-navd arguments (e.g. --y16)
+#   MFNS_BOARD_VIVID_PARAMS vivid's module parameters instead of the rig's (docs/board.md)
+#   MFNS_BOARD_EXTRA    a folder copied to /board/extra in the guest; its run.sh runs before navd
+#   MFNS_BOARD_KERNEL   kernel package (default: what linux-image-arm64:arm64 depends on)
+# Downloads are cached in build/board-cache/; the initramfs and logs go to build/board/.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+root=$PWD
+cache=$root/build/board-cache
+work=$root/build/board
+timeout_s=${MFNS_BOARD_TIMEOUT:-420}
+frames=${MFNS_BOARD_FRAMES:-10}
+smp=${MFNS_BOARD_SMP:-2}
+trigger_line=0   # PL061 line 3 is the virt board's power button (gpio-keys); 0 is free
+width=1280 height=1024  # config/paper-rig.yaml's cameras
+# vivid: three instances, each one video capture node /dev/video0..2 (the rig's cameras in order),
+# one HDMI input each (progressive; any size through the scaler), single-planar. docs/board.md says why.
+vivid_params=${MFNS_BOARD_VIVID_PARAMS:-"n_devs=3 node_types=0x1,0x1,0x1 vid_cap_nr=0,1,2 num_inputs=1,1,1 input_types=0x3,0x3,0x3 multiplanar=1,1,1 ccs_cap_mode=4,4,4"}
+start=$(date +%s)
+
+die() { echo "test-board: $*" >&2; echo "board: 0 passed, 1 failed"; exit 1; }
+for tool in qemu-system-aarch64 apt-get dpkg-deb depmod cpio gzip aarch64-linux-gnu-readelf cmake; do
+  command -v "$tool" >/dev/null || die "$tool not found (run scripts/install-deps.sh)"
+done
+
+# --- 1. The flyer's software: the arm64 .deb and a parameter blob of the paper rig.
+echo "test-board: building mfns-navd, mfns-paramctl (aarch64) and the .deb" >&2
+[ -f build/aarch64/CMakeCache.txt ] || cmake --preset aarch64 >/dev/null
+cmake --build --preset aarch64 -j "$(nproc)" --target mfns-navd mfns-paramctl >/dev/null
+rm -rf "$work"
+mkdir -p "$work/pkg" "$cache"
+(cd build/aarch64 && cpack --config CPackConfig.cmake -B "$work/pkg" >/dev/null)
+deb=$(ls "$work"/pkg/mfns_*_arm64.deb)
+calib=build/host/bin/mfns-calib
+if [ ! -x "$calib" ]; then
+  echo "test-board: building mfns-calib (host) for the parameter blob" >&2
+  [ -f build/host/CMakeCache.txt ] || cmake --preset host >/dev/null
+  cmake --build --preset host -j "$(nproc)" --target mfns-calib >/dev/null
+fi
+"$calib" blob config/paper-rig.yaml --out "$work/params.bin" --generation 1 >/dev/null
+
+# --- 2. Debian's arm64 kernel and busybox-static, fetched once into the cache.
+kpkg=${MFNS_BOARD_KERNEL:-$(apt-cache depends linux-image-arm64:arm64 2>/dev/null |
+  sed -n 's/^ *Depends: \(linux-image-[0-9.]*-[0-9]*-arm64\)\(:arm64\)\?$/\1/p' | head -n 1)}
+if [ -z "$kpkg" ]; then  # no apt lists: take the newest kernel already in the cache
+  kpkg=$(ls "$cache" 2>/dev/null | sed -n 's/^\(linux-image-[0-9.]*-[0-9]*-arm64\)_.*_arm64\.deb$/\1/p' | sort -V | tail -n 1)
+fi
+[ -n "$kpkg" ] || die "cannot tell which linux-image-*-arm64 bookworm has (apt-get update?)"
+fetch() {  # PACKAGE: its arm64 .deb in the cache (downloaded when missing)
+  local f
+  f=$(ls "$cache/$1"_*_arm64.deb 2>/dev/null | head -n 1 || true)
+  if [ -z "$f" ]; then
+    echo "test-board: downloading $1:arm64" >&2
+    (cd "$cache" && apt-get download -q "$1:arm64" >/dev/null 2>&1) || die "apt-get download $1:arm64 failed"
+    f=$(ls "$cache/$1"_*_arm64.deb | head -n 1)
+  fi
+  echo "$f"
+}
+kdeb=$(fetch "$kpkg")
+bbdeb=$(fetch busybox-static)
+kver=${kpkg#linux-image-}
+
+# The kernel image and the modules vivid needs, kept unpacked in the cache (the whole package
+# unpacks to 350 MB; only these stay).
+kdir=$cache/kernel-$kver
+if [ ! -f "$kdir/stamp" ]; then
+  echo "test-board: unpacking $(basename "$kdeb")" >&2
+  rm -rf "$kdir" "$work/kx"
+  dpkg-deb -x "$kdeb" "$work/kx"
+  depmod -b "$work/kx" "$kver"
+  mdir=lib/modules/$kver
+  mods=$(sed -n "s#^\(kernel/drivers/media/test-drivers/vivid/vivid.ko\):\(.*\)#\1 \2#p" "$work/kx/$mdir/modules.dep")
+  [ -n "$mods" ] || die "vivid.ko not in $kpkg"
+  mkdir -p "$kdir/$mdir"
+  for m in $mods; do
+    mkdir -p "$kdir/$mdir/$(dirname "$m")"
+    cp "$work/kx/$mdir/$m" "$kdir/$mdir/$m"
+  done
+  cp "$work/kx/$mdir/modules.order" "$work/kx/$mdir/modules.builtin" "$work/kx/$mdir/modules.builtin.modinfo" "$kdir/$mdir/"
+  depmod -b "$kdir" "$kver"
+  cp "$work/kx/boot/vmlinuz-$kver" "$work/kx/boot/config-$kver" "$kdir/"
+  rm -rf "$work/kx"
+  touch "$kdir/stamp"
+fi
+
+# --- 3. The initramfs.
+rootfs=$work/rootfs
+mkdir -p "$rootfs"/{bin,sbin,lib,usr/bin,usr/sbin,etc,board,var/lib/dpkg/info,var/lib/dpkg/updates}
+dpkg-deb -x "$bbdeb" "$work/bb"
+cp "$work/bb/bin/busybox" "$rootfs/bin/busybox"
+rm -rf "$work/bb"
+cp -a "$kdir/lib/modules" "$rootfs/lib/"
+# The arm64 shared libraries mfns-navd and mfns-paramctl need (NEEDED, recursively), from
+# Debian's arm64 packages installed on this machine (libc6, libstdc++6, libgcc-s1, libgpiod2).
+libdirs=(/lib/aarch64-linux-gnu /usr/lib/aarch64-linux-gnu)
+mkdir -p "$rootfs/lib/aarch64-linux-gnu"
+declare -A seen=()
+queue=("$root/build/aarch64/bin/mfns-navd" "$root/build/aarch64/bin/mfns-paramctl")
+owners=()
+while [ ${#queue[@]} -gt 0 ]; do
+  f=${queue[0]}
+  queue=("${queue[@]:1}")
+  for lib in $(aarch64-linux-gnu-readelf -d "$f" | sed -n 's/.*(NEEDED).*\[\(.*\)\]/\1/p'); do
+    [ -n "${seen[$lib]:-}" ] && continue
+    seen[$lib]=1
+    path=""
+    for d in "${libdirs[@]}"; do [ -e "$d/$lib" ] && { path=$d/$lib; break; }; done
+    [ -n "$path" ] || die "arm64 library $lib not found (install-deps.sh installs libgpiod2:arm64, libstdc++6:arm64)"
+    cp -L "$path" "$rootfs/lib/aarch64-linux-gnu/$lib"
+    for cand in "$path" "${path#/usr}" "/usr$path" "$(readlink -f "$path")"; do  # usrmerge: either name
+      o=$(dpkg -S "$cand" 2>/dev/null | cut -d: -f1-2 | head -n 1 || true)
+      [ -n "$o" ] && { owners+=("$o"); break; }
+    done
+    queue+=("$path")
+  done
+done
+interp=$(aarch64-linux-gnu-readelf -l "$root/build/aarch64/bin/mfns-navd" | sed -n 's/.*interpreter: \(.*\)\]/\1/p')
+cp -L "/usr/lib/aarch64-linux-gnu/$(basename "$interp")" "$rootfs/lib/aarch64-linux-gnu/"
+ln -sf "aarch64-linux-gnu/$(basename "$interp")" "$rootfs$interp"
+# dpkg's database: the library packages whose files were copied in, at the host's versions, so
+# that the .deb's Depends are met the way they are on a Debian board.
+for p in $(printf '%s\n' "${owners[@]}" libc6:arm64 | grep . | sort -u); do
+  v=$(dpkg-query -W -f='${Version}' "$p")
+  printf 'Package: %s\nStatus: install ok installed\nArchitecture: arm64\nVersion: %s\n\n' "${p%:arm64}" "$v" >>"$rootfs/var/lib/dpkg/status"
+done
+cp "$deb" "$rootfs/board/mfns.deb"
+cp "$work/params.bin" "$rootfs/board/params.bin"
+cp scripts/board/checks.sh "$rootfs/board/checks.sh"
+cp scripts/board/init "$rootfs/init"
+# A folder of extra files for the guest (a probe while debugging): run.sh in it runs before navd.
+[ -z "${MFNS_BOARD_EXTRA:-}" ] || cp -r "$MFNS_BOARD_EXTRA" "$rootfs/board/extra"
+chmod 0755 "$rootfs/init"
+cat >"$rootfs/board/board.env" <<EOF
+VIVID_PARAMS="$vivid_params"
+NUM_CAMERAS=3
+WIDTH=$width
+HEIGHT=$height
+FRAMES=$frames
+TRIGGER_LINE=$trigger_line
+NAVD_EXTRA="${MFNS_BOARD_NAVD_ARGS:-}"
+EOF
+(cd "$rootfs" && find . | LC_ALL=C sort | cpio -o -H newc --quiet -R 0:0 | gzip -1 >"$work/initramfs.gz")
+rm -rf "$rootfs"
+echo "test-board: initramfs $(du -k "$work/initramfs.gz" | cut -f1) KiB, kernel $kpkg; booting (timeout ${timeout_s} s)" >&2
+
+# --- 4. Boot. The console is the serial port (stdout -> console.log); PL061 writes are traced
+# on the host (QEMU's pl061_set_output events) to count the trigger pulses.
+boot=$(date +%s)
+status=0
+timeout --kill-after=10 "$timeout_s" qemu-system-aarch64 -M virt -cpu cortex-a72 -smp "$smp" -m 1024 \
+  -nographic -no-reboot -net none \
+  -kernel "$kdir/vmlinuz-$kver" -initrd "$work/initramfs.gz" \
+  -append "console=ttyAMA0 panic=-1 quiet loglevel=3" \
+  -trace "pl061_set_output,file=$work/pl061.trace" \
+  </dev/null >"$work/console.log" 2>"$work/qemu.err" || status=$?
+end=$(date +%s)
+tr -d '\r' <"$work/console.log" | grep -aE '^BOARD ' | sed 's/^BOARD /board: /' >&2 || true
+
+passed=$(tr -d '\r' <"$work/console.log" | grep -ac '^BOARD PASS ' || true)
+failed=$(tr -d '\r' <"$work/console.log" | grep -ac '^BOARD FAIL ' || true)
+if [ "$status" -eq 124 ] || [ "$status" -eq 137 ]; then
+  echo "test-board: FAIL: the guest did not finish within ${timeout_s} s (console: $work/console.log)" >&2
+  failed=$((failed + 1))
+elif ! tr -d '\r' <"$work/console.log" | grep -aq '^BOARD END'; then
+  echo "test-board: FAIL: the guest stopped before its checks ended (qemu exit $status; console: $work/console.log)" >&2
+  tail -n 20 "$work/console.log" >&2
+  failed=$((failed + 1))
+fi
+# The trigger on the emulated PL061: one rising edge (level 1) per frame set on the line.
+if tr -d '\r' <"$work/console.log" | grep -aq '^BOARD PASS gpiochip'; then
+  edges=$(grep -c "pl061_set_output .* setting output $trigger_line to 1\$" "$work/pl061.trace" 2>/dev/null || true)
+  if [ "$edges" -eq "$frames" ]; then
+    echo "board: PASS gpio-pulses: $edges rising edges on PL061 line $trigger_line for $frames frame sets (QEMU trace)" >&2
+    passed=$((passed + 1))
+  else
+    echo "board: FAIL gpio-pulses: $edges rising edges on PL061 line $trigger_line, expected $frames (QEMU trace $work/pl061.trace)" >&2
+    failed=$((failed + 1))
+  fi
+fi
+[ "$passed" -gt 0 ] || failed=$((failed + 1))
+echo "test-board: boot and checks $((end - boot)) s, total $((end - start)) s" >&2
+echo "board: ${passed} passed, ${failed} failed"
+[ "$failed" -eq 0 ]
