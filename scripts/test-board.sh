@@ -175,9 +175,9 @@ failed=$(tr -d '\r' <"$work/console.log" | grep -ac '^BOARD FAIL ' || true)
 if [ "$status" -eq 124 ] || [ "$status" -eq 137 ]; then
   echo "test-board: FAIL: the guest did not finish within ${timeout_s} s (console: $work/console.log)" >&2
   failed=$((failed + 1))
-elif ! tr -d '\r' <"$work/console.log" | grep -aq '^BOARD END'; then
-  echo "test-board: FAIL: the guest stopped before its checks ended (qemu exit $status; console: $work/console.log)" >&2
-  tail -n 20 "$work/console.log" >&2
+elif ! tr -d '\r' <"$work/console.log" | grep -aq '^BOARD CHECKS COMPLETE'; then
+  echo "test-board: FAIL: the checks stopped before their end (qemu exit $status; console: $work/console.log):" >&2
+  tr -d '\r' <"$work/console.log" | grep -av '^BOARD ' | tail -n 20 >&2
   failed=$((failed + 1))
 fi
 # The trigger on the emulated PL061: one rising edge (level 1) per frame set on the line.

@@ -88,6 +88,8 @@ info "navd ran $(awk -v a="$t0" -v b="$t1" 'BEGIN{printf "%.1f", b - a}') s"
 done_line=$(grep 'done:' /tmp/navd.out)
 if [ $rc -eq 0 ] && echo "$done_line" | grep -q "done: $FRAMES frame sets" && ! grep -q 'did not start' /tmp/navd.out; then
   pass "navd-run: exit 0, $(echo "$done_line" | sed 's/^mfns-navd: //')"
+elif grep -q 'did not start' /tmp/navd.out; then
+  fail "navd-run: exit $rc, $(grep -E 'did not start|: camera ' /tmp/navd.out | sed 's/^mfns-navd: //' | tr '\n' ';')"
 else
   fail "navd-run: exit $rc, $(tail -n 2 /tmp/navd.out | tr '\n' ' ')"
 fi
@@ -105,7 +107,10 @@ kernel_gaps=0
 while [ $k -lt "$NUM_CAMERAS" ]; do
   r=$(awk -v dev="video$k:" -v w="$WIDTH" -v h="$HEIGHT" '
     index($0, dev) == 0 { next }
-    /VIDIOC_S_FMT/ && index($0, "width=" w ", height=" h) && /pixelformat=GREY/ { fmt = 1 }
+    /VIDIOC_S_FMT/ {  # logged after the call: what the driver set
+      fmt = index($0, "width=" w ", height=" h ",") && /pixelformat=GREY/ && /field=none/
+      answer = $0; sub(/.*VIDIOC_S_FMT: /, "", answer); sub(/, bytesperline.*/, "", answer); sub(/ little-endian \(0x[0-9a-f]+\)/, "", answer)
+    }
     /VIDIOC_REQBUFS/ && /memory=mmap/ { reqbufs = 1 }
     / mmap \(/ { mm++ }
     /VIDIOC_STREAMON/ { on = 1 }
@@ -131,10 +136,12 @@ while [ $k -lt "$NUM_CAMERAS" ]; do
     }
     END {
       ok = fmt && reqbufs && mm >= 4 && on && polls > 0 && dq > 0 && back + notmono == 0
-      printf "%s S_FMT GREY %dx%d %s, REQBUFS mmap %s, %d mmap, STREAMON %s, %d poll, %d DQBUF, %d not increasing, %d not monotonic, %d frames dropped by the driver (sequence gaps)\n", \
+      if (!fmt) printf "bad expected S_FMT to set GREY %dx%d field none, the driver set %s\n", w, h, answer == "" ? "nothing" : answer
+      else printf "%s S_FMT GREY %dx%d %s, REQBUFS mmap %s, %d mmap, STREAMON %s, %d poll, %d DQBUF, %d not increasing, %d not monotonic, %d frames dropped by the driver (sequence gaps)\n", \
         ok ? "ok" : "bad", w, h, fmt ? "yes" : "no", reqbufs ? "yes" : "no", mm, on ? "yes" : "no", polls, dq, back, notmono, gaps
     }' /tmp/v4l2.log)
-  kernel_gaps=$((kernel_gaps + $(echo "$r" | sed -n 's/.*, \([0-9]*\) frames dropped by the driver.*/\1/p')))
+  g=$(echo "$r" | sed -n 's/.*, \([0-9]*\) frames dropped by the driver.*/\1/p')
+  kernel_gaps=$((kernel_gaps + ${g:-0}))
   case "$r" in
     ok*) pass "v4l2-video$k: ${r#ok }" ;;
     *) fail "v4l2-video$k: ${r#bad }" ;;
@@ -183,3 +190,4 @@ if dpkg -r mfns >/tmp/dpkg-r.out 2>&1 && [ ! -e /usr/bin/mfns-navd ] && [ -d /va
 else
   fail "dpkg-remove: $(tr '\n' ' ' </tmp/dpkg-r.out)"
 fi
+echo "BOARD CHECKS COMPLETE"
