@@ -102,6 +102,7 @@ fi
 # the buffers mmapped, STREAMON, poll called, and every DQBUF stamped CLOCK_MONOTONIC
 # (V4L2_BUF_FLAG_TIMESTAMP_MONOTONIC, 0x2000) with increasing timestamps; sequence gaps are
 # frames the driver dropped while navd held its buffers (drops, not errors).
+info "a DQBUF as the kernel logged it: $(grep -m 1 'video0: VIDIOC_DQBUF' /tmp/v4l2.log | sed 's/^\[[ 0-9.]*\] //')"
 k=0
 kernel_gaps=0
 while [ $k -lt "$NUM_CAMERAS" ]; do
@@ -184,7 +185,21 @@ if [ -n "$trigger" ]; then
   fi
 fi
 
-# 5. The package removes cleanly and keeps the parameter store.
+# 5. The unit's command line as systemd would run it (no systemd here): ExecStart from the
+#    installed unit, MFNS_NAVD_ARGS from its EnvironmentFile, split at white space; --frames
+#    added so that it ends.
+unit=/usr/lib/systemd/system/mfns-navd.service
+execstart=$(sed -n 's/^ExecStart=//p' $unit)
+envfile=$(sed -n 's/^EnvironmentFile=//p' $unit)
+( set -a; . "$envfile"; set +a; eval "exec $execstart --frames 3" ) >/tmp/unit.out 2>&1
+rc=$?
+if [ $rc -eq 0 ] && grep -q 'done: 3 frame sets' /tmp/unit.out && ! grep -q 'did not start' /tmp/unit.out; then
+  pass "unit-execstart: '$execstart' with $envfile: $(grep 'done:' /tmp/unit.out | sed 's/^mfns-navd: //')"
+else
+  fail "unit-execstart: '$execstart' with $envfile: exit $rc, $(tail -n 3 /tmp/unit.out | tr '\n' ' ')"
+fi
+
+# 6. The package removes cleanly and keeps the parameter store.
 if dpkg -r mfns >/tmp/dpkg-r.out 2>&1 && [ ! -e /usr/bin/mfns-navd ] && [ -d /var/lib/mfns/params ]; then
   pass "dpkg-remove: binaries gone, store kept ($(ls /var/lib/mfns/params | tr '\n' ' '))"
 else
