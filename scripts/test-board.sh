@@ -11,6 +11,7 @@
 # Environment:
 #   MFNS_BOARD_TIMEOUT  seconds for the whole guest run (default 420)
 #   MFNS_BOARD_FRAMES   frame sets mfns-navd runs (default 10)
+#   MFNS_BOARD_DISCONNECT_FRAMES frame sets of the disconnect run (default 60; camera 1 goes at ~10)
 #   MFNS_BOARD_SMP      guest CPUs (default 2)
 #   MFNS_BOARD_NAVD_ARGS extra mfns-navd arguments (e.g. --y16)
 #   MFNS_BOARD_VIVID_PARAMS vivid's module parameters instead of the rig's (docs/board.md)
@@ -24,6 +25,7 @@ cache=$root/build/board-cache
 work=$root/build/board
 timeout_s=${MFNS_BOARD_TIMEOUT:-420}
 frames=${MFNS_BOARD_FRAMES:-10}
+disconnect_frames=${MFNS_BOARD_DISCONNECT_FRAMES:-60}
 smp=${MFNS_BOARD_SMP:-2}
 trigger_line=0   # PL061 line 3 is the virt board's power button (gpio-keys); 0 is free
 width=1280 height=1024  # config/paper-rig.yaml's cameras
@@ -33,7 +35,7 @@ vivid_params=${MFNS_BOARD_VIVID_PARAMS:-"n_devs=3 node_types=0x1,0x1,0x1 vid_cap
 start=$(date +%s)
 
 die() { echo "test-board: $*" >&2; echo "board: 0 passed, 1 failed"; exit 1; }
-for tool in qemu-system-aarch64 apt-get dpkg-deb depmod cpio gzip aarch64-linux-gnu-readelf cmake; do
+for tool in qemu-system-aarch64 apt-get dpkg-deb depmod cpio gzip aarch64-linux-gnu-readelf aarch64-linux-gnu-gcc cmake; do
   command -v "$tool" >/dev/null || die "$tool not found (run scripts/install-deps.sh)"
 done
 
@@ -141,6 +143,8 @@ cp "$deb" "$rootfs/board/mfns.deb"
 cp "$work/params.bin" "$rootfs/board/params.bin"
 cp scripts/board/checks.sh "$rootfs/board/checks.sh"
 cp scripts/board/init "$rootfs/init"
+# board-ctl sets V4L2 controls by name (vivid's test pattern, Disconnect): no v4l2-ctl on the board.
+aarch64-linux-gnu-gcc -static -O2 -Wall -Werror -o "$rootfs/usr/bin/board-ctl" scripts/board/board-ctl.c
 # A folder of extra files for the guest (a probe while debugging): run.sh in it runs before navd.
 [ -z "${MFNS_BOARD_EXTRA:-}" ] || cp -r "$MFNS_BOARD_EXTRA" "$rootfs/board/extra"
 chmod 0755 "$rootfs/init"
@@ -151,6 +155,9 @@ WIDTH=$width
 HEIGHT=$height
 FRAMES=$frames
 TRIGGER_LINE=$trigger_line
+DISCONNECT_CAMERA=1
+DISCONNECT_AT=10
+DISCONNECT_FRAMES=$disconnect_frames
 NAVD_EXTRA="${MFNS_BOARD_NAVD_ARGS:-}"
 EOF
 (cd "$rootfs" && find . | LC_ALL=C sort | cpio -o -H newc --quiet -R 0:0 | gzip -1 >"$work/initramfs.gz")
@@ -164,7 +171,7 @@ status=0
 timeout --kill-after=10 "$timeout_s" qemu-system-aarch64 -M virt -cpu cortex-a72 -smp "$smp" -m 1024 \
   -nographic -no-reboot -net none \
   -kernel "$kdir/vmlinuz-$kver" -initrd "$work/initramfs.gz" \
-  -append "console=ttyAMA0 panic=-1 quiet loglevel=3" \
+  -append "console=ttyAMA0 panic=-1 quiet loglevel=3 log_buf_len=16M" \
   -trace "pl061_set_output,file=$work/pl061.trace" \
   </dev/null >"$work/console.log" 2>"$work/qemu.err" || status=$?
 end=$(date +%s)
@@ -180,14 +187,16 @@ elif ! tr -d '\r' <"$work/console.log" | grep -aq '^BOARD CHECKS COMPLETE'; then
   tr -d '\r' <"$work/console.log" | grep -av '^BOARD ' | tail -n 20 >&2
   failed=$((failed + 1))
 fi
-# The trigger on the emulated PL061: one rising edge (level 1) per frame set on the line.
+# The trigger on the emulated PL061: one rising edge (level 1) per frame set on the line, in the
+# two navd runs given --trigger (the checks' run and the disconnect run).
 if tr -d '\r' <"$work/console.log" | grep -aq '^BOARD PASS gpiochip'; then
   edges=$(grep -c "pl061_set_output .* setting output $trigger_line to 1\$" "$work/pl061.trace" 2>/dev/null || true)
-  if [ "$edges" -eq "$frames" ]; then
-    echo "board: PASS gpio-pulses: $edges rising edges on PL061 line $trigger_line for $frames frame sets (QEMU trace)" >&2
+  expected=$((frames + disconnect_frames))
+  if [ "$edges" -eq "$expected" ]; then
+    echo "board: PASS gpio-pulses: $edges rising edges on PL061 line $trigger_line for $frames + $disconnect_frames frame sets (QEMU trace)" >&2
     passed=$((passed + 1))
   else
-    echo "board: FAIL gpio-pulses: $edges rising edges on PL061 line $trigger_line, expected $frames (QEMU trace $work/pl061.trace)" >&2
+    echo "board: FAIL gpio-pulses: $edges rising edges on PL061 line $trigger_line, expected $frames + $disconnect_frames (QEMU trace $work/pl061.trace)" >&2
     failed=$((failed + 1))
   fi
 fi

@@ -121,8 +121,9 @@ while [ $k -lt "$NUM_CAMERAS" ]; do
       if (match($0, /VIDIOC_DQBUF: [0-9]+:[0-9]+:[0-9]+\.[0-9]+/)) {
         split(substr($0, RSTART + 14, RLENGTH - 14), a, /[:.]/)
         t = ((a[1] * 60 + a[2]) * 60 + a[3]) * 1e6 + a[4]  # the log prints tv_usec
-        if (dq > 1 && t <= last) back++
-        last = t
+        stamp = substr($0, RSTART + 14, RLENGTH - 14)
+        if (dq > 1 && t <= last) { back++; if (why == "") why = sprintf(" (DQBUF %d stamped %s after %s)", dq, stamp, last_stamp) }
+        last = t; last_stamp = stamp
       }
       if (match($0, /flags=0x[0-9a-f]+/)) {
         f = substr($0, RSTART + 8, RLENGTH - 8); v = 0
@@ -138,8 +139,8 @@ while [ $k -lt "$NUM_CAMERAS" ]; do
     END {
       ok = fmt && reqbufs && mm >= 4 && on && polls > 0 && dq > 0 && back + notmono == 0
       if (!fmt) printf "bad expected S_FMT to set GREY %dx%d field none, the driver set %s\n", w, h, answer == "" ? "nothing" : answer
-      else printf "%s S_FMT GREY %dx%d %s, REQBUFS mmap %s, %d mmap, STREAMON %s, %d poll, %d DQBUF, %d not increasing, %d not monotonic, %d frames dropped by the driver (sequence gaps)\n", \
-        ok ? "ok" : "bad", w, h, fmt ? "yes" : "no", reqbufs ? "yes" : "no", mm, on ? "yes" : "no", polls, dq, back, notmono, gaps
+      else printf "%s S_FMT GREY %dx%d %s, REQBUFS mmap %s, %d mmap, STREAMON %s, %d poll, %d DQBUF, %d not increasing%s, %d not monotonic, %d frames dropped by the driver (sequence gaps)\n", \
+        ok ? "ok" : "bad", w, h, fmt ? "yes" : "no", reqbufs ? "yes" : "no", mm, on ? "yes" : "no", polls, dq, back, why, notmono, gaps
     }' /tmp/v4l2.log)
   g=$(echo "$r" | sed -n 's/.*, \([0-9]*\) frames dropped by the driver.*/\1/p')
   kernel_gaps=$((kernel_gaps + ${g:-0}))
@@ -185,7 +186,60 @@ if [ -n "$trigger" ]; then
   fi
 fi
 
-# 5. The unit's command line as systemd would run it (no systemd here): ExecStart from the
+# 5. vivid's Disconnect control on one camera mid-run (a USB camera unplugged: every ioctl and
+#    poll of its open file handles fails with ENODEV; the node comes back once its last file
+#    handle is closed, as navd's retry does). A smooth image (test pattern Gray Ramp, no OSD
+#    text) keeps navd's frame sets short. The kernel log shows what each device did.
+k=0
+while [ $k -lt "$NUM_CAMERAS" ]; do
+  board-ctl /dev/video$k 'Test Pattern' 'Gray Ramp' && board-ctl /dev/video$k 'OSD Text Mode' 'None' ||
+    fail "vivid-controls: video$k"
+  echo 0x0d >/sys/class/video4linux/video$k/dev_debug  # ioctls, file operations, QBUF/DQBUF
+  k=$((k + 1))
+done
+dmesg -c >/dev/null
+mfns-navd --params /var/lib/mfns/params --source v4l2 --frames "$DISCONNECT_FRAMES" --log /tmp/disconnect.csv \
+  --pid-file '' --quiet $trigger >/tmp/navd-disconnect.out 2>&1 &
+pid=$!
+n=0
+while kill -0 $pid 2>/dev/null && [ "$(dmesg | grep -c 'video1: VIDIOC_DQBUF$')" -lt "$DISCONNECT_AT" ] && [ $n -lt 600 ]; do
+  usleep 100000
+  n=$((n + 1))
+done
+board-ctl /dev/video$DISCONNECT_CAMERA Disconnect 1 || fail "disconnect: board-ctl Disconnect on /dev/video$DISCONNECT_CAMERA"
+wait $pid
+rc=$?
+dmesg -s 16777216 | tr -d '\r' >/tmp/disconnect.log
+k=0
+while [ $k -lt "$NUM_CAMERAS" ]; do echo 0 >/sys/class/video4linux/video$k/dev_debug; k=$((k + 1)); done
+sed 's/^/BOARD LOG navd (disconnect): /' /tmp/navd-disconnect.out
+r=$(awk -v lost="video$DISCONNECT_CAMERA:" -v inst="vivid-00$DISCONNECT_CAMERA: " -v n="$NUM_CAMERAS" '
+  index($0, inst "disconnect") { phase = 1; next }
+  index($0, inst "reconnect") { if (phase == 1) phase = 2; next }
+  /VIDIOC_DQBUF$/ {
+    dev = $0; sub(/^.*\] /, "", dev); sub(/ .*/, "", dev)
+    if (phase == 0) before[dev]++
+    else if (phase == 1) during[dev]++
+    else after[dev]++
+  }
+  phase == 2 && index($0, lost " VIDIOC_STREAMON") { restarted = 1 }
+  END {
+    others = 1
+    for (k = 0; k < n; ++k) { d = "video" k ":"; if (d != lost && during[d] + 0 == 0) others = 0 }
+    ok = phase == 2 && others && restarted && after[lost] > 0
+    printf "%s %s %d frames before the disconnect, reconnect %s, STREAMON again %s, %d frames after;", \
+      ok ? "ok" : "bad", lost, before[lost], phase == 2 ? "yes" : "no", restarted ? "yes" : "no", after[lost]
+    for (k = 0; k < n; ++k) { d = "video" k ":"; if (d != lost) printf " %s %d frames while it was away;", d, during[d] }
+    printf "\n"
+  }' /tmp/disconnect.log)
+done_line=$(grep -E 'done:|faults:' /tmp/navd-disconnect.out | sed 's/^mfns-navd: //' | tr '\n' ';')
+if [ $rc -eq 0 ] && echo "$done_line" | grep -q "done: $DISCONNECT_FRAMES frame sets" && [ "${r%% *}" = ok ]; then
+  pass "disconnect: ${r#ok } navd: $done_line"
+else
+  fail "disconnect: ${r#* } navd exit $rc: $done_line"
+fi
+
+# 6. The unit's command line as systemd would run it (no systemd here): ExecStart from the
 #    installed unit, MFNS_NAVD_ARGS from its EnvironmentFile, split at white space; --frames
 #    added so that it ends.
 unit=/usr/lib/systemd/system/mfns-navd.service
@@ -199,7 +253,7 @@ else
   fail "unit-execstart: '$execstart' with $envfile: exit $rc, $(tail -n 3 /tmp/unit.out | tr '\n' ' ')"
 fi
 
-# 6. The package removes cleanly and keeps the parameter store.
+# 7. The package removes cleanly and keeps the parameter store.
 if dpkg -r mfns >/tmp/dpkg-r.out 2>&1 && [ ! -e /usr/bin/mfns-navd ] && [ -d /var/lib/mfns/params ]; then
   pass "dpkg-remove: binaries gone, store kept ($(ls /var/lib/mfns/params | tr '\n' ' '))"
 else
