@@ -107,6 +107,7 @@ k=0
 kernel_gaps=0
 while [ $k -lt "$NUM_CAMERAS" ]; do
   r=$(awk -v dev="video$k:" -v w="$WIDTH" -v h="$HEIGHT" '
+    function dec(s) { sub(/^0+/, "", s); return s == "" ? 0 : s + 0 }
     index($0, dev) == 0 { next }
     /VIDIOC_S_FMT/ {  # logged after the call: what the driver set
       fmt = index($0, "width=" w ", height=" h ",") && /pixelformat=GREY/ && /field=none/
@@ -120,7 +121,8 @@ while [ $k -lt "$NUM_CAMERAS" ]; do
       dq++
       if (match($0, /VIDIOC_DQBUF: [0-9]+:[0-9]+:[0-9]+\.[0-9]+/)) {
         split(substr($0, RSTART + 14, RLENGTH - 14), a, /[:.]/)
-        t = ((a[1] * 60 + a[2]) * 60 + a[3]) * 1e6 + a[4]  # the log prints tv_usec
+        # the log prints tv_usec; busybox awk reads a leading 0 as octal, hence dec()
+        t = ((dec(a[1]) * 60 + dec(a[2])) * 60 + dec(a[3])) * 1e6 + dec(a[4])
         stamp = substr($0, RSTART + 14, RLENGTH - 14)
         if (dq > 1 && t <= last) { back++; if (why == "") why = sprintf(" (DQBUF %d stamped %s after %s)", dq, stamp, last_stamp) }
         last = t; last_stamp = stamp
