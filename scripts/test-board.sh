@@ -11,10 +11,14 @@
 # Environment:
 #   MFNS_BOARD_TIMEOUT  seconds for the whole guest run (default 420)
 #   MFNS_BOARD_FRAMES   frame sets mfns-navd runs (default 10)
-#   MFNS_BOARD_DISCONNECT_FRAMES frame sets of the disconnect run (default 60; camera 1 goes at ~10)
+#   MFNS_BOARD_LOOP_FRAMES frame sets navd runs on the rendered frames looped through vivid (10)
+#   MFNS_BOARD_DISCONNECT_FRAMES frame sets of the disconnect run (default 40; camera 1 goes at
+#                       ~10, is set aside 3 frame sets later and retried every 10)
 #   MFNS_BOARD_SMP      guest CPUs (default 2)
 #   MFNS_BOARD_NAVD_ARGS extra mfns-navd arguments (e.g. --y16)
 #   MFNS_BOARD_VIVID_PARAMS vivid's module parameters instead of the rig's (docs/board.md)
+#   MFNS_BOARD_HOST_BIN where the host's mfns-calib and mfns-sim are (default build/host/bin,
+#                       built with the host preset when missing)
 #   MFNS_BOARD_EXTRA    a folder copied to /board/extra in the guest; its run.sh runs before navd
 #   MFNS_BOARD_KERNEL   kernel package (default: what linux-image-arm64:arm64 depends on)
 # Downloads are cached in build/board-cache/; the initramfs and logs go to build/board/.
@@ -25,13 +29,16 @@ cache=$root/build/board-cache
 work=$root/build/board
 timeout_s=${MFNS_BOARD_TIMEOUT:-420}
 frames=${MFNS_BOARD_FRAMES:-10}
-disconnect_frames=${MFNS_BOARD_DISCONNECT_FRAMES:-60}
+loop_frames=${MFNS_BOARD_LOOP_FRAMES:-10}   # frame sets navd runs on the looped rendered frames
+render_frames=40
+disconnect_frames=${MFNS_BOARD_DISCONNECT_FRAMES:-40}
 smp=${MFNS_BOARD_SMP:-2}
 trigger_line=0   # PL061 line 3 is the virt board's power button (gpio-keys); 0 is free
 width=1280 height=1024  # config/paper-rig.yaml's cameras
-# vivid: three instances, each one video capture node /dev/video0..2 (the rig's cameras in order),
-# one HDMI input each (progressive; any size through the scaler), single-planar. docs/board.md says why.
-vivid_params=${MFNS_BOARD_VIVID_PARAMS:-"n_devs=3 node_types=0x1,0x1,0x1 vid_cap_nr=0,1,2 num_inputs=1,1,1 input_types=0x3,0x3,0x3 multiplanar=1,1,1 ccs_cap_mode=4,4,4"}
+# vivid: three instances, each a video capture node /dev/video0..2 (the rig's cameras in order)
+# with one HDMI input (progressive; any size through the scaler) and a video output node
+# /dev/video3..5 with one HDMI output (for the loopback), single-planar. docs/board.md says why.
+vivid_params=${MFNS_BOARD_VIVID_PARAMS:-"n_devs=3 node_types=0x101,0x101,0x101 vid_cap_nr=0,1,2 vid_out_nr=3,4,5 num_inputs=1,1,1 input_types=0x3,0x3,0x3 num_outputs=1,1,1 output_types=0x1,0x1,0x1 multiplanar=1,1,1 ccs_cap_mode=4,4,4 ccs_out_mode=0,0,0"}
 start=$(date +%s)
 
 die() { echo "test-board: $*" >&2; echo "board: 0 passed, 1 failed"; exit 1; }
@@ -47,13 +54,42 @@ rm -rf "$work"
 mkdir -p "$work/pkg" "$cache"
 (cd build/aarch64 && cpack --config CPackConfig.cmake -B "$work/pkg" >/dev/null)
 deb=$(ls "$work"/pkg/mfns_*_arm64.deb)
-calib=build/host/bin/mfns-calib
+host_bin=${MFNS_BOARD_HOST_BIN:-build/host/bin}
+calib=$host_bin/mfns-calib
 if [ ! -x "$calib" ]; then
   echo "test-board: building mfns-calib (host) for the parameter blob" >&2
   [ -f build/host/CMakeCache.txt ] || cmake --preset host >/dev/null
   cmake --build --preset host -j "$(nproc)" --target mfns-calib >/dev/null
 fi
 "$calib" blob config/paper-rig.yaml --out "$work/params.bin" --generation 1 >/dev/null
+
+# Rendered frames for vivid's loopback: the paper turntable sweep (mfns-sim render); the first
+# frame set with the most beacons in view among the first $render_frames is fed to the board's
+# vivid outputs, and replayed here by the same arm64 mfns-navd under qemu-aarch64, both from the
+# truth pose (--initial-pose), for the poses to compare.
+sim=$host_bin/mfns-sim
+if [ ! -x "$sim" ]; then
+  echo "test-board: building mfns-sim (host) for the rendered frames" >&2
+  [ -f build/host/CMakeCache.txt ] || cmake --preset host >/dev/null
+  cmake --build --preset host -j "$(nproc)" --target mfns-sim >/dev/null
+fi
+"$sim" render --preset paper-turntable --out "$work/sim" --frames "$render_frames" --no-images >"$work/render.log" 2>&1 ||
+  die "mfns-sim render failed: $(tail -n 1 "$work/render.log")"
+loop_frame=$(awk -F, 'NR > 1 { c[$1 + 0]++ } END { for (f in c) if (c[f] > best || (c[f] == best && f + 0 < first)) { best = c[f]; first = f + 0 }; print first }' "$work/sim/blobs.csv")
+"$sim" render --preset paper-turntable --out "$work/sim" --frames $((loop_frame + 1)) >"$work/render.log" 2>&1 ||
+  die "mfns-sim render failed: $(tail -n 1 "$work/render.log")"
+mkdir -p "$work/loop/frames"
+for c in $(ls "$work/sim/frames"); do
+  mkdir -p "$work/loop/frames/$c"
+  cp "$work/sim/frames/$c/$(printf '%06d' "$loop_frame").pgm" "$work/loop/frames/$c/000000.pgm"
+done
+awk -F, -v f="$loop_frame" 'BEGIN { OFS = "," } NR == 1 { print; next } $1 + 0 == f { $1 = 0; print }' "$work/sim/truth.csv" >"$work/loop/truth.csv"
+loop_pose=$(awk -F, 'NR == 1 { for (i = 1; i <= NF; ++i) col[$i] = i; next }
+  { print $col["x_mm"] "," $col["y_mm"] "," $col["z_mm"] "," $col["roll_deg"] "," $col["pitch_deg"] "," $col["yaw_deg"] }' "$work/loop/truth.csv")
+"$calib" blob "$work/sim/rig.yaml" --out "$work/loop.bin" --generation 1 >/dev/null
+qemu-aarch64 -L /usr/aarch64-linux-gnu build/aarch64/bin/mfns-navd --params "$work/loop.bin" --source "replay:$work/loop" \
+  --initial-pose "$loop_pose" --log "$work/replay.csv" --pid-file '' --quiet 2>"$work/replay.err" ||
+  die "the replay of the loop frame set failed: $(cat "$work/replay.err")"
 
 # --- 2. Debian's arm64 kernel and busybox-static, fetched once into the cache.
 kpkg=${MFNS_BOARD_KERNEL:-$(apt-cache depends linux-image-arm64:arm64 2>/dev/null |
@@ -142,9 +178,14 @@ done
 cp "$deb" "$rootfs/board/mfns.deb"
 cp "$work/params.bin" "$rootfs/board/params.bin"
 cp scripts/board/checks.sh "$rootfs/board/checks.sh"
+cp "$work/loop.bin" "$rootfs/board/loop.bin"
+cp -r "$work/loop/frames" "$rootfs/board/loop"
 cp scripts/board/init "$rootfs/init"
-# board-ctl sets V4L2 controls by name (vivid's test pattern, Disconnect): no v4l2-ctl on the board.
-aarch64-linux-gnu-gcc -static -O2 -Wall -Werror -o "$rootfs/usr/bin/board-ctl" scripts/board/board-ctl.c
+# board-ctl sets V4L2 controls by name (vivid's test pattern, Disconnect), board-loop streams
+# frames through vivid's loopback: no v4l2-ctl on the board.
+for tool in board-ctl board-loop; do
+  aarch64-linux-gnu-gcc -static -O2 -Wall -Werror -o "$rootfs/usr/bin/$tool" "scripts/board/$tool.c"
+done
 # A folder of extra files for the guest (a probe while debugging): run.sh in it runs before navd.
 [ -z "${MFNS_BOARD_EXTRA:-}" ] || cp -r "$MFNS_BOARD_EXTRA" "$rootfs/board/extra"
 chmod 0755 "$rootfs/init"
@@ -158,6 +199,9 @@ TRIGGER_LINE=$trigger_line
 DISCONNECT_CAMERA=1
 DISCONNECT_AT=10
 DISCONNECT_FRAMES=$disconnect_frames
+LOOP_FRAMES=$loop_frames
+LOOP_POSE=$loop_pose
+LOOP_CAMERAS="$(sed -n 's/^  - name: *//p' "$work/sim/rig.yaml" | tr '\n' ' ')"
 NAVD_EXTRA="${MFNS_BOARD_NAVD_ARGS:-}"
 EOF
 (cd "$rootfs" && find . | LC_ALL=C sort | cpio -o -H newc --quiet -R 0:0 | gzip -1 >"$work/initramfs.gz")
@@ -197,6 +241,28 @@ if tr -d '\r' <"$work/console.log" | grep -aq '^BOARD PASS gpiochip'; then
     passed=$((passed + 1))
   else
     echo "board: FAIL gpio-pulses: $edges rising edges on PL061 line $trigger_line, expected $frames + $disconnect_frames (QEMU trace $work/pl061.trace)" >&2
+    failed=$((failed + 1))
+  fi
+fi
+# navd on the looped rendered frames against the replay of the same frame set: every frame set
+# a fix, each pose equal to the replay's within the CSV's printed precision (0.0001 mm, 1e-6 deg)
+# plus numerical noise (0.001 mm, 1e-5 deg).
+if tr -d '\r' <"$work/console.log" | grep -aq '^BOARD POSE '; then
+  tr -d '\r' <"$work/console.log" | sed -n 's/^BOARD POSE //p' >"$work/loop-poses.csv"
+  r=$(awk -F, -v n="$loop_frames" '
+    NR == FNR { if (FNR == 1) { for (i = 1; i <= NF; ++i) rc[$i] = i; next }
+                rs = $rc["status"]; for (j = 0; j < 6; ++j) rv[j] = $(rc["x_mm"] + j); next }
+    FNR == 1 { for (i = 1; i <= NF; ++i) c[$i] = i; next }
+    { rows++; if ($c["status"] == "fix") fix++
+      for (j = 0; j < 6; ++j) { d = $(c["x_mm"] + j) - rv[j]; if (d < 0) d = -d; tol = j < 3 ? 0.001 : 0.00001; if (d > tol) off++; if (d > worst[j]) worst[j] = d } }
+    END { ok = rs == "fix" && rows == n && fix == n && off == 0
+          printf "%s %d of %d frame sets fixed (replay: %s); largest differences from the replay %.4f %.4f %.4f mm, %.6f %.6f %.6f deg\n", ok ? "ok" : "bad", fix, rows, rs, worst[0], worst[1], worst[2], worst[3], worst[4], worst[5] }' \
+    "$work/replay.csv" "$work/loop-poses.csv")
+  if [ "${r%% *}" = ok ]; then
+    echo "board: PASS loop-poses: ${r#ok } (frame set $loop_frame of paper-turntable)" >&2
+    passed=$((passed + 1))
+  else
+    echo "board: FAIL loop-poses: ${r#bad } (frame set $loop_frame of paper-turntable; $work/loop-poses.csv vs $work/replay.csv)" >&2
     failed=$((failed + 1))
   fi
 fi

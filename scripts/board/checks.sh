@@ -201,7 +201,7 @@ while [ $k -lt "$NUM_CAMERAS" ]; do
 done
 dmesg -c >/dev/null
 mfns-navd --params /var/lib/mfns/params --source v4l2 --frames "$DISCONNECT_FRAMES" --log /tmp/disconnect.csv \
-  --pid-file '' --quiet $trigger >/tmp/navd-disconnect.out 2>&1 &
+  --camera-timeouts 3 --camera-retry-every 10 --pid-file '' --quiet $trigger >/tmp/navd-disconnect.out 2>&1 &
 pid=$!
 n=0
 while kill -0 $pid 2>/dev/null && [ "$(dmesg | grep -c 'video1: VIDIOC_DQBUF$')" -lt "$DISCONNECT_AT" ] && [ $n -lt 600 ]; do
@@ -241,7 +241,42 @@ else
   fail "disconnect: ${r#* } navd exit $rc: $done_line"
 fi
 
-# 6. The unit's command line as systemd would run it (no systemd here): ExecStart from the
+# 6. Rendered frames through vivid's loopback: each instance's HDMI output (video3..5) loops to
+#    its capture (video0..2) with DV timings 1280x1024p60 on both; first a known pattern,
+#    compared pixel for pixel, then one rendered frame set of the paper turntable sweep fed
+#    continuously while navd runs from the truth pose; its poses go to the host (BOARD POSE)
+#    to compare with the replay of the same frames.
+k=0
+feeders=""
+while [ $k -lt "$NUM_CAMERAS" ]; do
+  board-ctl /dev/video$k 'Loop Video' 1 && board-ctl /dev/video$k 'OSD Text Mode' 'None' || fail "loop-controls: video$k"
+  r=$(board-loop check /dev/video$k /dev/video$((k + NUM_CAMERAS)) 2>&1)
+  case "$r" in
+    *pixel-exact*) pass "loopback-video$k: $r" ;;
+    *) fail "loopback-video$k: $r" ;;
+  esac
+  cam=$(echo $LOOP_CAMERAS | cut -d' ' -f$((k + 1)))
+  board-loop feed /dev/video$k /dev/video$((k + NUM_CAMERAS)) /board/loop/$cam/000000.pgm >/tmp/feed$k.out 2>&1 &
+  feeders="$feeders $!"
+  k=$((k + 1))
+done
+usleep 500000
+mfns-navd --params /board/loop.bin --source v4l2 --frames "$LOOP_FRAMES" --initial-pose "$LOOP_POSE" --log /tmp/loop.csv \
+  --pid-file '' --quiet >/tmp/navd-loop.out 2>&1
+rc=$?
+kill $feeders 2>/dev/null
+wait $feeders 2>/dev/null
+sed 's/^/BOARD LOG navd (loop): /' /tmp/navd-loop.out
+cat /tmp/feed*.out | sed 's/^/BOARD INFO /'
+if [ $rc -eq 0 ] && [ -f /tmp/loop.csv ]; then
+  sed 's/^/BOARD POSE /' /tmp/loop.csv
+else
+  fail "loop-navd: exit $rc, $(tail -n 2 /tmp/navd-loop.out | tr '\n' ' ')"
+fi
+k=0
+while [ $k -lt "$NUM_CAMERAS" ]; do board-ctl /dev/video$k 'Loop Video' 0; k=$((k + 1)); done
+
+# 7. The unit's command line as systemd would run it (no systemd here): ExecStart from the
 #    installed unit, MFNS_NAVD_ARGS from its EnvironmentFile, split at white space; --frames
 #    added so that it ends.
 unit=/usr/lib/systemd/system/mfns-navd.service
@@ -255,7 +290,7 @@ else
   fail "unit-execstart: '$execstart' with $envfile: exit $rc, $(tail -n 3 /tmp/unit.out | tr '\n' ' ')"
 fi
 
-# 7. The package removes cleanly and keeps the parameter store.
+# 8. The package removes cleanly and keeps the parameter store.
 if dpkg -r mfns >/tmp/dpkg-r.out 2>&1 && [ ! -e /usr/bin/mfns-navd ] && [ -d /var/lib/mfns/params ]; then
   pass "dpkg-remove: binaries gone, store kept ($(ls /var/lib/mfns/params | tr '\n' ' '))"
 else
