@@ -93,18 +93,18 @@ qemu-aarch64 -L /usr/aarch64-linux-gnu build/aarch64/bin/mfns-navd --params "$wo
 
 # --- 2. Debian's arm64 kernel and busybox-static, fetched once into the cache.
 kpkg=${MFNS_BOARD_KERNEL:-$(apt-cache depends linux-image-arm64:arm64 2>/dev/null |
-  sed -n 's/^ *Depends: \(linux-image-[0-9.]*-[0-9]*-arm64\)\(:arm64\)\?$/\1/p' | head -n 1)}
+  sed -n 's/^ *Depends: \(linux-image-[0-9.]*-[0-9]*-arm64\)\(:arm64\)\?$/\1/p' | sed -n 1p)}
 if [ -z "$kpkg" ]; then  # no apt lists: take the newest kernel already in the cache
   kpkg=$(ls "$cache" 2>/dev/null | sed -n 's/^\(linux-image-[0-9.]*-[0-9]*-arm64\)_.*_arm64\.deb$/\1/p' | sort -V | tail -n 1)
 fi
 [ -n "$kpkg" ] || die "cannot tell which linux-image-*-arm64 bookworm has (apt-get update?)"
 fetch() {  # PACKAGE: its arm64 .deb in the cache (downloaded when missing)
   local f
-  f=$(ls "$cache/$1"_*_arm64.deb 2>/dev/null | head -n 1 || true)
+  f=$(ls "$cache/$1"_*_arm64.deb 2>/dev/null | sed -n 1p || true)
   if [ -z "$f" ]; then
     echo "test-board: downloading $1:arm64" >&2
     (cd "$cache" && apt-get download -q "$1:arm64" >/dev/null 2>&1) || die "apt-get download $1:arm64 failed"
-    f=$(ls "$cache/$1"_*_arm64.deb | head -n 1)
+    f=$(ls "$cache/$1"_*_arm64.deb | sed -n 1p)
   fi
   echo "$f"
 }
@@ -160,7 +160,7 @@ while [ ${#queue[@]} -gt 0 ]; do
     [ -n "$path" ] || die "arm64 library $lib not found (install-deps.sh installs libgpiod2:arm64, libstdc++6:arm64)"
     cp -L "$path" "$rootfs/lib/aarch64-linux-gnu/$lib"
     for cand in "$path" "${path#/usr}" "/usr$path" "$(readlink -f "$path")"; do  # usrmerge: either name
-      o=$(dpkg -S "$cand" 2>/dev/null | cut -d: -f1-2 | head -n 1 || true)
+      o=$(dpkg -S "$cand" 2>/dev/null | cut -d: -f1-2 | sed -n 1p || true)
       [ -n "$o" ] && { owners+=("$o"); break; }
     done
     queue+=("$path")
@@ -219,21 +219,25 @@ timeout --kill-after=10 "$timeout_s" qemu-system-aarch64 -M virt -cpu cortex-a72
   -trace "pl061_set_output,file=$work/pl061.trace" \
   </dev/null >"$work/console.log" 2>"$work/qemu.err" || status=$?
 end=$(date +%s)
-tr -d '\r' <"$work/console.log" | grep -aE '^BOARD ' | sed 's/^BOARD /board: /' >&2 || true
+# The console without carriage returns, read from a file: `tr | grep -q` under pipefail fails
+# whenever grep exits before tr has written everything (SIGPIPE), and a check went missing.
+tr -d '\r' <"$work/console.log" >"$work/console.txt"
+console=$work/console.txt
+grep -aE '^BOARD ' "$console" | sed 's/^BOARD /board: /' >&2 || true
 
-passed=$(tr -d '\r' <"$work/console.log" | grep -ac '^BOARD PASS ' || true)
-failed=$(tr -d '\r' <"$work/console.log" | grep -ac '^BOARD FAIL ' || true)
+passed=$(grep -ac '^BOARD PASS ' "$console" || true)
+failed=$(grep -ac '^BOARD FAIL ' "$console" || true)
 if [ "$status" -eq 124 ] || [ "$status" -eq 137 ]; then
   echo "test-board: FAIL: the guest did not finish within ${timeout_s} s (console: $work/console.log)" >&2
   failed=$((failed + 1))
-elif ! tr -d '\r' <"$work/console.log" | grep -aq '^BOARD CHECKS COMPLETE'; then
+elif ! grep -aq '^BOARD CHECKS COMPLETE' "$console"; then
   echo "test-board: FAIL: the checks stopped before their end (qemu exit $status; console: $work/console.log):" >&2
-  tr -d '\r' <"$work/console.log" | grep -av '^BOARD ' | tail -n 20 >&2
+  grep -av '^BOARD ' "$console" | tail -n 20 >&2 || true
   failed=$((failed + 1))
 fi
 # The trigger on the emulated PL061: one rising edge (level 1) per frame set on the line, in the
 # two navd runs given --trigger (the checks' run and the disconnect run).
-if tr -d '\r' <"$work/console.log" | grep -aq '^BOARD PASS gpiochip'; then
+if grep -aq '^BOARD PASS gpiochip' "$console"; then
   edges=$(grep -c "pl061_set_output .* setting output $trigger_line to 1\$" "$work/pl061.trace" 2>/dev/null || true)
   expected=$((frames + disconnect_frames))
   if [ "$edges" -eq "$expected" ]; then
@@ -247,8 +251,11 @@ fi
 # navd on the looped rendered frames against the replay of the same frame set: every frame set
 # a fix, each pose equal to the replay's within the CSV's printed precision (0.0001 mm, 1e-6 deg)
 # plus numerical noise (0.001 mm, 1e-5 deg).
-if tr -d '\r' <"$work/console.log" | grep -aq '^BOARD POSE '; then
-  tr -d '\r' <"$work/console.log" | sed -n 's/^BOARD POSE //p' >"$work/loop-poses.csv"
+sed -n 's/^BOARD POSE //p' "$console" >"$work/loop-poses.csv"
+if [ ! -s "$work/loop-poses.csv" ]; then
+  echo "board: FAIL loop-poses: no poses from the looped frames came back (console: $work/console.log)" >&2
+  failed=$((failed + 1))
+else
   r=$(awk -F, -v n="$loop_frames" '
     NR == FNR { if (FNR == 1) { for (i = 1; i <= NF; ++i) rc[$i] = i; next }
                 rs = $rc["status"]; for (j = 0; j < 6; ++j) rv[j] = $(rc["x_mm"] + j); next }
