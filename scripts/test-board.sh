@@ -8,6 +8,9 @@
 # exits non-zero on any failure or a timeout.
 #
 # Usage: scripts/test-board.sh            (after scripts/install-deps.sh)
+#        scripts/test-board.sh --icount   instead of the checks: instructions per frame set of a
+#                                          replay on the board (-icount shift=0, one CPU), for
+#                                          docs/benchmarks.md; not part of CI
 # Environment:
 #   MFNS_BOARD_TIMEOUT  seconds for the whole guest run (default 420)
 #   MFNS_BOARD_FRAMES   frame sets mfns-navd runs (default 10)
@@ -40,6 +43,8 @@ width=1280 height=1024  # config/paper-rig.yaml's cameras
 # /dev/video3..5 with one HDMI output (for the loopback), single-planar. docs/board.md says why.
 vivid_params=${MFNS_BOARD_VIVID_PARAMS:-"n_devs=3 node_types=0x101,0x101,0x101 vid_cap_nr=0,1,2 vid_out_nr=3,4,5 num_inputs=1,1,1 input_types=0x3,0x3,0x3 num_outputs=1,1,1 output_types=0x1,0x1,0x1 multiplanar=1,1,1 ccs_cap_mode=4,4,4 ccs_out_mode=0,0,0"}
 start=$(date +%s)
+icount=0
+[ "${1:-}" = --icount ] && icount=1
 
 die() { echo "test-board: $*" >&2; echo "board: 0 passed, 1 failed"; exit 1; }
 for tool in qemu-system-aarch64 apt-get dpkg-deb depmod cpio gzip aarch64-linux-gnu-readelf aarch64-linux-gnu-gcc cmake; do
@@ -180,10 +185,14 @@ cp "$work/params.bin" "$rootfs/board/params.bin"
 cp scripts/board/checks.sh "$rootfs/board/checks.sh"
 cp "$work/loop.bin" "$rootfs/board/loop.bin"
 cp -r "$work/loop/frames" "$rootfs/board/loop"
+if [ "$icount" -eq 1 ]; then  # the rendered frame sets 0..$loop_frame, replayed on the board
+  mkdir -p "$rootfs/board/replay"
+  cp -r "$work/sim/frames" "$work/sim/truth.csv" "$rootfs/board/replay/"
+fi
 cp scripts/board/init "$rootfs/init"
 # board-ctl sets V4L2 controls by name (vivid's test pattern, Disconnect), board-loop streams
 # frames through vivid's loopback: no v4l2-ctl on the board.
-for tool in board-ctl board-loop; do
+for tool in board-ctl board-loop board-now; do
   aarch64-linux-gnu-gcc -static -O2 -Wall -Werror -o "$rootfs/usr/bin/$tool" "scripts/board/$tool.c"
 done
 # A folder of extra files for the guest (a probe while debugging): run.sh in it runs before navd.
@@ -201,6 +210,10 @@ DISCONNECT_AT=10
 DISCONNECT_FRAMES=$disconnect_frames
 LOOP_FRAMES=$loop_frames
 LOOP_POSE=$loop_pose
+ICOUNT=$icount
+REPLAY_FRAMES=$((loop_frame + 1))
+REPLAY_POSE=$(awk -F, 'NR == 1 { for (i = 1; i <= NF; ++i) col[$i] = i; next } NR == 2 {
+  print $col["x_mm"] "," $col["y_mm"] "," $col["z_mm"] "," $col["roll_deg"] "," $col["pitch_deg"] "," $col["yaw_deg"] }' "$work/sim/truth.csv")
 LOOP_CAMERAS="$(sed -n 's/^  - name: *//p' "$work/sim/rig.yaml" | tr '\n' ' ')"
 NAVD_EXTRA="${MFNS_BOARD_NAVD_ARGS:-}"
 EOF
@@ -212,7 +225,9 @@ echo "test-board: initramfs $(du -k "$work/initramfs.gz" | cut -f1) KiB, kernel 
 # on the host (QEMU's pl061_set_output events) to count the trigger pulses.
 boot=$(date +%s)
 status=0
-timeout --kill-after=10 "$timeout_s" qemu-system-aarch64 -M virt -cpu cortex-a72 -smp "$smp" -m 1024 \
+accel=(-smp "$smp")
+[ "$icount" -eq 1 ] && accel=(-smp 1 -icount shift=0,sleep=off)  # 1 ns of guest time per instruction
+timeout --kill-after=10 "$timeout_s" qemu-system-aarch64 -M virt -cpu cortex-a72 "${accel[@]}" -m 1024 \
   -nographic -no-reboot -net none \
   -kernel "$kdir/vmlinuz-$kver" -initrd "$work/initramfs.gz" \
   -append "console=ttyAMA0 panic=-1 quiet loglevel=3 log_buf_len=16M" \
@@ -225,6 +240,15 @@ tr -d '\r' <"$work/console.log" >"$work/console.txt"
 console=$work/console.txt
 grep -aE '^BOARD ' "$console" | sed 's/^BOARD /board: /' >&2 || true
 
+if [ "$icount" -eq 1 ]; then
+  line=$(grep -a '^BOARD ICOUNT ' "$console" | sed 's/^BOARD ICOUNT //' || true)
+  if [ -z "$line" ]; then
+    echo "test-board: --icount: no measurement came back (qemu exit $status; console: $work/console.log)" >&2
+    exit 1
+  fi
+  echo "board icount: $line (host: $(grep -c . "$work/sim/truth.csv" | awk '{print $1 - 1}') frame sets rendered)"
+  exit 0
+fi
 passed=$(grep -ac '^BOARD PASS ' "$console" || true)
 failed=$(grep -ac '^BOARD FAIL ' "$console" || true)
 if [ "$status" -eq 124 ] || [ "$status" -eq 137 ]; then

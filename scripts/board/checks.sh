@@ -39,6 +39,26 @@ else
   fail "params: mfns-paramctl install: $(tr '\n' ' ' </tmp/paramctl.out)"
 fi
 
+# --icount: no checks, the instructions of a replay on the board instead (QEMU's -icount
+# shift=0: the monotonic clock advances 1 ns per instruction). The replay of frame sets
+# 0..REPLAY_FRAMES-1 from the truth pose minus the replay of frame set 0 alone, per frame set.
+if [ "$ICOUNT" = 1 ]; then
+  run() {  # N: instructions (ns) of a replay of N frame sets; navd's summary in /tmp/icount$1.out
+    a=$(board-now)
+    mfns-navd --params /board/loop.bin --source replay:/board/replay --frames "$1" --initial-pose "$REPLAY_POSE" \
+      --pid-file '' --quiet >/tmp/icount$1.out 2>&1
+    b=$(board-now)
+    echo $((b - a))
+  }
+  one=$(run 1)
+  all=$(run "$REPLAY_FRAMES")
+  sed 's/^/BOARD LOG navd (icount): /' /tmp/icount$REPLAY_FRAMES.out
+  echo "BOARD ICOUNT $(awk -v a="$all" -v o="$one" -v n="$REPLAY_FRAMES" 'BEGIN {
+    printf "%.1f M instructions per frame set (replay of %d frame sets %.1f M, of 1 frame set %.1f M)", (a - o) / (n - 1) / 1e6, n, a / 1e6, o / 1e6 }'); $(grep 'done:' /tmp/icount$REPLAY_FRAMES.out | sed 's/^mfns-navd: //')"
+  echo "BOARD CHECKS COMPLETE"
+  exit 0
+fi
+
 # 3. The GPIO controller: QEMU virt's PL061 as a GPIO character device.
 chip=""
 for c in /sys/class/gpio/gpiochip*; do
