@@ -13,8 +13,10 @@ HOST_PKGS=(
   clang libclang-rt-14-dev  # the fuzz preset: libFuzzer, ASan, UBSan (tests/fuzz)
   openssh-server openssh-client dpkg-dev file
   chromium  # headless check of report.html (host/calib/app/rig_command_test)
+  qemu-system-arm kmod cpio  # scripts/test-board.sh: the emulated arm64 board, depmod, the initramfs
 )
 ARM64_PKGS=(libgpiod-dev:arm64 libgpiod2:arm64 libbenchmark-dev:arm64)  # benchmark: aarch64 benchmarks (scripts/bench.sh)
+ARM64_PKGS+=(libstdc++6:arm64)  # scripts/test-board.sh copies the libraries mfns-navd links into the board's initramfs
 # COMMAND:PACKAGE pairs installed from Debian only when the command is missing: node and npm for
 # the ctest navd_mavlink (tests/mavlink installs node-mavlink from the npm registry). A machine
 # may have them from elsewhere (NodeSource's nodejs bundles npm and conflicts with Debian's npm

@@ -1,0 +1,303 @@
+#!/usr/bin/env bash
+# The flyer's software on a real Linux kernel (issue 19, docs/board.md): boots Debian 12's own
+# arm64 kernel on QEMU's emulated `virt` board (Cortex-A72, TCG, no network) with an initramfs
+# made here from Debian arm64 packages: busybox-static, the vivid test driver and the modules it
+# needs, the arm64 libraries mfns-navd links, and the project's arm64 .deb, installed in the
+# guest with dpkg (busybox's applet). The checks (scripts/board/checks.sh) run on the board and
+# report over the serial console; this script prints one "board: N passed, M failed" line and
+# exits non-zero on any failure or a timeout.
+#
+# Usage: scripts/test-board.sh            (after scripts/install-deps.sh)
+#        scripts/test-board.sh --icount   instead of the checks: instructions per frame set of a
+#                                          replay on the board (-icount shift=0, one CPU), for
+#                                          docs/benchmarks.md; not part of CI
+# Environment:
+#   MFNS_BOARD_TIMEOUT  seconds for the whole guest run (default 420)
+#   MFNS_BOARD_FRAMES   frame sets mfns-navd runs (default 10)
+#   MFNS_BOARD_LOOP_FRAMES frame sets navd runs on the rendered frames looped through vivid (10)
+#   MFNS_BOARD_DISCONNECT_FRAMES frame sets of the disconnect run (default 40; camera 1 goes at
+#                       ~10, is set aside 3 frame sets later and retried every 10)
+#   MFNS_BOARD_SMP      guest CPUs (default 2)
+#   MFNS_BOARD_NAVD_ARGS extra mfns-navd arguments (e.g. --y16)
+#   MFNS_BOARD_VIVID_PARAMS vivid's module parameters instead of the rig's (docs/board.md)
+#   MFNS_BOARD_HOST_BIN where the host's mfns-calib and mfns-sim are (default build/host/bin,
+#                       built with the host preset when missing)
+#   MFNS_BOARD_EXTRA    a folder copied to /board/extra in the guest; its run.sh runs before navd
+#   MFNS_BOARD_KERNEL   kernel package (default: what linux-image-arm64:arm64 depends on)
+# Downloads are cached in build/board-cache/; the initramfs and logs go to build/board/.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+root=$PWD
+cache=$root/build/board-cache
+work=$root/build/board
+timeout_s=${MFNS_BOARD_TIMEOUT:-420}
+frames=${MFNS_BOARD_FRAMES:-10}
+loop_frames=${MFNS_BOARD_LOOP_FRAMES:-10}   # frame sets navd runs on the looped rendered frames
+render_frames=40
+disconnect_frames=${MFNS_BOARD_DISCONNECT_FRAMES:-40}
+smp=${MFNS_BOARD_SMP:-2}
+trigger_line=0   # PL061 line 3 is the virt board's power button (gpio-keys); 0 is free
+width=1280 height=1024  # config/paper-rig.yaml's cameras
+# vivid: three instances, each a video capture node /dev/video0..2 (the rig's cameras in order)
+# with one HDMI input (progressive; any size through the scaler) and a video output node
+# /dev/video3..5 with one HDMI output (for the loopback), single-planar. docs/board.md says why.
+vivid_params=${MFNS_BOARD_VIVID_PARAMS:-"n_devs=3 node_types=0x101,0x101,0x101 vid_cap_nr=0,1,2 vid_out_nr=3,4,5 num_inputs=1,1,1 input_types=0x3,0x3,0x3 num_outputs=1,1,1 output_types=0x1,0x1,0x1 multiplanar=1,1,1 ccs_cap_mode=4,4,4 ccs_out_mode=0,0,0"}
+start=$(date +%s)
+icount=0
+[ "${1:-}" = --icount ] && icount=1
+
+die() { echo "test-board: $*" >&2; echo "board: 0 passed, 1 failed"; exit 1; }
+for tool in qemu-system-aarch64 apt-get dpkg-deb depmod cpio gzip aarch64-linux-gnu-readelf aarch64-linux-gnu-gcc cmake; do
+  command -v "$tool" >/dev/null || die "$tool not found (run scripts/install-deps.sh)"
+done
+
+# --- 1. The flyer's software: the arm64 .deb and a parameter blob of the paper rig.
+echo "test-board: building mfns-navd, mfns-paramctl (aarch64) and the .deb" >&2
+[ -f build/aarch64/CMakeCache.txt ] || cmake --preset aarch64 >/dev/null
+cmake --build --preset aarch64 -j "$(nproc)" --target mfns-navd mfns-paramctl >/dev/null
+rm -rf "$work"
+mkdir -p "$work/pkg" "$cache"
+(cd build/aarch64 && cpack --config CPackConfig.cmake -B "$work/pkg" >/dev/null)
+deb=$(ls "$work"/pkg/mfns_*_arm64.deb)
+host_bin=${MFNS_BOARD_HOST_BIN:-build/host/bin}
+calib=$host_bin/mfns-calib
+if [ ! -x "$calib" ]; then
+  echo "test-board: building mfns-calib (host) for the parameter blob" >&2
+  [ -f build/host/CMakeCache.txt ] || cmake --preset host >/dev/null
+  cmake --build --preset host -j "$(nproc)" --target mfns-calib >/dev/null
+fi
+"$calib" blob config/paper-rig.yaml --out "$work/params.bin" --generation 1 >/dev/null
+
+# Rendered frames for vivid's loopback: the paper turntable sweep (mfns-sim render); the first
+# frame set with the most beacons in view among the first $render_frames is fed to the board's
+# vivid outputs, and replayed here by the same arm64 mfns-navd under qemu-aarch64, both from the
+# truth pose (--initial-pose), for the poses to compare.
+sim=$host_bin/mfns-sim
+if [ ! -x "$sim" ]; then
+  echo "test-board: building mfns-sim (host) for the rendered frames" >&2
+  [ -f build/host/CMakeCache.txt ] || cmake --preset host >/dev/null
+  cmake --build --preset host -j "$(nproc)" --target mfns-sim >/dev/null
+fi
+"$sim" render --preset paper-turntable --out "$work/sim" --frames "$render_frames" --no-images >"$work/render.log" 2>&1 ||
+  die "mfns-sim render failed: $(tail -n 1 "$work/render.log")"
+loop_frame=$(awk -F, 'NR > 1 { c[$1 + 0]++ } END { for (f in c) if (c[f] > best || (c[f] == best && f + 0 < first)) { best = c[f]; first = f + 0 }; print first }' "$work/sim/blobs.csv")
+"$sim" render --preset paper-turntable --out "$work/sim" --frames $((loop_frame + 1)) >"$work/render.log" 2>&1 ||
+  die "mfns-sim render failed: $(tail -n 1 "$work/render.log")"
+mkdir -p "$work/loop/frames"
+for c in $(ls "$work/sim/frames"); do
+  mkdir -p "$work/loop/frames/$c"
+  cp "$work/sim/frames/$c/$(printf '%06d' "$loop_frame").pgm" "$work/loop/frames/$c/000000.pgm"
+done
+awk -F, -v f="$loop_frame" 'BEGIN { OFS = "," } NR == 1 { print; next } $1 + 0 == f { $1 = 0; print }' "$work/sim/truth.csv" >"$work/loop/truth.csv"
+loop_pose=$(awk -F, 'NR == 1 { for (i = 1; i <= NF; ++i) col[$i] = i; next }
+  { print $col["x_mm"] "," $col["y_mm"] "," $col["z_mm"] "," $col["roll_deg"] "," $col["pitch_deg"] "," $col["yaw_deg"] }' "$work/loop/truth.csv")
+"$calib" blob "$work/sim/rig.yaml" --out "$work/loop.bin" --generation 1 >/dev/null
+qemu-aarch64 -L /usr/aarch64-linux-gnu build/aarch64/bin/mfns-navd --params "$work/loop.bin" --source "replay:$work/loop" \
+  --initial-pose "$loop_pose" --log "$work/replay.csv" --pid-file '' --quiet 2>"$work/replay.err" ||
+  die "the replay of the loop frame set failed: $(cat "$work/replay.err")"
+
+# --- 2. Debian's arm64 kernel and busybox-static, fetched once into the cache.
+kpkg=${MFNS_BOARD_KERNEL:-$(apt-cache depends linux-image-arm64:arm64 2>/dev/null |
+  sed -n 's/^ *Depends: \(linux-image-[0-9.]*-[0-9]*-arm64\)\(:arm64\)\?$/\1/p' | sed -n 1p)}
+if [ -z "$kpkg" ]; then  # no apt lists: take the newest kernel already in the cache
+  kpkg=$(ls "$cache" 2>/dev/null | sed -n 's/^\(linux-image-[0-9.]*-[0-9]*-arm64\)_.*_arm64\.deb$/\1/p' | sort -V | tail -n 1)
+fi
+[ -n "$kpkg" ] || die "cannot tell which linux-image-*-arm64 bookworm has (apt-get update?)"
+fetch() {  # PACKAGE: its arm64 .deb in the cache (downloaded when missing)
+  local f
+  f=$(ls "$cache/$1"_*_arm64.deb 2>/dev/null | sed -n 1p || true)
+  if [ -z "$f" ]; then
+    echo "test-board: downloading $1:arm64" >&2
+    (cd "$cache" && apt-get download -q "$1:arm64" >/dev/null 2>&1) || die "apt-get download $1:arm64 failed"
+    f=$(ls "$cache/$1"_*_arm64.deb | sed -n 1p)
+  fi
+  echo "$f"
+}
+kdeb=$(fetch "$kpkg")
+bbdeb=$(fetch busybox-static)
+kver=${kpkg#linux-image-}
+
+# The kernel image and the modules vivid needs, kept unpacked in the cache (the whole package
+# unpacks to 350 MB; only these stay).
+kdir=$cache/kernel-$kver
+if [ ! -f "$kdir/stamp" ]; then
+  echo "test-board: unpacking $(basename "$kdeb")" >&2
+  rm -rf "$kdir" "$work/kx"
+  dpkg-deb -x "$kdeb" "$work/kx"
+  depmod -b "$work/kx" "$kver"
+  mdir=lib/modules/$kver
+  mods=$(sed -n "s#^\(kernel/drivers/media/test-drivers/vivid/vivid.ko\):\(.*\)#\1 \2#p" "$work/kx/$mdir/modules.dep")
+  [ -n "$mods" ] || die "vivid.ko not in $kpkg"
+  mkdir -p "$kdir/$mdir"
+  for m in $mods; do
+    mkdir -p "$kdir/$mdir/$(dirname "$m")"
+    cp "$work/kx/$mdir/$m" "$kdir/$mdir/$m"
+  done
+  cp "$work/kx/$mdir/modules.order" "$work/kx/$mdir/modules.builtin" "$work/kx/$mdir/modules.builtin.modinfo" "$kdir/$mdir/"
+  depmod -b "$kdir" "$kver"
+  cp "$work/kx/boot/vmlinuz-$kver" "$work/kx/boot/config-$kver" "$kdir/"
+  rm -rf "$work/kx"
+  touch "$kdir/stamp"
+fi
+
+# --- 3. The initramfs.
+rootfs=$work/rootfs
+mkdir -p "$rootfs"/{bin,sbin,lib,usr/bin,usr/sbin,etc,board,var/lib/dpkg/info,var/lib/dpkg/updates}
+dpkg-deb -x "$bbdeb" "$work/bb"
+cp "$work/bb/bin/busybox" "$rootfs/bin/busybox"
+rm -rf "$work/bb"
+cp -a "$kdir/lib/modules" "$rootfs/lib/"
+# The arm64 shared libraries mfns-navd and mfns-paramctl need (NEEDED, recursively), from
+# Debian's arm64 packages installed on this machine (libc6, libstdc++6, libgcc-s1, libgpiod2).
+libdirs=(/lib/aarch64-linux-gnu /usr/lib/aarch64-linux-gnu)
+mkdir -p "$rootfs/lib/aarch64-linux-gnu"
+declare -A seen=()
+queue=("$root/build/aarch64/bin/mfns-navd" "$root/build/aarch64/bin/mfns-paramctl")
+owners=()
+while [ ${#queue[@]} -gt 0 ]; do
+  f=${queue[0]}
+  queue=("${queue[@]:1}")
+  for lib in $(aarch64-linux-gnu-readelf -d "$f" | sed -n 's/.*(NEEDED).*\[\(.*\)\]/\1/p'); do
+    [ -n "${seen[$lib]:-}" ] && continue
+    seen[$lib]=1
+    path=""
+    for d in "${libdirs[@]}"; do [ -e "$d/$lib" ] && { path=$d/$lib; break; }; done
+    [ -n "$path" ] || die "arm64 library $lib not found (install-deps.sh installs libgpiod2:arm64, libstdc++6:arm64)"
+    cp -L "$path" "$rootfs/lib/aarch64-linux-gnu/$lib"
+    for cand in "$path" "${path#/usr}" "/usr$path" "$(readlink -f "$path")"; do  # usrmerge: either name
+      o=$(dpkg -S "$cand" 2>/dev/null | cut -d: -f1-2 | sed -n 1p || true)
+      [ -n "$o" ] && { owners+=("$o"); break; }
+    done
+    queue+=("$path")
+  done
+done
+interp=$(aarch64-linux-gnu-readelf -l "$root/build/aarch64/bin/mfns-navd" | sed -n 's/.*interpreter: \(.*\)\]/\1/p')
+cp -L "/usr/lib/aarch64-linux-gnu/$(basename "$interp")" "$rootfs/lib/aarch64-linux-gnu/"
+ln -sf "aarch64-linux-gnu/$(basename "$interp")" "$rootfs$interp"
+# dpkg's database: the library packages whose files were copied in, at the host's versions, so
+# that the .deb's Depends are met the way they are on a Debian board.
+for p in $(printf '%s\n' "${owners[@]}" libc6:arm64 | grep . | sort -u); do
+  v=$(dpkg-query -W -f='${Version}' "$p")
+  printf 'Package: %s\nStatus: install ok installed\nArchitecture: arm64\nVersion: %s\n\n' "${p%:arm64}" "$v" >>"$rootfs/var/lib/dpkg/status"
+done
+cp "$deb" "$rootfs/board/mfns.deb"
+cp "$work/params.bin" "$rootfs/board/params.bin"
+cp scripts/board/checks.sh "$rootfs/board/checks.sh"
+cp "$work/loop.bin" "$rootfs/board/loop.bin"
+cp -r "$work/loop/frames" "$rootfs/board/loop"
+if [ "$icount" -eq 1 ]; then  # the rendered frame sets 0..$loop_frame, replayed on the board
+  mkdir -p "$rootfs/board/replay"
+  cp -r "$work/sim/frames" "$work/sim/truth.csv" "$rootfs/board/replay/"
+fi
+cp scripts/board/init "$rootfs/init"
+# board-ctl sets V4L2 controls by name (vivid's test pattern, Disconnect), board-loop streams
+# frames through vivid's loopback: no v4l2-ctl on the board.
+for tool in board-ctl board-loop board-now; do
+  aarch64-linux-gnu-gcc -static -O2 -Wall -Werror -o "$rootfs/usr/bin/$tool" "scripts/board/$tool.c"
+done
+# A folder of extra files for the guest (a probe while debugging): run.sh in it runs before navd.
+[ -z "${MFNS_BOARD_EXTRA:-}" ] || cp -r "$MFNS_BOARD_EXTRA" "$rootfs/board/extra"
+chmod 0755 "$rootfs/init"
+cat >"$rootfs/board/board.env" <<EOF
+VIVID_PARAMS="$vivid_params"
+NUM_CAMERAS=3
+WIDTH=$width
+HEIGHT=$height
+FRAMES=$frames
+TRIGGER_LINE=$trigger_line
+DISCONNECT_CAMERA=1
+DISCONNECT_AT=10
+DISCONNECT_FRAMES=$disconnect_frames
+LOOP_FRAMES=$loop_frames
+LOOP_POSE=$loop_pose
+ICOUNT=$icount
+REPLAY_FRAMES=$((loop_frame + 1))
+REPLAY_POSE=$(awk -F, 'NR == 1 { for (i = 1; i <= NF; ++i) col[$i] = i; next } NR == 2 {
+  print $col["x_mm"] "," $col["y_mm"] "," $col["z_mm"] "," $col["roll_deg"] "," $col["pitch_deg"] "," $col["yaw_deg"] }' "$work/sim/truth.csv")
+LOOP_CAMERAS="$(sed -n 's/^  - name: *//p' "$work/sim/rig.yaml" | tr '\n' ' ')"
+NAVD_EXTRA="${MFNS_BOARD_NAVD_ARGS:-}"
+EOF
+(cd "$rootfs" && find . | LC_ALL=C sort | cpio -o -H newc --quiet -R 0:0 | gzip -1 >"$work/initramfs.gz")
+rm -rf "$rootfs"
+echo "test-board: initramfs $(du -k "$work/initramfs.gz" | cut -f1) KiB, kernel $kpkg; booting (timeout ${timeout_s} s)" >&2
+
+# --- 4. Boot. The console is the serial port (stdout -> console.log); PL061 writes are traced
+# on the host (QEMU's pl061_set_output events) to count the trigger pulses.
+boot=$(date +%s)
+status=0
+accel=(-smp "$smp")
+[ "$icount" -eq 1 ] && accel=(-smp 1 -icount shift=0,sleep=off)  # 1 ns of guest time per instruction
+timeout --kill-after=10 "$timeout_s" qemu-system-aarch64 -M virt -cpu cortex-a72 "${accel[@]}" -m 1024 \
+  -nographic -no-reboot -net none \
+  -kernel "$kdir/vmlinuz-$kver" -initrd "$work/initramfs.gz" \
+  -append "console=ttyAMA0 panic=-1 quiet loglevel=3 log_buf_len=16M" \
+  -trace "pl061_set_output,file=$work/pl061.trace" \
+  </dev/null >"$work/console.log" 2>"$work/qemu.err" || status=$?
+end=$(date +%s)
+# The console without carriage returns, read from a file: `tr | grep -q` under pipefail fails
+# whenever grep exits before tr has written everything (SIGPIPE), and a check went missing.
+tr -d '\r' <"$work/console.log" >"$work/console.txt"
+console=$work/console.txt
+grep -aE '^BOARD ' "$console" | sed 's/^BOARD /board: /' >&2 || true
+
+if [ "$icount" -eq 1 ]; then
+  line=$(grep -a '^BOARD ICOUNT ' "$console" | sed 's/^BOARD ICOUNT //' || true)
+  if [ -z "$line" ]; then
+    echo "test-board: --icount: no measurement came back (qemu exit $status; console: $work/console.log)" >&2
+    exit 1
+  fi
+  echo "board icount: $line (host: $(grep -c . "$work/sim/truth.csv" | awk '{print $1 - 1}') frame sets rendered)"
+  exit 0
+fi
+passed=$(grep -ac '^BOARD PASS ' "$console" || true)
+failed=$(grep -ac '^BOARD FAIL ' "$console" || true)
+if [ "$status" -eq 124 ] || [ "$status" -eq 137 ]; then
+  echo "test-board: FAIL: the guest did not finish within ${timeout_s} s (console: $work/console.log)" >&2
+  failed=$((failed + 1))
+elif ! grep -aq '^BOARD CHECKS COMPLETE' "$console"; then
+  echo "test-board: FAIL: the checks stopped before their end (qemu exit $status; console: $work/console.log):" >&2
+  grep -av '^BOARD ' "$console" | tail -n 20 >&2 || true
+  failed=$((failed + 1))
+fi
+# The trigger on the emulated PL061: one rising edge (level 1) per frame set on the line, in the
+# two navd runs given --trigger (the checks' run and the disconnect run).
+if grep -aq '^BOARD PASS gpiochip' "$console"; then
+  edges=$(grep -c "pl061_set_output .* setting output $trigger_line to 1\$" "$work/pl061.trace" 2>/dev/null || true)
+  expected=$((frames + disconnect_frames))
+  if [ "$edges" -eq "$expected" ]; then
+    echo "board: PASS gpio-pulses: $edges rising edges on PL061 line $trigger_line for $frames + $disconnect_frames frame sets (QEMU trace)" >&2
+    passed=$((passed + 1))
+  else
+    echo "board: FAIL gpio-pulses: $edges rising edges on PL061 line $trigger_line, expected $frames + $disconnect_frames (QEMU trace $work/pl061.trace)" >&2
+    failed=$((failed + 1))
+  fi
+fi
+# navd on the looped rendered frames against the replay of the same frame set: every frame set
+# a fix, each pose equal to the replay's within the CSV's printed precision (0.0001 mm, 1e-6 deg)
+# plus numerical noise (0.001 mm, 1e-5 deg).
+sed -n 's/^BOARD POSE //p' "$console" >"$work/loop-poses.csv"
+if [ ! -s "$work/loop-poses.csv" ]; then
+  echo "board: FAIL loop-poses: no poses from the looped frames came back (console: $work/console.log)" >&2
+  failed=$((failed + 1))
+else
+  r=$(awk -F, -v n="$loop_frames" '
+    NR == FNR { if (FNR == 1) { for (i = 1; i <= NF; ++i) rc[$i] = i; next }
+                rs = $rc["status"]; for (j = 0; j < 6; ++j) rv[j] = $(rc["x_mm"] + j); next }
+    FNR == 1 { for (i = 1; i <= NF; ++i) c[$i] = i; next }
+    { rows++; if ($c["status"] == "fix") fix++
+      for (j = 0; j < 6; ++j) { d = $(c["x_mm"] + j) - rv[j]; if (d < 0) d = -d; tol = j < 3 ? 0.001 : 0.00001; if (d > tol) off++; if (d > worst[j]) worst[j] = d } }
+    END { ok = rs == "fix" && rows == n && fix == n && off == 0
+          printf "%s %d of %d frame sets fixed (replay: %s); largest differences from the replay %.4f %.4f %.4f mm, %.6f %.6f %.6f deg\n", ok ? "ok" : "bad", fix, rows, rs, worst[0], worst[1], worst[2], worst[3], worst[4], worst[5] }' \
+    "$work/replay.csv" "$work/loop-poses.csv")
+  if [ "${r%% *}" = ok ]; then
+    echo "board: PASS loop-poses: ${r#ok } (frame set $loop_frame of paper-turntable)" >&2
+    passed=$((passed + 1))
+  else
+    echo "board: FAIL loop-poses: ${r#bad } (frame set $loop_frame of paper-turntable; $work/loop-poses.csv vs $work/replay.csv)" >&2
+    failed=$((failed + 1))
+  fi
+fi
+[ "$passed" -gt 0 ] || failed=$((failed + 1))
+echo "test-board: boot and checks $((end - boot)) s, total $((end - start)) s" >&2
+echo "board: ${passed} passed, ${failed} failed"
+[ "$failed" -eq 0 ]
