@@ -1,4 +1,4 @@
-// The rig calibration on synthetic corners (testing/synth_calib.h, the paper-calibration
+// The rig calibration on synthetic corners (host/testing/synth_calib.h, the paper-calibration
 // geometry): exactness of the closed forms without noise, the orientation of symmetric
 // boards, and the statistics of --method ml over seeds against the truth and against the
 // paper's method on the same data.
@@ -13,7 +13,7 @@
 #include "common/rotation/rotation.h"
 #include "host/calib/ml/hand_eye.h"
 #include "host/calib/report/compare.h"
-#include "host/calib/testing/synth_calib.h"
+#include "host/testing/synth_calib.h"
 #include "host/calib/app/calib_test_util.h"
 
 namespace mfns::host {

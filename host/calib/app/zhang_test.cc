@@ -6,7 +6,7 @@
 #include <cmath>
 
 #include "host/calib/ml/joint.h"
-#include "host/calib/testing/synth_calib.h"
+#include "host/testing/synth_calib.h"
 #include "host/calib/zhang/zhang.h"
 #include "host/util/user_error.h"
 
