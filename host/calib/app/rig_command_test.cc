@@ -22,6 +22,7 @@
 #include "common/rotation/rotation.h"
 #include "host/calib/core/dataset.h"
 #include "host/calib/report/compare.h"
+#include "host/core/xml_check_test_util.h"
 #include "host/testing/synth_calib.h"
 #include "host/rigio/rig_yaml.h"
 #include "host/util/atomic_file.h"
@@ -31,12 +32,6 @@ namespace mfns::host {
 namespace {
 
 namespace fs = std::filesystem;
-
-int Count(const std::string& text, const std::string& what) {
-  int n = 0;
-  for (std::size_t p = text.find(what); p != std::string::npos; p = text.find(what, p + 1)) ++n;
-  return n;
-}
 
 void WriteText(const fs::path& p, const std::string& text) {
   std::ofstream f(p, std::ios::binary | std::ios::trunc);
