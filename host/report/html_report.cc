@@ -1,11 +1,10 @@
 #include "host/report/html_report.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
-#include <cstdio>
-#include <sstream>
 
-#include "host/util/xml_escape.h"
+#include "host/core/svg_writer.h"
 
 namespace mfns::host {
 namespace {
@@ -14,26 +13,11 @@ constexpr double kW = 760, kH = 320, kLeft = 70, kRight = 150, kTop = 36, kBotto
 constexpr std::array<const char*, 8> kColors = {"#1f77b4", "#d62728", "#2ca02c", "#ff7f0e",
                                                 "#9467bd", "#8c564b", "#e377c2", "#7f7f7f"};
 
-std::string Num(double v) {
-  char b[32];
-  std::snprintf(b, sizeof(b), "%.2f", v);
-  return b;
-}
-
-std::string Tick(double v) {
-  char b[32];
-  std::snprintf(b, sizeof(b), "%.6g", std::abs(v) < 1e-12 ? 0.0 : v);
-  return b;
-}
+std::string Num(double v) { return Fixed(v, 2); }
+std::string Tick(double v) { return General(std::abs(v) < 1e-12 ? 0.0 : v, 6); }
 
 // Step of 1, 2 or 5 x 10^k giving about 5 intervals over span.
-double NiceStep(double span) {
-  const double raw = span / 5.0;
-  const double p = std::pow(10.0, std::floor(std::log10(raw)));
-  for (double m : {1.0, 2.0, 5.0, 10.0})
-    if (m * p >= raw) return m * p;
-  return 10.0 * p;
-}
+double AxisStep(double span) { return NiceStep(span / 5.0, false); }
 
 struct Range {
   double lo = 0, hi = 1;
@@ -46,32 +30,32 @@ Range AxisRange(double lo, double hi) {
     lo -= pad;
     hi += pad;
   }
-  const double step = NiceStep(hi - lo);
+  const double step = AxisStep(hi - lo);
   return {std::floor(lo / step) * step, std::ceil(hi / step) * step};
 }
 
 // A CellTable as an HTML table: header, rows (the naming columns as row headers), the notes
 // as a list after it. Every cell is XML-escaped.
-std::string RenderTable(const char* id, const CellTable& t) {
-  std::ostringstream o;
-  o << "<table id=\"" << id << "\">\n<caption>" << XmlEscape(t.caption) << "</caption>\n<thead><tr>";
-  for (const std::string& h : t.header) o << "<th scope=\"col\">" << XmlEscape(h) << "</th>";
-  o << "</tr></thead>\n<tbody>\n";
+void RenderTable(SvgWriter& w, const char* id, const CellTable& t) {
+  w.Open("table", {{"id", id}}).Raw("\n").Element("caption", {}, t.caption).Raw("\n").Open("thead").Open("tr");
+  for (const std::string& h : t.header) w.Element("th", {{"scope", "col"}}, h);
+  w.Close("tr").Close("thead").Raw("\n").Open("tbody").Raw("\n");
   for (const std::vector<std::string>& row : t.rows) {
-    o << "<tr>";
+    w.Open("tr");
     for (std::size_t c = 0; c < row.size(); ++c) {
-      const bool key = static_cast<int>(c) < t.key_columns;
-      o << (key ? "<th scope=\"row\" class=\"key\">" : "<td>") << XmlEscape(row[c]) << (key ? "</th>" : "</td>");
+      if (static_cast<int>(c) < t.key_columns)
+        w.Element("th", {{"scope", "row"}, {"class", "key"}}, row[c]);
+      else
+        w.Element("td", {}, row[c]);
     }
-    o << "</tr>\n";
+    w.Close("tr").Raw("\n");
   }
-  o << "</tbody>\n</table>\n";
+  w.Close("tbody").Raw("\n").Close("table").Raw("\n");
   if (!t.notes.empty()) {
-    o << "<ul class=\"table-notes\">\n";
-    for (const std::string& n : t.notes) o << "<li>" << XmlEscape(n) << "</li>\n";
-    o << "</ul>\n";
+    w.Open("ul", {{"class", "table-notes"}}).Raw("\n");
+    for (const std::string& n : t.notes) w.Element("li", {}, n).Raw("\n");
+    w.Close("ul").Raw("\n");
   }
-  return o.str();
 }
 
 }  // namespace
@@ -90,59 +74,61 @@ std::string RenderChart(const Chart& c) {
   const double pw = kW - kLeft - kRight, ph = kH - kTop - kBottom;
   const auto X = [&](double x) { return kLeft + (x - xr.lo) / (xr.hi - xr.lo) * pw; };
   const auto Y = [&](double y) { return kTop + ph - (y - yr.lo) / (yr.hi - yr.lo) * ph; };
+  const auto G = [](double v) { return General(v); };
 
-  std::ostringstream o;
-  o << "<svg xmlns=\"http://www.w3.org/2000/svg\" id=\"" << XmlEscape(c.id) << "\" width=\"" << kW << "\" height=\"" << kH
-    << "\" viewBox=\"0 0 " << kW << " " << kH << "\" font-family=\"sans-serif\" font-size=\"12\">\n";
-  o << "<text x=\"" << kW / 2 << "\" y=\"20\" text-anchor=\"middle\" font-size=\"14\">" << XmlEscape(c.title) << "</text>\n";
-  o << "<rect x=\"" << kLeft << "\" y=\"" << kTop << "\" width=\"" << pw << "\" height=\"" << ph
-    << "\" fill=\"none\" stroke=\"#000\"/>\n";
+  SvgWriter w;
+  w.OpenSvg({{"id", c.id}, {"width", G(kW)}, {"height", G(kH)}, {"viewBox", "0 0 " + G(kW) + " " + G(kH)},
+             {"font-family", "sans-serif"}, {"font-size", "12"}})
+      .Raw("\n");
+  w.Element("text", {{"x", G(kW / 2)}, {"y", "20"}, {"text-anchor", "middle"}, {"font-size", "14"}}, c.title).Raw("\n");
+  w.Empty("rect", {{"x", G(kLeft)}, {"y", G(kTop)}, {"width", G(pw)}, {"height", G(ph)}, {"fill", "none"},
+                   {"stroke", "#000"}})
+      .Raw("\n");
   for (int axis = 0; axis < 2; ++axis) {
     const Range r = axis == 0 ? xr : yr;
-    const double step = NiceStep(r.hi - r.lo);
+    const double step = AxisStep(r.hi - r.lo);
     for (int k = 0; k <= 20; ++k) {
       const double v = r.lo + k * step;
       if (v > r.hi + step * 1e-6) break;
       if (axis == 0) {
-        o << "<line class=\"grid\" x1=\"" << Num(X(v)) << "\" y1=\"" << kTop << "\" x2=\"" << Num(X(v)) << "\" y2=\""
-          << kTop + ph << "\" stroke=\"#ddd\"/><text x=\"" << Num(X(v)) << "\" y=\"" << kTop + ph + 16
-          << "\" text-anchor=\"middle\">" << Tick(v) << "</text>\n";
+        w.Empty("line", {{"class", "grid"}, {"x1", Num(X(v))}, {"y1", G(kTop)}, {"x2", Num(X(v))}, {"y2", G(kTop + ph)},
+                         {"stroke", "#ddd"}});
+        w.Element("text", {{"x", Num(X(v))}, {"y", G(kTop + ph + 16)}, {"text-anchor", "middle"}}, Tick(v)).Raw("\n");
       } else {
-        o << "<line class=\"grid\" x1=\"" << kLeft << "\" y1=\"" << Num(Y(v)) << "\" x2=\"" << kLeft + pw << "\" y2=\""
-          << Num(Y(v)) << "\" stroke=\"#ddd\"/><text x=\"" << kLeft - 6 << "\" y=\"" << Num(Y(v) + 4)
-          << "\" text-anchor=\"end\">" << Tick(v) << "</text>\n";
+        w.Empty("line", {{"class", "grid"}, {"x1", G(kLeft)}, {"y1", Num(Y(v))}, {"x2", G(kLeft + pw)}, {"y2", Num(Y(v))},
+                         {"stroke", "#ddd"}});
+        w.Element("text", {{"x", G(kLeft - 6)}, {"y", Num(Y(v) + 4)}, {"text-anchor", "end"}}, Tick(v)).Raw("\n");
       }
     }
   }
-  o << "<text x=\"" << kLeft + pw / 2 << "\" y=\"" << kH - 8 << "\" text-anchor=\"middle\">" << XmlEscape(c.x_label)
-    << "</text>\n";
-  o << "<text transform=\"translate(16," << kTop + ph / 2 << ") rotate(-90)\" text-anchor=\"middle\">"
-    << XmlEscape(c.y_label) << "</text>\n";
+  w.Element("text", {{"x", G(kLeft + pw / 2)}, {"y", G(kH - 8)}, {"text-anchor", "middle"}}, c.x_label).Raw("\n");
+  w.Element("text", {{"transform", "translate(16," + G(kTop + ph / 2) + ") rotate(-90)"}, {"text-anchor", "middle"}},
+            c.y_label)
+      .Raw("\n");
   for (std::size_t k = 0; k < c.series.size(); ++k) {
     const auto& s = c.series[k];
     const char* color = kColors[k % kColors.size()];
-    o << "<g class=\"series\" data-name=\"" << XmlEscape(s.name) << "\" fill=\"" << color << "\" stroke=\"" << color
-      << "\">\n";
+    w.Open("g", {{"class", "series"}, {"data-name", s.name}, {"fill", color}, {"stroke", color}}).Raw("\n");
     std::string points;
     for (std::size_t i = 0; i < std::min(s.x.size(), s.y.size()); ++i) {
       if (!std::isfinite(s.x[i]) || !std::isfinite(s.y[i])) continue;
       if (s.line) {
         points += Num(X(s.x[i])) + "," + Num(Y(s.y[i])) + " ";
       } else {
-        o << "<circle cx=\"" << Num(X(s.x[i])) << "\" cy=\"" << Num(Y(s.y[i])) << "\" r=\"1.8\" stroke=\"none\"/>";
+        w.Empty("circle", {{"cx", Num(X(s.x[i]))}, {"cy", Num(Y(s.y[i]))}, {"r", "1.8"}, {"stroke", "none"}});
       }
     }
     if (s.line && !points.empty()) {
       points.pop_back();
-      o << "<polyline fill=\"none\" stroke-width=\"1.2\" points=\"" << points << "\"/>";
+      w.Empty("polyline", {{"fill", "none"}, {"stroke-width", "1.2"}, {"points", points}});
     }
-    o << "\n</g>\n";
+    w.Raw("\n").Close("g").Raw("\n");
     const double ly = kTop + 14 + 18 * static_cast<double>(k);
-    o << "<rect x=\"" << kW - kRight + 12 << "\" y=\"" << ly - 9 << "\" width=\"10\" height=\"10\" fill=\"" << color
-      << "\"/><text x=\"" << kW - kRight + 28 << "\" y=\"" << ly << "\">" << XmlEscape(s.name) << "</text>\n";
+    w.Empty("rect", {{"x", G(kW - kRight + 12)}, {"y", G(ly - 9)}, {"width", "10"}, {"height", "10"}, {"fill", color}});
+    w.Element("text", {{"x", G(kW - kRight + 28)}, {"y", G(ly)}}, s.name).Raw("\n");
   }
-  o << "</svg>\n";
-  return o.str();
+  w.Close("svg").Raw("\n");
+  return w.str();
 }
 
 std::string RenderReportHtml(const ReportInputs& in) {
@@ -213,24 +199,34 @@ std::string RenderReportHtml(const ReportInputs& in) {
     charts.push_back(std::move(r));
   }
 
-  std::ostringstream o;
-  o << "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n<title>" << XmlEscape(in.title)
-    << "</title>\n<style>body{font-family:sans-serif;max-width:1100px;margin:1em auto;padding:0 1em}"
-       "table{border-collapse:collapse;font-size:13px;margin:.4em 0}th,td{border:1px solid #ccc;padding:2px 8px}"
-       "td{text-align:right;font-variant-numeric:tabular-nums}th.key{text-align:left;font-weight:normal}th{background:#f0f0f0}"
-       "ul.table-notes{font-size:12px;color:#444}</style>\n</head>\n<body>\n";
-  o << "<h1>" << XmlEscape(in.title) << "</h1>\n";
+  SvgWriter w;
+  w.Raw("<!DOCTYPE html>\n").Open("html", {{"lang", "en"}}).Raw("\n").Open("head").Raw("\n");
+  w.Open("meta", {{"charset", "utf-8"}}).Raw("\n").Element("title", {}, in.title).Raw("\n");
+  w.Element("style", {},
+            "body{font-family:sans-serif;max-width:1100px;margin:1em auto;padding:0 1em}"
+            "table{border-collapse:collapse;font-size:13px;margin:.4em 0}th,td{border:1px solid #ccc;padding:2px 8px}"
+            "td{text-align:right;font-variant-numeric:tabular-nums}th.key{text-align:left;font-weight:normal}"
+            "th{background:#f0f0f0}ul.table-notes{font-size:12px;color:#444}")
+      .Raw("\n");
+  w.Close("head").Raw("\n").Open("body").Raw("\n");
+  w.Element("h1", {}, in.title).Raw("\n");
   if (!in.notes.empty()) {
-    o << "<ul class=\"notes\">\n";
-    for (const std::string& n : in.notes) o << "<li>" << XmlEscape(n) << "</li>\n";
-    o << "</ul>\n";
+    w.Open("ul", {{"class", "notes"}}).Raw("\n");
+    for (const std::string& n : in.notes) w.Element("li", {}, n).Raw("\n");
+    w.Close("ul").Raw("\n");
   }
-  if (!in.table5.rows.empty()) o << "<h2>Table 5: navigation</h2>\n" << RenderTable("table5", in.table5);
-  if (!in.table3.rows.empty()) o << "<h2>Table 3: calibration</h2>\n" << RenderTable("table3", in.table3);
-  o << "<h2>Plots</h2>\n";
-  for (const Chart& c : charts) o << "<div class=\"plot\">\n" << RenderChart(c) << "</div>\n";
-  o << "</body>\n</html>\n";
-  return o.str();
+  if (!in.table5.rows.empty()) {
+    w.Element("h2", {}, "Table 5: navigation").Raw("\n");
+    RenderTable(w, "table5", in.table5);
+  }
+  if (!in.table3.rows.empty()) {
+    w.Element("h2", {}, "Table 3: calibration").Raw("\n");
+    RenderTable(w, "table3", in.table3);
+  }
+  w.Element("h2", {}, "Plots").Raw("\n");
+  for (const Chart& c : charts) w.Open("div", {{"class", "plot"}}).Raw("\n").Raw(RenderChart(c)).Close("div").Raw("\n");
+  w.Close("body").Raw("\n").Close("html").Raw("\n");
+  return w.str();
 }
 
 }  // namespace mfns::host

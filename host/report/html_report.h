@@ -28,7 +28,7 @@ struct Chart {
   std::vector<Series> series;
 };
 
-// Standalone SVG (XML) of the chart; text is XML-escaped.
+// Standalone SVG (XML) of the chart, written with host/core/svg_writer.h; text is XML-escaped.
 std::string RenderChart(const Chart& chart);
 
 struct NamedPoseSeries {

@@ -5,16 +5,10 @@
 #include <string>
 #include <vector>
 
-#include "host/sim/analysis/xml_check_test_util.h"
+#include "host/core/xml_check_test_util.h"
 
 namespace mfns::host {
 namespace {
-
-int Count(const std::string& s, const std::string& what) {
-  int n = 0;
-  for (std::size_t p = s.find(what); p != std::string::npos; p = s.find(what, p + 1)) ++n;
-  return n;
-}
 
 // The <svg id="id"> ... </svg> element of a page.
 std::string SvgById(const std::string& html, const std::string& id) {

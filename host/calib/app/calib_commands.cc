@@ -14,7 +14,7 @@
 #include "common/rotation/rotation.h"
 #include "host/calib/report/compare.h"
 #include "host/calib/report/outputs.h"
-#include "host/sim/render/image.h"
+#include "host/core/image.h"
 #include "host/util/atomic_file.h"
 
 namespace mfns::host {

@@ -15,7 +15,7 @@
 #include "host/calib/ml/hand_eye.h"
 #include "host/calib/ml/joint.h"
 #include "host/calib/ml/orientation.h"
-#include "host/sim/render/image.h"
+#include "host/core/image.h"
 #include "host/util/user_error.h"
 
 namespace mfns::host {

@@ -1,5 +1,5 @@
 // `mfns-calib rig` and `mfns-calib intrinsics` end to end on a small rendered dataset
-// (testing/synth_calib.h written in the docs/calib-dataset.md format): every output file is
+// (host/testing/synth_calib.h written in the docs/calib-dataset.md format): every output file is
 // readable by its consumer (rig reader, blob decoder, YAML, OpenCV FileStorage, headless
 // Chromium for report.html) and agrees with the result.
 #include "host/calib/app/calib_commands.h"
@@ -22,7 +22,8 @@
 #include "common/rotation/rotation.h"
 #include "host/calib/core/dataset.h"
 #include "host/calib/report/compare.h"
-#include "host/calib/testing/synth_calib.h"
+#include "host/core/xml_check_test_util.h"
+#include "host/testing/synth_calib.h"
 #include "host/rigio/rig_yaml.h"
 #include "host/util/atomic_file.h"
 #include "host/util/cli_parse.h"
@@ -31,12 +32,6 @@ namespace mfns::host {
 namespace {
 
 namespace fs = std::filesystem;
-
-int Count(const std::string& text, const std::string& what) {
-  int n = 0;
-  for (std::size_t p = text.find(what); p != std::string::npos; p = text.find(what, p + 1)) ++n;
-  return n;
-}
 
 void WriteText(const fs::path& p, const std::string& text) {
   std::ofstream f(p, std::ios::binary | std::ios::trunc);

@@ -11,7 +11,7 @@
 #include "common/rig/rig.h"
 #include "host/calib/core/calib_types.h"
 #include "host/calib/core/kinematics.h"
-#include "host/sim/render/target.h"
+#include "host/core/target.h"
 
 namespace mfns::host {
 

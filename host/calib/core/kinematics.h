@@ -5,7 +5,8 @@
 // rotations (frame form R1(aux)^T R3(main)^T). Body of a turntable image:
 //   C_w_b = C_w_t C_t_p C_p_b,   r_w_wb = r_w_wt + C_w_t C_t_p r_p_pb.
 // Camera k of the rig: C_w_k = C_w_b C_k_b^T, r_w_wk = r_w_wb + C_w_b r_b_bk.
-// host/sim/scenario's TurntablePose is the generator's copy; a test keeps the two equal.
+// The simulator's TurntablePose (scenario.h) is the generator's copy;
+// host/testing/turntable_contract_test.cc keeps the two equal.
 #pragma once
 
 #include <Eigen/Core>

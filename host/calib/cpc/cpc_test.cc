@@ -7,7 +7,7 @@
 #include "common/rotation/rotation.h"
 #include "host/calib/app/calibrate.h"
 #include "host/calib/report/compare.h"
-#include "host/calib/testing/synth_calib.h"
+#include "host/testing/synth_calib.h"
 #include "host/util/user_error.h"
 
 namespace mfns::host {

@@ -4,7 +4,7 @@
 // (found once, outside the timed loop). Run (MFNS_BUILD_BENCHMARKS=ON):
 //   build/host/bin/corner_refine_benchmark --benchmark_min_time=2
 // Arg 0: a turntable-like view (0.58 m, edges 1.5 deg off the pixel grid); 1: 30-deg diagonal tilt;
-// 2: view 0 as the rendered-image tests render (host/calib/testing SynthRender: dim, 80 e on
+// 2: view 0 as the rendered-image tests render (host/testing SynthRender: dim, 80 e on
 // white with 6 e read noise, blur 1 px), where the fit's blur s is large and costs most.
 #include <benchmark/benchmark.h>
 
@@ -17,8 +17,7 @@
 #include "common/rotation/rotation.h"
 #include "host/calib/detect/corner_refine.h"
 #include "host/calib/detect/target_detector.h"
-#include "host/sim/render/sensor.h"
-#include "host/sim/render/target_renderer.h"
+#include "host/testing/target_images.h"
 
 namespace mfns::host {
 namespace {

@@ -16,7 +16,7 @@
 
 #include "host/calib/core/dataset.h"
 #include "host/calib/detect/corner_refine.h"
-#include "host/sim/render/image.h"
+#include "host/core/image.h"
 #include "host/util/atomic_file.h"
 
 namespace {

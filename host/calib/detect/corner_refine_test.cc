@@ -11,9 +11,8 @@
 #include "common/rig/paper_rig.h"
 #include "common/rotation/rotation.h"
 #include "host/calib/detect/target_detector.h"
-#include "host/sim/render/sensor.h"
+#include "host/testing/target_images.h"
 
-#include "host/sim/render/target_renderer.h"
 
 namespace mfns::host {
 namespace {

@@ -6,7 +6,7 @@
 //   on the original image. OpenCV's ordering is one of the grid's four symmetries of the target's ids;
 //   the printed colours pick it (the target's lower-left square is black, so a flip of an odd
 //   number of squares swaps every colour), then the handedness of a view of the printed face
-//   (+z_w, host/sim/render/target.h) where colours cannot tell. When cols + rows is even the
+//   (+z_w, host/core/target.h) where colours cannot tell. When cols + rows is even the
 //   board looks the same turned by 180 degrees: such views are flagged
 //   orientation_ambiguous (ids known up to id -> N - 1 - id) for core/orientation.h to settle
 //   from the turntable's kinematics. Square boards (cols == rows) are refused.
@@ -22,7 +22,7 @@
 
 #include "host/calib/core/calib_types.h"
 #include "host/calib/detect/corner_refine.h"
-#include "host/sim/render/target.h"
+#include "host/core/target.h"
 
 namespace mfns::host {
 

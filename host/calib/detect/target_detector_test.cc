@@ -8,8 +8,7 @@
 #include "common/camera/camera.h"
 #include "common/rig/paper_rig.h"
 #include "common/rotation/rotation.h"
-#include "host/sim/render/sensor.h"
-#include "host/sim/render/target_renderer.h"
+#include "host/testing/target_images.h"
 #include "host/util/user_error.h"
 
 namespace mfns::host {

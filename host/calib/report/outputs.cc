@@ -12,6 +12,7 @@
 #include "common/rotation/rotation.h"
 #include "host/calib/report/compare.h"
 #include "host/calib/report/svg.h"
+#include "host/core/svg_writer.h"
 #include "host/rigio/rig_yaml.h"
 #include "host/util/atomic_file.h"
 
@@ -19,18 +20,6 @@ namespace mfns::host {
 namespace {
 
 double Finite(double v) { return std::isfinite(v) ? v : 0.0; }
-
-std::string F(double v, int prec = 6) {
-  char buf[48];
-  std::snprintf(buf, sizeof buf, "%.*g", prec, v);
-  return buf;
-}
-
-std::string Fixed(double v, int decimals) {
-  char buf[48];
-  std::snprintf(buf, sizeof buf, "%.*f", decimals, v);
-  return buf;
-}
 
 Eigen::Matrix4d TCamBody(const CameraResult& c) {
   Eigen::Matrix4d T = Eigen::Matrix4d::Identity();
@@ -43,7 +32,7 @@ void YamlMatrix4(std::ostringstream& o, const char* key, const Eigen::Matrix4d& 
   o << "  " << key << ":\n";
   for (int r = 0; r < 4; ++r) {
     o << "  - [";
-    for (int c = 0; c < 4; ++c) o << (c ? ", " : "") << F(T(r, c), 15);
+    for (int c = 0; c < 4; ++c) o << (c ? ", " : "") << General(T(r, c), 15);
     o << "]\n";
   }
 }
@@ -52,7 +41,8 @@ const char* kParamNames[kNumCameraParams] = {"alpha_x (px)", "alpha_y (px)", "sk
                                              "kc1",          "kc2",          "kc3",       "kc4",     "kc5"};
 
 std::string PlusMinus(double v, double s, int prec = 6) {
-  return F(v, prec) + (s > 0 ? " &plusmn; " + F(s, 3) : std::string(" <span class=\"fixed\">(fixed or no sigma)</span>"));
+  return General(v, prec) +
+         (s > 0 ? " &plusmn; " + General(s, 3) : std::string(" <span class=\"fixed\">(fixed or no sigma)</span>"));
 }
 
 }  // namespace
@@ -90,13 +80,13 @@ std::string FormatCamchainYaml(const RigCalibration& rig) {
     const CameraIntrinsics& in = c.intrinsics;
     o << "cam" << k << ":\n";
     o << "  camera_model: pinhole\n";
-    o << "  intrinsics: [" << F(in.alpha_x, 15) << ", " << F(in.alpha_y, 15) << ", " << F(in.u0, 15) << ", " << F(in.v0, 15)
-      << "]\n";
+    o << "  intrinsics: [" << General(in.alpha_x, 15) << ", " << General(in.alpha_y, 15) << ", "
+      << General(in.u0, 15) << ", " << General(in.v0, 15) << "]\n";
     o << "  distortion_model: radtan\n";
-    o << "  distortion_coeffs: [" << F(in.kc[0], 15) << ", " << F(in.kc[1], 15) << ", " << F(in.kc[2], 15) << ", "
-      << F(in.kc[3], 15) << "]\n";
-    if (in.kc[4] != 0.0) o << "  # kc5 (k3) = " << F(in.kc[4], 15) << " is not part of Kalibr's radtan model\n";
-    if (in.skew != 0.0) o << "  # skew = " << F(in.skew, 15) << " px is not part of Kalibr's pinhole model\n";
+    o << "  distortion_coeffs: [" << General(in.kc[0], 15) << ", " << General(in.kc[1], 15) << ", "
+      << General(in.kc[2], 15) << ", " << General(in.kc[3], 15) << "]\n";
+    if (in.kc[4] != 0.0) o << "  # kc5 (k3) = " << General(in.kc[4], 15) << " is not part of Kalibr's radtan model\n";
+    if (in.skew != 0.0) o << "  # skew = " << General(in.skew, 15) << " px is not part of Kalibr's pinhole model\n";
     o << "  resolution: [" << in.width << ", " << in.height << "]\n";
     YamlMatrix4(o, "T_cam_body", TCamBody(c));
     if (k > 0) YamlMatrix4(o, "T_cn_cnm1", TCamBody(c) * TCamBody(rig.cameras[k - 1]).inverse());
@@ -165,7 +155,7 @@ std::string FormatReportHtml(const RigCalibration& rig, const CalibInput& in, co
   row("images used", std::to_string(n_tt) + " turntable + " + std::to_string(n_free) + " free, " +
                          std::to_string(n_corners) + " corners");
   row("images skipped", std::to_string(in.skipped.size()));
-  row("reprojection RMS", F(rig.rms_px, 4) + " px");
+  row("reprojection RMS", General(rig.rms_px, 4) + " px");
   h << "</table>\n<h2>Notes</h2><ul>";
   for (const std::string& n : rig.notes) h << "<li>" << XmlEscape(n) << "</li>";
   h << "</ul>\n";
@@ -192,7 +182,7 @@ std::string FormatReportHtml(const RigCalibration& rig, const CalibInput& in, co
   const char* axes[3] = {"x", "y", "z"};
   for (int a = 0; a < 3; ++a) {
     h << "<tr><td class=\"l\">rotation sigma about body " << axes[a] << " (deg)</td>";
-    for (const CameraResult& c : rig.cameras) h << "<td>" << F(RadToDeg(c.sigma_rotation[a]), 3) << "</td>";
+    for (const CameraResult& c : rig.cameras) h << "<td>" << General(RadToDeg(c.sigma_rotation[a]), 3) << "</td>";
     h << "</tr>\n";
   }
   for (int a = 0; a < 3; ++a) {
@@ -201,7 +191,7 @@ std::string FormatReportHtml(const RigCalibration& rig, const CalibInput& in, co
     h << "</tr>\n";
   }
   h << "<tr><td class=\"l\">RMS (px)</td>";
-  for (const CameraResult& c : rig.cameras) h << "<td>" << F(c.rms_px, 4) << "</td>";
+  for (const CameraResult& c : rig.cameras) h << "<td>" << General(c.rms_px, 4) << "</td>";
   h << "</tr></table>\n";
 
   h << "<h3>Turntable and mount</h3><table><tr><th class=\"l\">parameter</th><th>value</th><th>1-sigma</th></tr>";
@@ -210,13 +200,13 @@ std::string FormatReportHtml(const RigCalibration& rig, const CalibInput& in, co
     const double v[3] = {e.phi, e.theta, e.psi};
     const char* n[3] = {"C_w_t Euler alpha (deg)", "C_w_t Euler beta (deg)", "C_w_t Euler gamma (deg)"};
     for (int a = 0; a < 3; ++a)
-      h << "<tr><td class=\"l\">" << n[a] << "</td><td>" << F(RadToDeg(v[a]), 7) << "</td><td>"
-        << F(RadToDeg(rig.sigma_C_w_t[a]), 3) << " (about w " << axes[a] << ")</td></tr>";
+      h << "<tr><td class=\"l\">" << n[a] << "</td><td>" << General(RadToDeg(v[a]), 7) << "</td><td>"
+        << General(RadToDeg(rig.sigma_C_w_t[a]), 3) << " (about w " << axes[a] << ")</td></tr>";
     for (int a = 0; a < 3; ++a)
-      h << "<tr><td class=\"l\">r_w_wt." << axes[a] << " (mm)</td><td>" << F(rig.r_w_wt[a] * 1e3, 8) << "</td><td>"
-        << F(rig.sigma_r_w_wt[a] * 1e3, 3) << "</td></tr>";
+      h << "<tr><td class=\"l\">r_w_wt." << axes[a] << " (mm)</td><td>" << General(rig.r_w_wt[a] * 1e3, 8) << "</td><td>"
+        << General(rig.sigma_r_w_wt[a] * 1e3, 3) << "</td></tr>";
     for (int a = 0; a < 3; ++a)
-      h << "<tr><td class=\"l\">r_p_pb." << axes[a] << " (mm)</td><td>" << F(rig.r_p_pb[a] * 1e3, 8)
+      h << "<tr><td class=\"l\">r_p_pb." << axes[a] << " (mm)</td><td>" << General(rig.r_p_pb[a] * 1e3, 8)
         << "</td><td class=\"fixed\">fixed (gauge)</td></tr>";
     h << "<tr><td class=\"l\">C_p_b</td><td class=\"l\">" << (rig.C_p_b.isIdentity(1e-12) ? "identity" : "given")
       << "</td><td class=\"fixed\">fixed (gauge)</td></tr></table>\n";
@@ -228,15 +218,15 @@ std::string FormatReportHtml(const RigCalibration& rig, const CalibInput& in, co
     h << "<h2>Against the simulation truth</h2><table><tr><th class=\"l\">camera</th><th>C_k_b error (deg)</th>"
          "<th>r_b_bk error (mm)</th></tr>";
     for (const CameraError& c : e.cameras)
-      h << "<tr><td class=\"l\">" << XmlEscape(c.name) << "</td><td>" << F(c.rotation_deg, 4) << "</td><td>"
-        << F(c.position_mm, 4) << "</td></tr>";
+      h << "<tr><td class=\"l\">" << XmlEscape(c.name) << "</td><td>" << General(c.rotation_deg, 4) << "</td><td>"
+        << General(c.position_mm, 4) << "</td></tr>";
     if (ctx.truth_mount != nullptr)
-      h << "<tr><td class=\"l\">turntable</td><td>" << F(e.C_w_t_deg, 4) << "</td><td>" << F(e.r_w_wt_mm, 4) << "</td></tr>";
+      h << "<tr><td class=\"l\">turntable</td><td>" << General(e.C_w_t_deg, 4) << "</td><td>" << General(e.r_w_wt_mm, 4) << "</td></tr>";
     h << "</table><table><tr><th class=\"l\">parameter</th><th>estimate - truth</th><th>1-sigma</th><th>|error| / sigma</th></tr>";
     for (const ParamError& p : e.params) {
       const double z = p.sigma > 0 ? std::abs(p.error) / p.sigma : std::nan("");
-      h << "<tr><td class=\"l\">" << XmlEscape(p.name) << " (" << p.unit << ")</td><td>" << F(p.error, 4) << "</td><td>"
-        << F(p.sigma, 3) << "</td><td" << (z > 3 ? " class=\"bad\"" : "") << ">" << (std::isfinite(z) ? F(z, 3) : "-")
+      h << "<tr><td class=\"l\">" << XmlEscape(p.name) << " (" << p.unit << ")</td><td>" << General(p.error, 4) << "</td><td>"
+        << General(p.sigma, 3) << "</td><td" << (z > 3 ? " class=\"bad\"" : "") << ">" << (std::isfinite(z) ? General(z, 3) : "-")
         << "</td></tr>";
     }
     h << "</table>\n";
@@ -268,7 +258,7 @@ std::string FormatReportHtml(const RigCalibration& rig, const CalibInput& in, co
       rms.push_back(r.rms_px);
     }
     scatter.series = {tt, fr};
-    h << "<h3>camera " << XmlEscape(rig.cameras[k].name) << " (RMS " << F(rig.cameras[k].rms_px, 4)
+    h << "<h3>camera " << XmlEscape(rig.cameras[k].name) << " (RMS " << General(rig.cameras[k].rms_px, 4)
       << " px)</h3><div class=\"charts\">\n"
       << ScatterSvg(scatter)
       << HistogramSvg(comps, 30, "camera " + rig.cameras[k].name + ": residual components", "px")

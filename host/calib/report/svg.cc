@@ -2,8 +2,8 @@
 
 #include <algorithm>
 #include <cmath>
-#include <cstdio>
-#include <sstream>
+
+#include "host/core/svg_writer.h"
 
 namespace mfns::host {
 namespace {
@@ -22,13 +22,7 @@ Axis NiceAxis(double lo, double hi, int target = 5) {
     lo = c - h;
     hi = c + h;
   }
-  const double raw = (hi - lo) / target, mag = std::pow(10.0, std::floor(std::log10(raw)));
-  double step = mag;
-  for (double m : {1.0, 2.0, 2.5, 5.0, 10.0})
-    if (m * mag >= raw) {
-      step = m * mag;
-      break;
-    }
+  const double step = NiceStep((hi - lo) / target);
   Axis a;
   a.lo = std::floor(lo / step) * step;
   a.hi = std::ceil(hi / step) * step;
@@ -36,17 +30,8 @@ Axis NiceAxis(double lo, double hi, int target = 5) {
   return a;
 }
 
-std::string Num(double v) {
-  char buf[32];
-  std::snprintf(buf, sizeof buf, "%.4g", v);
-  return buf;
-}
-
-std::string Fmt(double v) {
-  char buf[32];
-  std::snprintf(buf, sizeof buf, "%.2f", v);
-  return buf;
-}
+std::string Num(double v) { return General(v, 4); }
+std::string Fmt(double v) { return Fixed(v, 2); }
 
 class Frame {
  public:
@@ -54,28 +39,44 @@ class Frame {
   double X(double v) const { return kLeft + (v - x_.lo) / (x_.hi - x_.lo) * (kW - kLeft - kRight); }
   double Y(double v) const { return kH - kBottom - (v - y_.lo) / (y_.hi - y_.lo) * (kH - kTop - kBottom); }
 
-  std::string Open(const std::string& title, const std::string& xl, const std::string& yl, bool x_ticks = true) const {
-    std::ostringstream o;
-    o << "<svg xmlns=\"http://www.w3.org/2000/svg\" class=\"chart\" width=\"" << kW << "\" height=\"" << kH
-      << "\" viewBox=\"0 0 " << kW << " " << kH << "\">\n<rect x=\"0\" y=\"0\" width=\"" << kW << "\" height=\"" << kH
-      << "\" fill=\"white\"/>\n<text x=\"" << kW / 2 << "\" y=\"18\" text-anchor=\"middle\" font-size=\"13\">"
-      << XmlEscape(title) << "</text>\n";
-    for (double t : y_.ticks)
-      o << "<line x1=\"" << Fmt(kLeft) << "\" x2=\"" << Fmt(kW - kRight) << "\" y1=\"" << Fmt(Y(t)) << "\" y2=\"" << Fmt(Y(t))
-        << "\" stroke=\"#ddd\"/><text x=\"" << Fmt(kLeft - 4) << "\" y=\"" << Fmt(Y(t) + 4)
-        << "\" text-anchor=\"end\" font-size=\"10\">" << Num(t) << "</text>\n";
+  // The chart's <svg>, background, title, grid with tick labels, plot frame and axis labels.
+  void Open(SvgWriter& w, const std::string& title, const std::string& xl, const std::string& yl,
+            bool x_ticks = true) const {
+    w.OpenSvg({{"class", "chart"}, {"width", General(kW)}, {"height", General(kH)},
+               {"viewBox", "0 0 " + General(kW) + " " + General(kH)}})
+        .Raw("\n");
+    w.Empty("rect", {{"x", "0"}, {"y", "0"}, {"width", General(kW)}, {"height", General(kH)}, {"fill", "white"}})
+        .Raw("\n");
+    w.Element("text", {{"x", General(kW / 2)}, {"y", "18"}, {"text-anchor", "middle"}, {"font-size", "13"}}, title)
+        .Raw("\n");
+    for (double t : y_.ticks) {
+      w.Empty("line", {{"x1", Fmt(kLeft)}, {"x2", Fmt(kW - kRight)}, {"y1", Fmt(Y(t))}, {"y2", Fmt(Y(t))},
+                       {"stroke", "#ddd"}});
+      w.Element("text", {{"x", Fmt(kLeft - 4)}, {"y", Fmt(Y(t) + 4)}, {"text-anchor", "end"}, {"font-size", "10"}},
+                Num(t))
+          .Raw("\n");
+    }
     if (x_ticks)
-      for (double t : x_.ticks)
-        o << "<line x1=\"" << Fmt(X(t)) << "\" x2=\"" << Fmt(X(t)) << "\" y1=\"" << Fmt(kTop) << "\" y2=\""
-          << Fmt(kH - kBottom) << "\" stroke=\"#ddd\"/><text x=\"" << Fmt(X(t)) << "\" y=\"" << Fmt(kH - kBottom + 14)
-          << "\" text-anchor=\"middle\" font-size=\"10\">" << Num(t) << "</text>\n";
-    o << "<rect x=\"" << Fmt(kLeft) << "\" y=\"" << Fmt(kTop) << "\" width=\"" << Fmt(kW - kLeft - kRight) << "\" height=\""
-      << Fmt(kH - kTop - kBottom) << "\" fill=\"none\" stroke=\"#444\"/>\n";
-    o << "<text x=\"" << Fmt((kLeft + kW - kRight) / 2) << "\" y=\"" << Fmt(kH - 8)
-      << "\" text-anchor=\"middle\" font-size=\"11\">" << XmlEscape(xl) << "</text>\n";
-    o << "<text x=\"14\" y=\"" << Fmt((kTop + kH - kBottom) / 2) << "\" text-anchor=\"middle\" font-size=\"11\" transform=\"rotate(-90 14 "
-      << Fmt((kTop + kH - kBottom) / 2) << ")\">" << XmlEscape(yl) << "</text>\n";
-    return o.str();
+      for (double t : x_.ticks) {
+        w.Empty("line", {{"x1", Fmt(X(t))}, {"x2", Fmt(X(t))}, {"y1", Fmt(kTop)}, {"y2", Fmt(kH - kBottom)},
+                         {"stroke", "#ddd"}});
+        w.Element("text", {{"x", Fmt(X(t))}, {"y", Fmt(kH - kBottom + 14)}, {"text-anchor", "middle"},
+                           {"font-size", "10"}},
+                  Num(t))
+            .Raw("\n");
+      }
+    w.Empty("rect", {{"x", Fmt(kLeft)}, {"y", Fmt(kTop)}, {"width", Fmt(kW - kLeft - kRight)},
+                     {"height", Fmt(kH - kTop - kBottom)}, {"fill", "none"}, {"stroke", "#444"}})
+        .Raw("\n");
+    w.Element("text", {{"x", Fmt((kLeft + kW - kRight) / 2)}, {"y", Fmt(kH - 8)}, {"text-anchor", "middle"},
+                       {"font-size", "11"}},
+              xl)
+        .Raw("\n");
+    const std::string yc = Fmt((kTop + kH - kBottom) / 2);
+    w.Element("text", {{"x", "14"}, {"y", yc}, {"text-anchor", "middle"}, {"font-size", "11"},
+                       {"transform", "rotate(-90 14 " + yc + ")"}},
+              yl)
+        .Raw("\n");
   }
 
  private:
@@ -102,24 +103,24 @@ std::string ScatterSvg(const SvgChart& c) {
   }
   const Axis ax = NiceAxis(xlo, xhi), ay = NiceAxis(ylo, yhi);
   const Frame f(ax, ay);
-  std::ostringstream o;
-  o << f.Open(c.title, c.x_label, c.y_label);
+  SvgWriter w;
+  f.Open(w, c.title, c.x_label, c.y_label);
   double ly = kTop + 12;
   for (const SvgSeries& s : c.series) {
     for (std::size_t i = 0; i < s.x.size() && i < s.y.size(); ++i) {
       if (!std::isfinite(s.x[i]) || !std::isfinite(s.y[i])) continue;
-      o << "<circle class=\"" << XmlEscape(s.css_class) << "\" cx=\"" << Fmt(f.X(s.x[i])) << "\" cy=\"" << Fmt(f.Y(s.y[i]))
-        << "\" r=\"2\" fill=\"" << s.color << "\" fill-opacity=\"0.6\"/>\n";
+      w.Empty("circle", {{"class", s.css_class}, {"cx", Fmt(f.X(s.x[i]))}, {"cy", Fmt(f.Y(s.y[i]))}, {"r", "2"},
+                         {"fill", s.color}, {"fill-opacity", "0.6"}})
+          .Raw("\n");
     }
     if (c.series.size() > 1) {
-      o << "<circle cx=\"" << Fmt(kW - kRight - 90) << "\" cy=\"" << Fmt(ly - 4) << "\" r=\"4\" fill=\"" << s.color
-        << "\"/><text x=\"" << Fmt(kW - kRight - 82) << "\" y=\"" << Fmt(ly) << "\" font-size=\"10\">" << XmlEscape(s.name)
-        << "</text>\n";
+      w.Empty("circle", {{"cx", Fmt(kW - kRight - 90)}, {"cy", Fmt(ly - 4)}, {"r", "4"}, {"fill", s.color}});
+      w.Element("text", {{"x", Fmt(kW - kRight - 82)}, {"y", Fmt(ly)}, {"font-size", "10"}}, s.name).Raw("\n");
       ly += 14;
     }
   }
-  o << "</svg>\n";
-  return o.str();
+  w.Close("svg").Raw("\n");
+  return w.str();
 }
 
 std::string HistogramSvg(const std::vector<double>& values, int bins, const std::string& title, const std::string& x_label) {
@@ -142,14 +143,15 @@ std::string HistogramSvg(const std::vector<double>& values, int bins, const std:
   const int most = *std::max_element(count.begin(), count.end());
   const Axis ay = NiceAxis(0.0, std::max(1, most));
   const Frame f(ax, ay);
-  std::ostringstream o;
-  o << f.Open(title, x_label, "count");
+  SvgWriter o;
+  f.Open(o, title, x_label, "count");
   for (int b = 0; b < bins; ++b) {
     const double x0 = f.X(ax.lo + b * w), x1 = f.X(ax.lo + (b + 1) * w), y = f.Y(count[static_cast<std::size_t>(b)]);
-    o << "<rect class=\"bar\" x=\"" << Fmt(x0) << "\" y=\"" << Fmt(y) << "\" width=\"" << Fmt(std::max(0.5, x1 - x0 - 0.5))
-      << "\" height=\"" << Fmt(f.Y(0.0) - y) << "\" fill=\"#4c72b0\"/>\n";
+    o.Empty("rect", {{"class", "bar"}, {"x", Fmt(x0)}, {"y", Fmt(y)}, {"width", Fmt(std::max(0.5, x1 - x0 - 0.5))},
+                     {"height", Fmt(f.Y(0.0) - y)}, {"fill", "#4c72b0"}})
+        .Raw("\n");
   }
-  o << "</svg>\n";
+  o.Close("svg").Raw("\n");
   return o.str();
 }
 
@@ -161,19 +163,24 @@ std::string BarSvg(const std::vector<std::string>& labels, const std::vector<dou
   const Axis ax{0.0, static_cast<double>(std::max<std::size_t>(1, values.size())), {}};
   const Axis ay = NiceAxis(0.0, hi > 0 ? hi : 1.0);
   const Frame f(ax, ay);
-  std::ostringstream o;
-  o << f.Open(title, "image", y_label, false);
+  SvgWriter o;
+  f.Open(o, title, "image", y_label, false);
   for (std::size_t i = 0; i < values.size(); ++i) {
     const double v = std::isfinite(values[i]) ? values[i] : 0.0;
     const double x0 = f.X(static_cast<double>(i) + 0.1), x1 = f.X(static_cast<double>(i) + 0.9), y = f.Y(v);
-    o << "<rect class=\"bar\" x=\"" << Fmt(x0) << "\" y=\"" << Fmt(y) << "\" width=\"" << Fmt(x1 - x0) << "\" height=\""
-      << Fmt(f.Y(0.0) - y) << "\" fill=\"#55a868\"><title>" << XmlEscape(i < labels.size() ? labels[i] : "") << ": " << Num(v)
-      << "</title></rect>\n";
+    const std::string label = i < labels.size() ? labels[i] : "";
+    o.Open("rect", {{"class", "bar"}, {"x", Fmt(x0)}, {"y", Fmt(y)}, {"width", Fmt(x1 - x0)},
+                    {"height", Fmt(f.Y(0.0) - y)}, {"fill", "#55a868"}})
+        .Element("title", {}, label + ": " + Num(v))
+        .Close("rect")
+        .Raw("\n");
     if (values.size() <= 32 && i < labels.size())
-      o << "<text x=\"" << Fmt((x0 + x1) / 2) << "\" y=\"" << Fmt(kH - kBottom + 12)
-        << "\" text-anchor=\"middle\" font-size=\"8\">" << XmlEscape(labels[i]) << "</text>\n";
+      o.Element("text", {{"x", Fmt((x0 + x1) / 2)}, {"y", Fmt(kH - kBottom + 12)}, {"text-anchor", "middle"},
+                         {"font-size", "8"}},
+                labels[i])
+          .Raw("\n");
   }
-  o << "</svg>\n";
+  o.Close("svg").Raw("\n");
   return o.str();
 }
 

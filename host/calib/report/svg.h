@@ -1,5 +1,6 @@
 // Small self-contained SVG charts for report.html: scatter (several series), histogram and bar
-// chart on linear axes with ticks and labels. Standalone SVG 1.1 elements, inlined in HTML.
+// chart on linear axes with ticks and labels. Standalone SVG 1.1 elements, inlined in HTML,
+// written with host/core/svg_writer.h.
 #pragma once
 
 #include <string>

@@ -6,7 +6,7 @@
 #include <filesystem>
 #include <sstream>
 
-#include "host/sim/analysis/xml_check_test_util.h"
+#include "host/core/xml_check_test_util.h"
 #include "host/util/atomic_file.h"
 
 namespace mfns::host {

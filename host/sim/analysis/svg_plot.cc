@@ -1,9 +1,9 @@
 #include "host/sim/analysis/svg_plot.h"
-#include "host/util/xml_escape.h"
 
 #include <algorithm>
 #include <cmath>
-#include <cstdio>
+
+#include "host/core/svg_writer.h"
 
 namespace mfns::host {
 namespace {
@@ -12,20 +12,12 @@ namespace {
 constexpr double kWidth = 640, kHeight = 440;
 constexpr double kLeft = 80, kRight = 24, kTop = 44, kBottom = 64;
 
-std::string Num(double v) {
-  char buf[32];
-  std::snprintf(buf, sizeof buf, "%.2f", v);
-  return buf;
-}
-
 // Tick label with just enough decimals for the step.
 std::string TickLabel(double v, double step) {
   int decimals = 0;
   while (decimals < 6 && std::abs(step * std::pow(10.0, decimals) - std::round(step * std::pow(10.0, decimals))) > 1e-9)
     ++decimals;
-  char buf[32];
-  std::snprintf(buf, sizeof buf, "%.*f", decimals, v);
-  return buf;
+  return Fixed(v, decimals);
 }
 
 double MaxFinite(const std::vector<double>& a, const std::vector<double>& b) {
@@ -41,15 +33,7 @@ double MaxFinite(const std::vector<double>& a, const std::vector<double>& b) {
 std::vector<double> NiceTicks(double max, int target) {
   if (!(max > 0.0) || !std::isfinite(max)) return {0.0, 1.0};
   target = std::max(target, 1);
-  const double raw = max / target;
-  const double p = std::pow(10.0, std::floor(std::log10(raw)));
-  double step = 10.0 * p;
-  for (const double f : {1.0, 2.0, 2.5, 5.0, 10.0}) {
-    if (f * p >= raw * (1.0 - 1e-9)) {
-      step = f * p;
-      break;
-    }
-  }
+  const double step = NiceStep(max / target, true, 1e-9);
   std::vector<double> ticks;
   for (int i = 0; ticks.empty() || ticks.back() < max * (1.0 - 1e-9); ++i) ticks.push_back(i * step);
   return ticks;
@@ -64,83 +48,94 @@ std::string RenderSvg(const SvgPlot& plot) {
   const double pw = kWidth - kLeft - kRight, ph = kHeight - kTop - kBottom;
   const auto sx = [&](double x) { return kLeft + pw * x / x_max; };
   const auto sy = [&](double y) { return kTop + ph * (1.0 - y / y_max); };
+  const auto F = [](double v) { return Fixed(v); };
 
-  std::string s;
-  s += "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n";
-  s += "<svg xmlns=\"http://www.w3.org/2000/svg\" version=\"1.1\" width=\"" + Num(kWidth) + "\" height=\"" +
-       Num(kHeight) + "\" viewBox=\"0 0 " + Num(kWidth) + " " + Num(kHeight) + "\" font-family=\"sans-serif\">\n";
-  s += "<rect x=\"0\" y=\"0\" width=\"" + Num(kWidth) + "\" height=\"" + Num(kHeight) + "\" fill=\"white\"/>\n";
-  s += "<text x=\"" + Num(kWidth / 2) + "\" y=\"24\" text-anchor=\"middle\" font-size=\"15\">" + XmlEscape(plot.title) +
-       "</text>\n";
+  SvgWriter w;
+  w.Raw("<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n");
+  w.OpenSvg({{"version", "1.1"}, {"width", F(kWidth)}, {"height", F(kHeight)},
+             {"viewBox", "0 0 " + F(kWidth) + " " + F(kHeight)}, {"font-family", "sans-serif"}})
+      .Raw("\n");
+  w.Empty("rect", {{"x", "0"}, {"y", "0"}, {"width", F(kWidth)}, {"height", F(kHeight)}, {"fill", "white"}}).Raw("\n");
+  w.Element("text", {{"x", F(kWidth / 2)}, {"y", "24"}, {"text-anchor", "middle"}, {"font-size", "15"}}, plot.title)
+      .Raw("\n");
 
   // Shaded spans first, under the grid and the data.
   for (const auto& [x0, x1] : plot.shaded_x) {
     if (!std::isfinite(x0) || !std::isfinite(x1)) continue;
-    s += "<rect class=\"shaded\" x=\"" + Num(sx(std::min(x0, x1))) + "\" y=\"" + Num(kTop) + "\" width=\"" +
-         Num(std::max(1.0, sx(std::max(x0, x1)) - sx(std::min(x0, x1)))) + "\" height=\"" + Num(ph) +
-         "\" fill=\"#fdd9a8\"/>\n";
+    const double left = sx(std::min(x0, x1)), right = sx(std::max(x0, x1));
+    w.Empty("rect", {{"class", "shaded"}, {"x", F(left)}, {"y", F(kTop)}, {"width", F(std::max(1.0, right - left))},
+                     {"height", F(ph)}, {"fill", "#fdd9a8"}})
+        .Raw("\n");
   }
   // Grid, ticks and tick labels.
-  s += "<g class=\"axes\" stroke=\"#000\" font-size=\"12\">\n";
+  w.Open("g", {{"class", "axes"}, {"stroke", "#000"}, {"font-size", "12"}}).Raw("\n");
   for (const double x : xt) {
-    s += "<line x1=\"" + Num(sx(x)) + "\" y1=\"" + Num(kTop) + "\" x2=\"" + Num(sx(x)) + "\" y2=\"" +
-         Num(kTop + ph) + "\" stroke=\"#ddd\"/>\n";
-    s += "<line x1=\"" + Num(sx(x)) + "\" y1=\"" + Num(kTop + ph) + "\" x2=\"" + Num(sx(x)) + "\" y2=\"" +
-         Num(kTop + ph + 5) + "\"/>\n";
-    s += "<text x=\"" + Num(sx(x)) + "\" y=\"" + Num(kTop + ph + 19) + "\" text-anchor=\"middle\" stroke=\"none\">" +
-         TickLabel(x, xt[1] - xt[0]) + "</text>\n";
+    w.Empty("line", {{"x1", F(sx(x))}, {"y1", F(kTop)}, {"x2", F(sx(x))}, {"y2", F(kTop + ph)}, {"stroke", "#ddd"}}).Raw("\n");
+    w.Empty("line", {{"x1", F(sx(x))}, {"y1", F(kTop + ph)}, {"x2", F(sx(x))}, {"y2", F(kTop + ph + 5)}}).Raw("\n");
+    w.Element("text", {{"x", F(sx(x))}, {"y", F(kTop + ph + 19)}, {"text-anchor", "middle"}, {"stroke", "none"}},
+              TickLabel(x, xt[1] - xt[0]))
+        .Raw("\n");
   }
   for (const double y : yt) {
-    s += "<line x1=\"" + Num(kLeft) + "\" y1=\"" + Num(sy(y)) + "\" x2=\"" + Num(kLeft + pw) + "\" y2=\"" +
-         Num(sy(y)) + "\" stroke=\"#ddd\"/>\n";
-    s += "<line x1=\"" + Num(kLeft - 5) + "\" y1=\"" + Num(sy(y)) + "\" x2=\"" + Num(kLeft) + "\" y2=\"" +
-         Num(sy(y)) + "\"/>\n";
-    s += "<text x=\"" + Num(kLeft - 8) + "\" y=\"" + Num(sy(y) + 4) + "\" text-anchor=\"end\" stroke=\"none\">" +
-         TickLabel(y, yt[1] - yt[0]) + "</text>\n";
+    w.Empty("line", {{"x1", F(kLeft)}, {"y1", F(sy(y))}, {"x2", F(kLeft + pw)}, {"y2", F(sy(y))}, {"stroke", "#ddd"}}).Raw("\n");
+    w.Empty("line", {{"x1", F(kLeft - 5)}, {"y1", F(sy(y))}, {"x2", F(kLeft)}, {"y2", F(sy(y))}}).Raw("\n");
+    w.Element("text", {{"x", F(kLeft - 8)}, {"y", F(sy(y) + 4)}, {"text-anchor", "end"},
+                       {"stroke", "none"}},
+              TickLabel(y, yt[1] - yt[0]))
+        .Raw("\n");
   }
-  s += "<rect x=\"" + Num(kLeft) + "\" y=\"" + Num(kTop) + "\" width=\"" + Num(pw) + "\" height=\"" + Num(ph) +
-       "\" fill=\"none\"/>\n";
-  s += "</g>\n";
-  s += "<text x=\"" + Num(kLeft + pw / 2) + "\" y=\"" + Num(kHeight - 16) +
-       "\" text-anchor=\"middle\" font-size=\"13\">" +
-       XmlEscape(plot.x_label) + "</text>\n";
-  s += "<text transform=\"translate(20 " + Num(kTop + ph / 2) +
-       ") rotate(-90)\" text-anchor=\"middle\" font-size=\"13\">" + XmlEscape(plot.y_label) + "</text>\n";
+  w.Empty("rect", {{"x", F(kLeft)}, {"y", F(kTop)}, {"width", F(pw)}, {"height", F(ph)}, {"fill", "none"}}).Raw("\n");
+  w.Close("g").Raw("\n");
+  w.Element("text", {{"x", F(kLeft + pw / 2)}, {"y", F(kHeight - 16)}, {"text-anchor", "middle"}, {"font-size", "13"}},
+            plot.x_label)
+      .Raw("\n");
+  w.Element("text", {{"transform", "translate(20 " + F(kTop + ph / 2) + ") rotate(-90)"}, {"text-anchor", "middle"},
+                     {"font-size", "13"}},
+            plot.y_label)
+      .Raw("\n");
 
   // Analytic line, then the dots on top.
   std::string pts;
   for (std::size_t i = 0; i < plot.line_x.size() && i < plot.line_y.size(); ++i) {
     if (!std::isfinite(plot.line_x[i]) || !std::isfinite(plot.line_y[i])) continue;
-    pts += (pts.empty() ? "" : " ") + Num(sx(plot.line_x[i])) + "," + Num(sy(plot.line_y[i]));
+    pts += (pts.empty() ? "" : " ") + F(sx(plot.line_x[i])) + "," + F(sy(plot.line_y[i]));
   }
-  s += "<polyline class=\"analytic\" points=\"" + pts + "\" fill=\"none\" stroke=\"#d62728\" stroke-width=\"2\"/>\n";
-  s += "<g class=\"dots\" fill=\"#1f77b4\">\n";
+  w.Empty("polyline", {{"class", "analytic"}, {"points", pts}, {"fill", "none"}, {"stroke", "#d62728"},
+                       {"stroke-width", "2"}})
+      .Raw("\n");
+  w.Open("g", {{"class", "dots"}, {"fill", "#1f77b4"}}).Raw("\n");
   for (std::size_t i = 0; i < plot.dots_x.size() && i < plot.dots_y.size(); ++i) {
     if (!std::isfinite(plot.dots_x[i]) || !std::isfinite(plot.dots_y[i])) continue;
     const bool coloured = i < plot.dots_fill.size() && !plot.dots_fill[i].empty();
-    s += "<circle class=\"mc\" cx=\"" + Num(sx(plot.dots_x[i])) + "\" cy=\"" + Num(sy(plot.dots_y[i])) + "\" r=\"4\"" +
-         (coloured ? " fill=\"" + XmlEscape(plot.dots_fill[i]) + "\"" : std::string()) + "/>\n";
+    if (coloured)
+      w.Empty("circle", {{"class", "mc"}, {"cx", F(sx(plot.dots_x[i]))}, {"cy", F(sy(plot.dots_y[i]))}, {"r", "4"},
+                         {"fill", plot.dots_fill[i]}});
+    else
+      w.Empty("circle", {{"class", "mc"}, {"cx", F(sx(plot.dots_x[i]))}, {"cy", F(sy(plot.dots_y[i]))}, {"r", "4"}});
+    w.Raw("\n");
   }
-  s += "</g>\n";
+  w.Close("g").Raw("\n");
 
   // Legend, top left inside the plot area.
   const double lx = kLeft + 14, ly = kTop + 18;
-  s += "<g class=\"legend\" font-size=\"12\">\n";
+  w.Open("g", {{"class", "legend"}, {"font-size", "12"}}).Raw("\n");
   const bool shaded_entry = !plot.shaded_legend.empty();
-  s += "<rect x=\"" + Num(lx - 8) + "\" y=\"" + Num(ly - 12) + "\" width=\"" + Num(shaded_entry ? 330 : 236) +
-       "\" height=\"" + Num(shaded_entry ? 64 : 44) + "\" fill=\"white\" stroke=\"#888\"/>\n";
-  s += "<circle cx=\"" + Num(lx + 10) + "\" cy=\"" + Num(ly) + "\" r=\"4\" fill=\"#1f77b4\"/>\n";
-  s += "<text x=\"" + Num(lx + 28) + "\" y=\"" + Num(ly + 4) + "\">" + XmlEscape(plot.dots_legend) + "</text>\n";
-  s += "<line x1=\"" + Num(lx) + "\" y1=\"" + Num(ly + 20) + "\" x2=\"" + Num(lx + 20) + "\" y2=\"" + Num(ly + 20) +
-       "\" stroke=\"#d62728\" stroke-width=\"2\"/>\n";
-  s += "<text x=\"" + Num(lx + 28) + "\" y=\"" + Num(ly + 24) + "\">" + XmlEscape(plot.line_legend) + "</text>\n";
+  w.Empty("rect", {{"x", F(lx - 8)}, {"y", F(ly - 12)}, {"width", F(shaded_entry ? 330 : 236)},
+                   {"height", F(shaded_entry ? 64 : 44)}, {"fill", "white"}, {"stroke", "#888"}})
+      .Raw("\n");
+  w.Empty("circle", {{"cx", F(lx + 10)}, {"cy", F(ly)}, {"r", "4"}, {"fill", "#1f77b4"}}).Raw("\n");
+  w.Element("text", {{"x", F(lx + 28)}, {"y", F(ly + 4)}}, plot.dots_legend).Raw("\n");
+  w.Empty("line", {{"x1", F(lx)}, {"y1", F(ly + 20)}, {"x2", F(lx + 20)}, {"y2", F(ly + 20)}, {"stroke", "#d62728"},
+                   {"stroke-width", "2"}})
+      .Raw("\n");
+  w.Element("text", {{"x", F(lx + 28)}, {"y", F(ly + 24)}}, plot.line_legend).Raw("\n");
   if (shaded_entry) {
-    s += "<rect x=\"" + Num(lx) + "\" y=\"" + Num(ly + 34) + "\" width=\"20\" height=\"12\" fill=\"#fdd9a8\"/>\n";
-    s += "<text x=\"" + Num(lx + 28) + "\" y=\"" + Num(ly + 44) + "\">" + XmlEscape(plot.shaded_legend) + "</text>\n";
+    w.Empty("rect", {{"x", F(lx)}, {"y", F(ly + 34)}, {"width", "20"}, {"height", "12"}, {"fill", "#fdd9a8"}}).Raw("\n");
+    w.Element("text", {{"x", F(lx + 28)}, {"y", F(ly + 44)}}, plot.shaded_legend).Raw("\n");
   }
-  s += "</g>\n";
-  s += "</svg>\n";
-  return s;
+  w.Close("g").Raw("\n");
+  w.Close("svg").Raw("\n");
+  return w.str();
 }
 
 }  // namespace mfns::host

@@ -1,6 +1,6 @@
 // A small self-contained SVG line plot: Monte Carlo dots and an analytic line on linear axes
 // with ticks, axis labels, a title and a legend. No plotting library; the output is standalone
-// SVG 1.1 (XML), viewable in any browser.
+// SVG 1.1 (XML), viewable in any browser, written with host/core/svg_writer.h.
 #pragma once
 
 #include <string>

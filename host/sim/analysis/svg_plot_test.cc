@@ -2,7 +2,7 @@
 
 #include <gtest/gtest.h>
 
-#include "host/sim/analysis/xml_check_test_util.h"
+#include "host/core/xml_check_test_util.h"
 
 namespace mfns::host {
 namespace {

@@ -8,8 +8,8 @@
 
 #include "common/rotation/rotation.h"
 #include "host/rigio/rig_yaml.h"
-#include "host/sim/render/image.h"
-#include "host/sim/render/target.h"
+#include "host/core/image.h"
+#include "host/core/target.h"
 #include "host/util/csv_table.h"
 
 namespace mfns::host {

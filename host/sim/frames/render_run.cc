@@ -15,7 +15,7 @@
 #include "host/rigio/rig_yaml.h"
 #include "host/sim/crb/pose_bound.h"
 #include "host/sim/observe/observe.h"
-#include "host/sim/render/image.h"
+#include "host/core/image.h"
 #include "host/sim/render/spot.h"
 #include "host/util/atomic_file.h"
 

@@ -5,7 +5,7 @@
 #include <fstream>
 
 #include "host/rigio/rig_yaml.h"
-#include "host/sim/render/image.h"
+#include "host/core/image.h"
 #include "host/util/atomic_file.h"
 #include "host/util/csv_table.h"
 

@@ -9,7 +9,7 @@
 
 #include "common/camera/camera.h"
 #include "host/sim/frames/render_run.h"
-#include "host/sim/render/image.h"
+#include "host/core/image.h"
 #include "host/sim/render/visibility.h"
 #include "host/util/csv_table.h"
 

@@ -22,7 +22,7 @@
 
 #include "common/camera/camera.h"
 #include "host/sim/render/sensor.h"
-#include "host/sim/render/target.h"
+#include "host/core/target.h"
 #include "host/sim/render/visibility.h"
 
 namespace mfns::host {

@@ -1,4 +1,4 @@
-#include "host/calib/testing/synth_calib.h"
+#include "host/testing/synth_calib.h"
 
 #include <cmath>
 #include <cstdio>
@@ -8,8 +8,8 @@
 #include "common/rig/paper_rig.h"
 #include "common/rotation/rotation.h"
 #include "host/calib/core/dataset.h"
+#include "host/core/image.h"
 #include "host/rigio/rig_yaml.h"
-#include "host/sim/render/image.h"
 #include "host/sim/render/sensor.h"
 #include "host/sim/render/target_renderer.h"
 #include "host/util/atomic_file.h"

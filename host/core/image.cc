@@ -1,4 +1,4 @@
-#include "host/sim/render/image.h"
+#include "host/core/image.h"
 
 #include <unistd.h>
 

@@ -1,13 +1,14 @@
 // Zhang's intrinsics (cv::calibrateCamera) against the truth, and the joint solver run on
 // free views only (Zhang's maximum-likelihood problem) against cv::calibrateCamera on the
 // same corners: the two must agree.
+#include "host/calib/zhang/zhang.h"
+
 #include <gtest/gtest.h>
 
 #include <cmath>
 
 #include "host/calib/ml/joint.h"
-#include "host/calib/testing/synth_calib.h"
-#include "host/calib/zhang/zhang.h"
+#include "host/testing/synth_calib.h"
 #include "host/util/user_error.h"
 
 namespace mfns::host {

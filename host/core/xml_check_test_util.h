@@ -1,4 +1,4 @@
-// Test helper: a minimal XML well-formedness check (one root, balanced and properly nested
+// Test helpers: a minimal XML well-formedness check (one root, balanced and properly nested
 // tags, quoted attributes, only the five predefined or numeric entities), written here so the
 // SVG tests need no XML library. Counts the plot's elements for structural assertions.
 #pragma once
@@ -17,6 +17,13 @@ struct XmlSummary {
   int mc_circles = 0;          // <circle class="mc">
   int analytic_polylines = 0;  // <polyline class="analytic">
 };
+
+// How often `what` occurs in `text` (elements of a class, say).
+inline int Count(const std::string& text, const std::string& what) {
+  int n = 0;
+  for (std::size_t p = text.find(what); p != std::string::npos; p = text.find(what, p + 1)) ++n;
+  return n;
+}
 
 inline XmlSummary CheckXml(const std::string& s) {
   XmlSummary r;

@@ -1,4 +1,4 @@
-#include "host/sim/render/target.h"
+#include "host/core/target.h"
 
 #include <apriltag/apriltag.h>
 #include <apriltag/common/image_u8.h>

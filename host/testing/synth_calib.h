@@ -6,7 +6,7 @@
 // within +-variation_deg of that pose keeping every corner in view, and 10 free
 // hand-held views per camera. True angles = commanded + N(0, 8 arcsec).
 //
-// The target frame is host/sim/render/target.h's (printed face towards +z_w): with the board
+// The target frame is host/core/target.h's (printed face towards +z_w): with the board
 // overhead its face looks down, so z_w points down and C_w_t ~ Rx(180 deg) times the small
 // misalignment of Table 3.
 #pragma once
@@ -20,7 +20,7 @@
 #include "common/rig/rig.h"
 #include "host/calib/core/calib_types.h"
 #include "host/calib/core/kinematics.h"
-#include "host/sim/render/target.h"
+#include "host/core/target.h"
 
 namespace mfns::host {
 
