@@ -9,6 +9,12 @@
 // so a flat field of s electrons has mean offset + g s and variance g^2 (s + read^2) + 1/12
 // (the last term from rounding) while unclipped.
 //
+// Pixels whose signal equals the frame's most common level (its background: nearly all pixels
+// of a beacon frame) are drawn from that level's output distribution, tabulated once per frame
+// (LevelDistribution): one uniform per pixel instead of a Poisson and a normal draw. The law
+// of every pixel is the same (up to tail probabilities below 1e-15); the bytes differ from a
+// pixel-by-pixel draw of the same seed.
+//
 // Randomness: every draw comes from the caller's std::mt19937_64 through the samplers below,
 // which use only the engine's raw 64-bit output (whose sequence the C++ standard fixes), not
 // std::normal_distribution / std::poisson_distribution (whose algorithms differ between
@@ -19,6 +25,7 @@
 #include <limits>
 #include <opencv2/core.hpp>
 #include <random>
+#include <vector>
 
 namespace mfns::host {
 
@@ -76,5 +83,32 @@ class PoissonSampler {
 
 // One draw with a fresh sampler.
 std::uint64_t Poisson(double mean, std::mt19937_64* rng);
+
+// The law of one pixel's DN for one expected signal (electrons), as the model above defines
+// it, tabulated for inverse-CDF draws: P(DN = d) sums, over the Poisson counts k within 12
+// sigma of the mean, Poisson(k) times the probability that the read noise rounds
+// offset + gain min(k, full well) to d (clamped at 0 and full scale). Ok() is false when the
+// law spreads over more than kMaxValues DN or the mean is beyond kMaxMean (the caller then
+// draws pixel by pixel). Draw takes one uniform (53 bits) from the engine.
+class LevelDistribution {
+ public:
+  static constexpr int kMaxValues = 4096;
+  static constexpr double kMaxMean = 1e6;
+
+  LevelDistribution(double signal_e, const SensorModel& sensor);
+  bool Ok() const { return !cdf_.empty(); }
+  int FirstDn() const { return first_dn_; }
+  // P(DN = FirstDn() + i), i < Size().
+  double Probability(int i) const;
+  int Size() const { return static_cast<int>(cdf_.size()); }
+  // One DN of this law.
+  int Draw(std::mt19937_64* rng) const;
+
+ private:
+  static constexpr int kGuideBins = 256;
+  int first_dn_ = 0;
+  std::vector<double> cdf_;  // cdf_[i] = P(DN <= first_dn_ + i); the last is exactly 1
+  std::vector<int> guide_;   // guide_[b]: the first i with cdf_[i] > b / kGuideBins
+};
 
 }  // namespace mfns::host

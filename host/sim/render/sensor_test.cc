@@ -2,8 +2,11 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <functional>
+#include <limits>
+#include <map>
 #include <vector>
 
 #include "common/rig/paper_rig.h"
@@ -62,6 +65,103 @@ TEST(Sensor, FlatFieldMatchesThePhotonTransferModel) {
                   c.gain * c.gain * (shot_var + c.read_e * c.read_e) + 1.0 / 12.0,
                   static_cast<double>(image.total()), "flat field");
   }
+}
+
+// One pixel of the model as sensor.h defines it, composed of the public samplers: the reference
+// for the tabulated law of a level.
+int ModelPixel(double signal_e, const SensorModel& s, PoissonSampler* poisson, NormalSampler* normal,
+               std::mt19937_64* rng) {
+  double e = std::max(0.0, signal_e);
+  if (s.shot_noise) e = static_cast<double>(poisson->Draw(e, rng));
+  e = std::min(e, s.full_well_e);
+  if (s.read_noise_e > 0.0) e += s.read_noise_e * normal->Draw(rng);
+  return static_cast<int>(std::clamp(std::nearbyint(s.offset_dn + s.gain_dn_per_e * e), 0.0, double(s.FullScale())));
+}
+
+// The tabulated law of a level (what ApplySensor draws a frame's background from) is the
+// model's: over shot/read noise regimes, gains below and above 1, offsets, a full well, both
+// clamps, each DN's probability is within 5 standard errors of its frequency in 200000
+// pixel-by-pixel draws, and so is the frequency of the table's own draws. Closed forms where
+// they exist: read noise only (a rounded normal) and shot noise only at gain 1 (Poisson).
+TEST(Sensor, LevelDistributionIsTheModelsLaw) {
+  struct Case {
+    double signal_e, gain, offset, read_e, full_well;
+    bool shot;
+    int bits;
+  };
+  const double inf = std::numeric_limits<double>::infinity();
+  const Case cases[] = {{8.0, 1.0, 0.0, 2.0, inf, true, 8},     {150.0, 0.6, 3.2, 2.0, inf, true, 8},
+                        {0.3, 3.7, 10.0, 0.4, inf, true, 16},   {0.0, 1.0, 0.0, 2.0, inf, true, 8},
+                        {40.0, 2.0, 200.0, 1.0, 30.0, true, 8}, {6.0, 1.0, 0.0, 0.0, inf, true, 16},
+                        {2.5, 1.3, 1.0, 1.5, inf, false, 8},    {3000.0, 0.05, 20.0, 5.0, inf, true, 16}};
+  constexpr int kDraws = 200000;
+  std::mt19937_64 rng(7);
+  for (const Case& c : cases) {
+    SensorModel s;
+    s.bit_depth = c.bits;
+    s.gain_dn_per_e = c.gain;
+    s.offset_dn = c.offset;
+    s.read_noise_e = c.read_e;
+    s.full_well_e = c.full_well;
+    s.shot_noise = c.shot;
+    const LevelDistribution law(c.signal_e, s);
+    ASSERT_TRUE(law.Ok()) << c.signal_e;
+    std::map<int, int> model, table;
+    PoissonSampler poisson;
+    NormalSampler normal;
+    for (int i = 0; i < kDraws; ++i) ++model[ModelPixel(c.signal_e, s, &poisson, &normal, &rng)];
+    for (int i = 0; i < kDraws; ++i) ++table[law.Draw(&rng)];
+    double total = 0.0;
+    for (int i = 0; i < law.Size(); ++i) {
+      const int dn = law.FirstDn() + i;
+      const double p = law.Probability(i);
+      total += p;
+      const double tol = 5.0 * std::sqrt(p * (1 - p) / kDraws) + 2e-5;
+      EXPECT_NEAR(model[dn] / double(kDraws), p, tol) << "signal " << c.signal_e << " DN " << dn;
+      EXPECT_NEAR(table[dn] / double(kDraws), p, tol) << "signal " << c.signal_e << " DN " << dn;
+      double closed = -1.0;
+      if (!c.shot && c.full_well == inf) {
+        const double mu = c.offset + c.gain * c.signal_e, sd = c.gain * c.read_e;
+        const auto cdf = [&](double x) { return 0.5 * std::erfc(-(x - mu) / (sd * std::sqrt(2.0))); };
+        closed = cdf(dn + 0.5) - (dn == 0 ? 0.0 : cdf(dn - 0.5));
+      } else if (c.shot && c.read_e == 0.0 && c.gain == 1.0 && c.offset == 0.0) {
+        closed = std::exp(-c.signal_e + dn * std::log(c.signal_e) - std::lgamma(dn + 1.0));
+      }
+      if (closed >= 0.0) {
+        EXPECT_NEAR(p, closed, 1e-12) << "DN " << dn;
+      }
+    }
+    EXPECT_NEAR(total, 1.0, 1e-12);
+    EXPECT_EQ(law.Probability(-1), 0.0);
+    EXPECT_EQ(law.Probability(law.Size()), 0.0);
+    // Every DN drawn pixel by pixel lies in the table's support.
+    EXPECT_GE(model.begin()->first, law.FirstDn());
+    EXPECT_LT(model.rbegin()->first, law.FirstDn() + law.Size());
+  }
+  // Spread over more DN than a table holds: the caller draws pixel by pixel.
+  SensorModel wide;
+  wide.bit_depth = 16;
+  wide.gain_dn_per_e = 5.0;  // 5000 +- 12 sqrt(5000) e- span ~8500 DN
+  EXPECT_FALSE(LevelDistribution(5000.0, wide).Ok());
+}
+
+// A frame with spots draws its background from the table and the rest pixel by pixel: a flat
+// background around a bright square keeps the background's law, and the square its own.
+TEST(Sensor, BackgroundAndBrightRegionsKeepTheirLaws) {
+  SensorModel s;
+  s.read_noise_e = 2.0;
+  cv::Mat signal(400, 400, CV_64FC1, cv::Scalar(8.0));
+  signal(cv::Rect(100, 100, 200, 200)).setTo(cv::Scalar(120.0));
+  std::mt19937_64 rng(3);
+  const cv::Mat image = ApplySensor(signal, s, &rng);
+  cv::Mat mask = cv::Mat::ones(400, 400, CV_8UC1);
+  mask(cv::Rect(100, 100, 200, 200)).setTo(cv::Scalar(0));
+  const cv::Mat inner = image(cv::Rect(100, 100, 200, 200)).clone();
+  cv::Scalar mean, sd;
+  cv::meanStdDev(image, mean, sd, mask);
+  const double n_bg = 400.0 * 400.0 - 200.0 * 200.0, n_sq = 200.0 * 200.0;
+  ExpectMoments({mean[0], sd[0] * sd[0]}, 8.0, 8.0 + 4.0 + 1.0 / 12.0, n_bg, "background");
+  ExpectMoments(ImageMoments(inner), 120.0, 120.0 + 4.0 + 1.0 / 12.0, n_sq, "square");
 }
 
 TEST(Sensor, PoissonSamplerHasThePoissonLaw) {
