@@ -36,11 +36,14 @@ function(mfns_host_library name)
   mfns_warnings(${name})
 endfunction()
 
-# mfns_gtest(NAME SOURCES ... DEPS ... [LABELS ...]): a GoogleTest binary registered with CTest.
+# mfns_gtest(NAME SOURCES ... DEPS ... [LABELS ...] [COST seconds]): a GoogleTest binary
+# registered with CTest. COST (the seconds its longest test takes) makes ctest -j start its
+# tests first: a fresh build has no timing history, and a long test started last runs alone
+# on one core at the end of the stage.
 # Tests are discovered when ctest runs (PRE_TEST), so cross builds need no emulator at build
 # time; under the aarch64 preset CTest runs them through CMAKE_CROSSCOMPILING_EMULATOR.
 function(mfns_gtest name)
-  cmake_parse_arguments(ARG "" "" "SOURCES;DEPS;LABELS" ${ARGN})
+  cmake_parse_arguments(ARG "" "COST" "SOURCES;DEPS;LABELS" ${ARGN})
   add_executable(${name} ${ARG_SOURCES})
   target_link_libraries(${name} PRIVATE ${ARG_DEPS} GTest::gtest GTest::gmock GTest::gtest_main)
   target_include_directories(${name} PRIVATE ${PROJECT_SOURCE_DIR})
@@ -55,8 +58,12 @@ function(mfns_gtest name)
   # gtest_discover_tests flattens its PROPERTIES, so a label list ("host;slow") passed there
   # would split into LABELS=host and a stray property.
   set(_mfns_label_file ${CMAKE_CURRENT_BINARY_DIR}/${name}_labels.cmake)
+  set(_mfns_cost "")
+  if(ARG_COST)
+    set(_mfns_cost " COST ${ARG_COST}")
+  endif()
   file(WRITE ${_mfns_label_file}
-       "if(DEFINED ${name}_TESTS)\n  set_tests_properties(\${${name}_TESTS} PROPERTIES LABELS \"${ARG_LABELS}\")\nendif()\n")
+       "if(DEFINED ${name}_TESTS)\n  set_tests_properties(\${${name}_TESTS} PROPERTIES LABELS \"${ARG_LABELS}\"${_mfns_cost})\nendif()\n")
   set_property(DIRECTORY APPEND PROPERTY TEST_INCLUDE_FILES ${_mfns_label_file})
 endfunction()
 
