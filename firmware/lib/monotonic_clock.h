@@ -1,4 +1,5 @@
-// The flight software's one clock: CLOCK_MONOTONIC, in ns, and an absolute sleep on it.
+// The flight software's one clock: CLOCK_MONOTONIC, in ns, and an absolute sleep on it (and the
+// thread's CPU time, for measuring work).
 // Driver timestamps (V4L2, DESIGN.md) are on this clock, so every time the firmware compares
 // with them (publish time, deadlines, the trigger's pulse, a paced replay) reads it here.
 #pragma once
@@ -15,6 +16,15 @@ namespace mfns::fw {
 inline std::uint64_t MonotonicNs() {
   timespec ts{};
   clock_gettime(CLOCK_MONOTONIC, &ts);
+  return static_cast<std::uint64_t>(ts.tv_sec) * 1'000'000'000ull + static_cast<std::uint64_t>(ts.tv_nsec);
+}
+
+// CPU time the calling thread has used, in ns (CLOCK_THREAD_CPUTIME_ID): the cost of a piece of
+// work on one core, unaffected by other processes sharing the machine (tests and tools that
+// report it: mfns-sim navmatrix's Step times).
+inline std::uint64_t ThreadCpuNs() {
+  timespec ts{};
+  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
   return static_cast<std::uint64_t>(ts.tv_sec) * 1'000'000'000ull + static_cast<std::uint64_t>(ts.tv_nsec);
 }
 

@@ -236,7 +236,7 @@ class LostInSpace {
   bool NearPairTried(const Triple& tr, int a, int b) const;
   BeaconSet NearThirds(const Triple& tr, int a, int b) const;
   void Confirm(Candidate* c, const LisOptions& o, LisResult* result);
-  bool ExplainsAFourth(const BodyPose& pose, int t_i, int t_j, int t_k, float cos_sq) const;
+  bool ExplainsAFourth(const BodyPose& pose, int t_i, int t_j, int t_k, float cos_sq);
   enum class SearchEnd : unsigned char { kDone, kPaused, kBudgetOut };
   SearchEnd Search(int budget, LisResult* result);
   void TryTriple(int a, int b, int c, LisResult* result);
@@ -292,6 +292,11 @@ class LostInSpace {
   int num_anchors_ = 0;
   int anchors_per_triple_ = 0;
   std::array<BodyRay, limits::kMaxLisBlobs> rays_{};
+  // ExplainsAFourth's scratch: one camera's offsets to the beacons under the pose being scored.
+  struct CameraOffsets {
+    std::array<float, limits::kMaxBeacons> x{}, y{}, z{}, cos_sq_len_sq{};
+  };
+  std::array<CameraOffsets, limits::kMaxCameras> offsets_{};
   // feasible_[range][pair(i, j)][a]: bit b set when beacons (a, b) may be seen along rays (i, j)
   // (range 0: the full depth range, 1: the near one).
   static constexpr int kMaxPairs = limits::kMaxLisBlobs * (limits::kMaxLisBlobs - 1) / 2;
