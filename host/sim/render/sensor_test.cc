@@ -37,26 +37,35 @@ void ExpectMoments(const Moments& m, double mean, double variance, double n, con
   EXPECT_NEAR(m.variance, variance, k * variance * std::sqrt(2.0 / (n - 1))) << what;
 }
 
+// One sensor regime of the tests below.
+struct SensorCase {
+  double signal_e, gain, offset, read_e, full_well;
+  bool shot;
+  int bits;
+  SensorModel Model() const {
+    SensorModel s;
+    s.bit_depth = bits;
+    s.gain_dn_per_e = gain;
+    s.offset_dn = offset;
+    s.read_noise_e = read_e;
+    s.full_well_e = full_well;
+    s.shot_noise = shot;
+    return s;
+  }
+};
+
+constexpr double kInf = std::numeric_limits<double>::infinity();
+
 TEST(Sensor, FlatFieldMatchesThePhotonTransferModel) {
   // Three regimes of the model: Poisson + read noise (PTRS path, 16 bit), a faint field
   // (inversion path, 16 bit) and read noise only (8 bit). Expected DN variance is
   // g^2 (s + r^2) + 1/12 from rounding.
-  struct Case {
-    double signal_e, gain, offset, read_e;
-    bool shot;
-    int bits;
-  };
-  const Case cases[] = {{400.0, 2.0, 100.0, 3.0, true, 16},
-                        {3.5, 8.0, 50.0, 0.0, true, 16},
-                        {0.0, 1.0, 60.0, 4.0, false, 8}};
+  const SensorCase cases[] = {{400.0, 2.0, 100.0, 3.0, kInf, true, 16},
+                              {3.5, 8.0, 50.0, 0.0, kInf, true, 16},
+                              {0.0, 1.0, 60.0, 4.0, kInf, false, 8}};
   std::mt19937_64 rng(2024);
-  for (const Case& c : cases) {
-    SensorModel s;
-    s.bit_depth = c.bits;
-    s.gain_dn_per_e = c.gain;
-    s.offset_dn = c.offset;
-    s.read_noise_e = c.read_e;
-    s.shot_noise = c.shot;
+  for (const SensorCase& c : cases) {
+    const SensorModel s = c.Model();
     const cv::Mat signal(256, 256, CV_64FC1, cv::Scalar(c.signal_e));
     const cv::Mat image = ApplySensor(signal, s, &rng);
     ASSERT_EQ(image.type(), c.bits == 8 ? CV_8UC1 : CV_16UC1);
@@ -84,26 +93,15 @@ int ModelPixel(double signal_e, const SensorModel& s, PoissonSampler* poisson, N
 // pixel-by-pixel draws, and so is the frequency of the table's own draws. Closed forms where
 // they exist: read noise only (a rounded normal) and shot noise only at gain 1 (Poisson).
 TEST(Sensor, LevelDistributionIsTheModelsLaw) {
-  struct Case {
-    double signal_e, gain, offset, read_e, full_well;
-    bool shot;
-    int bits;
-  };
-  const double inf = std::numeric_limits<double>::infinity();
-  const Case cases[] = {{8.0, 1.0, 0.0, 2.0, inf, true, 8},     {150.0, 0.6, 3.2, 2.0, inf, true, 8},
-                        {0.3, 3.7, 10.0, 0.4, inf, true, 16},   {0.0, 1.0, 0.0, 2.0, inf, true, 8},
-                        {40.0, 2.0, 200.0, 1.0, 30.0, true, 8}, {6.0, 1.0, 0.0, 0.0, inf, true, 16},
-                        {2.5, 1.3, 1.0, 1.5, inf, false, 8},    {3000.0, 0.05, 20.0, 5.0, inf, true, 16}};
+  const double inf = kInf;
+  const SensorCase cases[] = {{8.0, 1.0, 0.0, 2.0, inf, true, 8},     {150.0, 0.6, 3.2, 2.0, inf, true, 8},
+                              {0.3, 3.7, 10.0, 0.4, inf, true, 16},   {0.0, 1.0, 0.0, 2.0, inf, true, 8},
+                              {40.0, 2.0, 200.0, 1.0, 30.0, true, 8}, {6.0, 1.0, 0.0, 0.0, inf, true, 16},
+                              {2.5, 1.3, 1.0, 1.5, inf, false, 8},    {3000.0, 0.05, 20.0, 5.0, inf, true, 16}};
   constexpr int kDraws = 200000;
   std::mt19937_64 rng(7);
-  for (const Case& c : cases) {
-    SensorModel s;
-    s.bit_depth = c.bits;
-    s.gain_dn_per_e = c.gain;
-    s.offset_dn = c.offset;
-    s.read_noise_e = c.read_e;
-    s.full_well_e = c.full_well;
-    s.shot_noise = c.shot;
+  for (const SensorCase& c : cases) {
+    const SensorModel s = c.Model();
     const LevelDistribution law(c.signal_e, s);
     ASSERT_TRUE(law.Ok()) << c.signal_e;
     std::map<int, int> model, table;
