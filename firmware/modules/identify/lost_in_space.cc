@@ -10,6 +10,14 @@
 namespace mfns::fw {
 namespace {
 
+// LisResult::cost, in units of one same-camera P3P hypothesis (0.62 us on the host). A least-
+// squares fit of whole frame sets' CPU time over the acquisition matrix's 1878 searching frame
+// sets (docs/acquisition.md, session 17: 0.74 us per 1000 beacons x blobs of a fourth-blob
+// test, 7.0 us per 100 beacons of a full reprojection, 8.6 us per refinement; rms 0.63 ms).
+constexpr double kCostFourthPerBeaconBlob = 1.2e-3;
+constexpr double kCostReprojectionPerBeacon = 0.113;
+constexpr double kCostRefine = 14.0;
+
 constexpr int PairIndex(int i, int j) { return j * (j - 1) / 2 + i; }  // i < j
 
 // The same identities.
@@ -61,6 +69,7 @@ bool LisOptions::IsValid(const char** why) const {
   const char* sub = nullptr;
   if (!p.IsValid(&sub)) bad = sub;
   else if (max_hypotheses < 1 || max_hypotheses > limits::kMaxLisHypotheses) bad = "max_hypotheses";
+  else if (!(max_cost > 0.0)) bad = "max_cost";
   else if (cross_camera_work < 1 || cross_camera_work > 8) bad = "cross_camera_work";
   else if (max_blobs < 3 || max_blobs > limits::kMaxLisBlobs) bad = "max_blobs";
   else if (!hypothesis_match.IsValid()) bad = "hypothesis_match";
@@ -309,12 +318,14 @@ void LostInSpace::Score(const BodyPose& pose, const LisOptions& o, LisResult* re
   ++result->poses_scored;
   // In a large map a three-beacon pose is never a fix and its exact twins are too many to
   // follow: a pose that explains no fourth blob is not worth the full reprojection.
-  if (!PosePrior() && rig_->num_beacons >= o.fourth_blob_min_beacons &&
-      !ExplainsAFourth(pose, cur_i_, cur_j_, cur_k_, fourth_cos_sq_))
-    return;
+  const double nb = rig_->num_beacons;
+  const bool fourth_test = !PosePrior() && rig_->num_beacons >= o.fourth_blob_min_beacons;
+  if (fourth_test) result->cost += kCostFourthPerBeaconBlob * nb * num_sel_;
+  if (fourth_test && !ExplainsAFourth(pose, cur_i_, cur_j_, cur_k_, fourth_cos_sq_)) return;
   // Under a prior no fourth-blob test filters the poses: their full reprojection is work the
   // budget counts (a frame set's time would otherwise grow with the map; seen: 22 ms).
   if (PosePrior()) ++result->work;
+  result->cost += kCostReprojectionPerBeacon * nb;
   matcher_.MatchPose(pose, o.hypothesis_match, &match_scratch_);
   // Too few beacons, or refuted even allowing for the raw pose's error at the margins.
   if (match_scratch_.num_beacons < o.min_beacons || match_scratch_.num_missing > o.max_missing + 1) return;
@@ -323,6 +334,7 @@ void LostInSpace::Score(const BodyPose& pose, const LisOptions& o, LisResult* re
   scratch_.set.CopyFrom(match_scratch_);
   scratch_.score = scratch_.set.Score(o.miss_weight);
   if (o.confirm_beacons > 0 && scratch_.set.num_beacons >= o.confirm_beacons && scratch_.set.num_missing == 0) {
+    result->cost += kCostRefine;
     if (!Refine(&scratch_, o)) return;
     Confirm(&scratch_, o, result);
   }
@@ -506,8 +518,9 @@ void LostInSpace::OrderItems(bool near_pass) {
 // Visits blob triples and their feasible beacon triples from the cursor on; at most `budget`
 // work units (LisResult::work) in this call, o.max_hypotheses in the whole search. The cursor names the
 // next hypothesis, so that a paused search resumes exactly where it stopped.
-LostInSpace::SearchEnd LostInSpace::Search(int budget, LisResult* res) {
+LostInSpace::SearchEnd LostInSpace::Search(int budget, double cost_budget, LisResult* res) {
   const int work_before = res->work;
+  const double cost_before = res->cost;
   const int nb = rig_->num_beacons;
   for (; cur_.item < num_items_; ++cur_.item, cur_.a = 0, cur_.b = cur_.c = -1, cur_.ready = false) {
     const Item& item = items_[static_cast<std::size_t>(cur_.item)];
@@ -538,9 +551,10 @@ LostInSpace::SearchEnd LostInSpace::Search(int budget, LisResult* res) {
         if (skip_near && NearPairTried(tr, a, b)) cs = cs.Minus(NearThirds(tr, a, b));
         for (int c = cur_.c < 0 ? cs.First() : cur_.c; c >= 0; c = cs.Next(c + 1)) {
           cur_.c = c;
-          if (res->work >= options_.max_hypotheses) return SearchEnd::kBudgetOut;
-          if (res->work - work_before >= budget) return SearchEnd::kPaused;
+          if (res->work >= options_.max_hypotheses || res->cost >= options_.max_cost) return SearchEnd::kBudgetOut;
+          if (res->work - work_before >= budget || res->cost - cost_before >= cost_budget) return SearchEnd::kPaused;
           res->work += unit;
+          res->cost += unit;
           ++res->hypotheses;
           TryTriple(a, b, c, res);
           if (res->confirmed) return SearchEnd::kDone;
@@ -650,6 +664,7 @@ LisStatus LostInSpace::Begin(const BlobObs* blobs, int num_blobs, const LisOptio
   res.best_score = 0.0;
   res.second_score = -std::numeric_limits<double>::infinity();
   res.hypotheses = res.work = res.poses_scored = res.blob_triples = 0;
+  res.cost = 0.0;
   res.false_alarms = 0.0;
   res.search_complete = res.confirmed = false;
   res.complete = false;
@@ -707,9 +722,9 @@ LisStatus LostInSpace::Begin(const BlobObs* blobs, int num_blobs, const LisOptio
   return res.status = LisStatus::kSearching;
 }
 
-LisStatus LostInSpace::Continue(int budget, LisResult* result) {
+LisStatus LostInSpace::Continue(int budget, LisResult* result, double cost_budget) {
   if (!searching_) return result->status;
-  const SearchEnd end = Search(std::max(1, budget), result);
+  const SearchEnd end = Search(std::max(1, budget), cost_budget, result);
   if (end == SearchEnd::kPaused) return result->status = LisStatus::kSearching;
   searching_ = false;
   return Decide(end == SearchEnd::kBudgetOut, options_, result);
@@ -724,6 +739,7 @@ LisStatus LostInSpace::Decide(bool budget_out, const LisOptions& o, LisResult* r
   int kept = 0;
   for (int i = 0; i < num_cand_; ++i) {
     Candidate& c = cand_[static_cast<std::size_t>(i)];
+    if (!c.refined) res.cost += kCostRefine;
     if (!c.refined && !Refine(&c, o)) continue;
     if (c.set.num_missing > o.max_missing || !NearPrior(c.pose, 0.0, 0.0) || !KeepsAnchors(c, o)) continue;
     bool merged = false;

@@ -50,6 +50,7 @@
 #pragma once
 
 #include <array>
+#include <limits>
 #include <cstdint>
 
 #include "common/limits.h"
@@ -80,6 +81,8 @@ struct LisOptions {
                                   // steps: half the cost of 128 for a cross-camera triple, and
                                   // the same root misses (2-5 in 20000 random triples to 8 m)
   int max_hypotheses = limits::kMaxLisHypotheses;  // work units per search (LisResult::work), 1..limit
+  // CPU cost per search (LisResult::cost), > 0; infinity: none. The tracker's time budget.
+  double max_cost = std::numeric_limits<double>::infinity();
   int max_blobs = limits::kMaxLisBlobs;            // blobs used for triples, 3..limit
   // Work units of a hypothesis on a cross-camera blob triple: its solve scans the depth of
   // one ray where a same-camera triple's is closed-form (measured ~2.2x the time per
@@ -132,6 +135,11 @@ struct LisResult {
   int work = 0;                   // budget units spent: P3P solves (cross_camera_work each on a
                                   // cross-camera triple), plus under a prior one per
                                   // pose fully reprojected (no fourth-blob test there)
+  // The search's CPU cost in units of one same-camera P3P hypothesis (~0.6 us on the host):
+  // its hypotheses' work, each scored pose's fourth-blob test (beacons x blobs), each full
+  // reprojection (beacons) and refinement, by a model fitted to the measured time of whole
+  // frame sets (docs/acquisition.md, session 17). Deterministic: no clock is read.
+  double cost = 0.0;
   double false_alarms = 0.0;      // FalseAlarms of the confirmed pose (confirmed only)
   int poses_scored = 0;           // P3P solutions scored
   int blob_triples = 0;           // blob triples visited
@@ -213,7 +221,9 @@ class LostInSpace {
   LisStatus Begin(const BlobObs* blobs, int num_blobs, const LisOptions& options, LisResult* result,
                   const LisPrior* prior = nullptr, std::uint32_t cameras = kAllCameras,
                   const std::uint8_t* steady = nullptr);
-  LisStatus Continue(int budget, LisResult* result);
+  // cost_budget: this call also pauses once it has spent that much LisResult::cost.
+  LisStatus Continue(int budget, LisResult* result,
+                     double cost_budget = std::numeric_limits<double>::infinity());
   bool searching() const { return searching_; }
 
  private:
@@ -238,7 +248,7 @@ class LostInSpace {
   void Confirm(Candidate* c, const LisOptions& o, LisResult* result);
   bool ExplainsAFourth(const BodyPose& pose, int t_i, int t_j, int t_k, float cos_sq);
   enum class SearchEnd : unsigned char { kDone, kPaused, kBudgetOut };
-  SearchEnd Search(int budget, LisResult* result);
+  SearchEnd Search(int budget, double cost_budget, LisResult* result);
   void TryTriple(int a, int b, int c, LisResult* result);
   void SetRange(bool near);
   void Score(const BodyPose& pose, const LisOptions& o, LisResult* result);

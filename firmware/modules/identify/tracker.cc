@@ -759,7 +759,7 @@ LisStatus Tracker::RunLis(const BlobObs* blobs, int num_blobs, const LisPrior* p
   // as cheap as it always was there.
   if (rig_->num_beacons < o.lis.fourth_blob_min_beacons)
     return lis_.Identify(blobs, num_blobs, o.lis, &lis_res_, prior, cameras_, steady_);
-  if (lis_budget_left_ <= 0) {
+  if (lis_budget_left_ <= 0.0) {
     lis_res_.status = LisStatus::kBudgetExhausted;
     lis_res_.complete = false;
     lis_res_.confirmed = false;
@@ -767,18 +767,10 @@ LisStatus Tracker::RunLis(const BlobObs* blobs, int num_blobs, const LisPrior* p
     return lis_res_.status;
   }
   LisOptions lo = o.lis;
-  lo.max_hypotheses = std::min(HypothesesLeft(), lo.max_hypotheses);
+  lo.max_cost = lis_budget_left_;
   const LisStatus s = lis_.Identify(blobs, num_blobs, lo, &lis_res_, prior, cameras_, steady_);
-  Charge(lis_res_.work);
+  Charge(lis_res_.cost);
   return s;
-}
-
-// A hypothesis (a P3P solve and the scoring of its solutions) costs one unit in a map with
-// facing data, whatever its size (the facing check and the fourth-blob test keep the scoring
-// small); without facing every beacon in front of a camera is reprojected: 1 + beacons / 150
-// units (measured: ~5 us with facing; 8, 10 and 13.6 us without, at 64, 128 and 256 beacons).
-double Tracker::HypothesisUnits() const {
-  return rig_->has_facing ? 1.0 : 1.0 + rig_->num_beacons / 150.0;
 }
 
 // The blob tracks' gates: a new blob may continue one that moved at the body's largest rate
@@ -791,13 +783,8 @@ BlobTrackOptions Tracker::BlobTrackOptionsOf(const TrackOptions& o) const {
   return b;
 }
 
-int Tracker::HypothesesLeft() const {
-  return std::max(1, static_cast<int>(lis_budget_left_ / HypothesisUnits()));
-}
-
-void Tracker::Charge(int hypotheses) {
-  lis_budget_left_ -= static_cast<int>(std::ceil(std::max(1, hypotheses) * HypothesisUnits()));
-}
+// At least one unit per search, so that a frame set's searches always end.
+void Tracker::Charge(double cost) { lis_budget_left_ -= std::max(1.0, cost); }
 
 // Lost-in-space with no prior, spread over frame sets (LostInSpace::Begin/Continue): a search
 // begun on an earlier frame set goes on with this frame set's budget until it ends or grows
@@ -817,9 +804,9 @@ LisStatus Tracker::ColdSearch(const BlobObs* blobs, int num_blobs, std::uint64_t
     if (s != LisStatus::kSearching) return s;
   }
   *old = cold_t_ns_ != t_ns;
-  const int before = lis_res_.work;
-  const LisStatus s = lis_.Continue(HypothesesLeft(), &lis_res_);
-  Charge(lis_res_.work - before);
+  const double before = lis_res_.cost;
+  const LisStatus s = lis_.Continue(limits::kMaxLisHypotheses, &lis_res_, std::max(1.0, lis_budget_left_));
+  Charge(lis_res_.cost - before);
   return s;
 }
 

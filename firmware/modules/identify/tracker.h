@@ -174,13 +174,12 @@ struct TrackOptions {
   double chain_slack_rad = 0.02;
   int min_acquire_frames = 3;        // frame sets an unseeded acquisition must last (>= 2)
   // In maps of >= lis.fourth_blob_min_beacons beacons (smaller maps search each frame set
-  // completely, as their acquisition needs): P3P hypotheses of every lost-in-space search of
-  // one frame set together, in units of a hypothesis (solve and scoring) in a map with facing
-  // data, about 5 us on the host whatever the map's size (without facing data a hypothesis
-  // costs more units, growing with the map: Tracker::HypothesisUnits): ~12.5 ms, so that the
+  // completely, as their acquisition needs): the CPU cost (LisResult::cost: one unit per
+  // same-camera P3P hypothesis, ~0.6 us on the host, and the scoring by map size and blob
+  // count) of every lost-in-space search of one frame set together: ~10 ms, so that the
   // host's frame set stays under 15 ms and the 53.8 ms deadline of 18.6 Hz holds on a board a
   // few times slower. A cut search is never a guess (kBudgetExhausted).
-  int lis_budget_per_frame = 2500;
+  int lis_budget_per_frame = 8000;
   // With nothing to follow in a map of >= lis.fourth_blob_min_beacons beacons, one
   // lost-in-space search goes on over the frame sets of this span (each with its budget)
   // before it starts again on a newer one; a confirmed fix of the older frame set then seeds
@@ -370,9 +369,7 @@ class Tracker {
   void CountOutcome(const TrackResult& r);  // by status and reason
   // Lost-in-space within the frame set's budget (lis_budget_per_frame).
   LisStatus RunLis(const BlobObs* blobs, int num_blobs, const LisPrior* prior, const TrackOptions& o);
-  double HypothesisUnits() const;  // budget units of one hypothesis in this map
-  int HypothesesLeft() const;  // of this frame set's budget (lis_budget_per_frame), >= 1
-  void Charge(int hypotheses);
+  void Charge(double cost);
   LisStatus ColdSearch(const BlobObs* blobs, int num_blobs, std::uint64_t t_ns, const TrackOptions& o, bool* old);
   BlobTrackOptions BlobTrackOptionsOf(const TrackOptions& o) const;
 
@@ -406,7 +403,7 @@ class Tracker {
   static constexpr int kMaxAnchors = 5;
   std::array<LisAnchor, kMaxAnchors> anchors_{};  // continuing blobs as anchors (AnchorContinuingBlobs)
   int cold_steady_ = 0;  // steady blobs when the cold search in progress began
-  int lis_budget_left_ = 0;  // work units left to this frame set
+  double lis_budget_left_ = 0.0;  // LisResult::cost left to this frame set
   std::uint64_t cold_t_ns_ = 0;  // the frame set of the cold search in progress
   MatchSet set_;
   // Tracking's trials of ambiguous beacons: the unambiguous matches, the ambiguous beacons,
