@@ -19,7 +19,8 @@ struct PaperCamera {
   double r_mm[3], sigma_r_mm[3];
 };
 
-// Tables 2 and 3 (paper-tables.yaml: table2_intrinsics, table3_extrinsics).
+// Tables 2 and 3 (reference/paper-tables.yaml: table2_intrinsics, table3_extrinsics; checked
+// against the file by PaperNumbers.PaperRigIsTables2To4 in host/report).
 constexpr PaperCamera kCameras[] = {
     {"x", 1599.26136, 1599.93302, 632.61591, 522.17870, {-0.13013, 0.28701, -0.00040, -0.00004, 0.0},
      1.78966, 1.64101, 1.62023, 1.61823, {0.00336, 0.02243, 0.00029, 0.00031, 0.0},

@@ -1,7 +1,7 @@
 // The paper's Table 5 (navigation on the turntable about Zt, Newton iteration, beacons matched
 // by hand) as published: reference/paper-tables.yaml, table5_navigation. Table 3's sigma
 // lives with the rest of the published rig in common/rig/paper_rig.h. paper_numbers_test
-// checks these against the YAML when shared/reference is beside the repository.
+// checks both against the YAML.
 #pragma once
 
 #include <array>
