@@ -489,6 +489,62 @@ TEST(LostInSpaceTest, SteadyMarksLeaveACompleteSearchAlone) {
 // ends within the tracker's 2500 hypotheses where the plain one is cut, and its complete list
 // holds the truth. With four anchors of which one is wrong (a track that hopped onto a spurious
 // blob), the truth still keeps three and is listed.
+// LisResult::cost bounds a search (LisOptions::max_cost: cut, never a fix it did not confirm)
+// and one call (Continue's cost_budget: paused), overshooting by at most one hypothesis (its
+// P3P roots each scored, reprojected and refined) plus the refinement of the kept poses when it
+// ends; a search paused by cost, then continued, ends exactly where an uncut one does.
+TEST(LostInSpaceTest, CostCapsTheSearchAndResumesExactly) {
+  std::mt19937_64 rng(1717);
+  const Rig* cylinder = ResetOnCylinder(256, &rng);
+  ASSERT_NE(cylinder, nullptr);
+  const Rig& rig = *cylinder;
+  const double nb = rig.num_beacons;
+  const double per_hypothesis = 2.0 + 4.0 * (1.2e-3 * nb * limits::kMaxLisBlobs + 0.113 * nb + 14.0);
+  const double decide = 14.0 * limits::kMaxLisCandidates;
+  int cases = 0, paused_calls = 0;
+  for (int trial = 0; trial < 2000 && cases < testing::Trials(12, 6); ++trial) {
+    testing::Observe(rig, testing::RandomCylinderPose(&rng), 0.1, &rng, &g_scene);
+    if (g_scene.NumVisibleBeacons() < 3) continue;
+    testing::AddSpurious(rig, 6, &rng, &g_scene);
+    ++cases;
+    const LisOptions uncut;
+    const LisStatus full_status = g_lis.Identify(g_scene.blobs.data(), g_scene.num_blobs, uncut, &g_res);
+    const double full_cost = g_res.cost;
+    const int full_hypotheses = g_res.hypotheses;
+    const BodyPose full_pose = g_res.pose;
+    ASSERT_GT(full_cost, 100.0) << "case " << cases;
+    // A cap at half the whole search's cost cuts it there.
+    LisOptions capped;
+    capped.max_cost = 0.5 * full_cost;
+    const LisStatus cut = g_lis.Identify(g_scene.blobs.data(), g_scene.num_blobs, capped, &g_res);
+    EXPECT_NE(cut, LisStatus::kFix) << "case " << cases;
+    EXPECT_FALSE(g_res.complete) << "case " << cases;
+    EXPECT_LT(g_res.hypotheses, full_hypotheses) << "case " << cases;
+    EXPECT_GE(g_res.cost, capped.max_cost) << "case " << cases;
+    EXPECT_LE(g_res.cost, capped.max_cost + per_hypothesis + decide) << "case " << cases;
+    // Calls of a tenth of the cost each: every paused call within its budget plus one
+    // hypothesis, and the same end as the uncut search.
+    const double slice = 0.1 * full_cost;
+    LisStatus st = g_lis.Begin(g_scene.blobs.data(), g_scene.num_blobs, uncut, &g_res);
+    for (int call = 0; call < 40 && st == LisStatus::kSearching; ++call) {
+      const double before = g_res.cost;
+      st = g_lis.Continue(limits::kMaxLisHypotheses, &g_res, slice);
+      if (st != LisStatus::kSearching) break;
+      ++paused_calls;
+      EXPECT_GE(g_res.cost - before, slice) << "case " << cases;
+      EXPECT_LE(g_res.cost - before, slice + per_hypothesis) << "case " << cases;
+    }
+    EXPECT_EQ(st, full_status) << "case " << cases;
+    EXPECT_EQ(g_res.hypotheses, full_hypotheses) << "case " << cases;
+    EXPECT_NEAR(g_res.cost, full_cost, 1e-6 * full_cost) << "case " << cases;
+    if (st == LisStatus::kFix) {
+      EXPECT_LT((g_res.pose.r_w_wb - full_pose.r_w_wb).norm(), 1e-9) << "case " << cases;
+    }
+  }
+  ASSERT_GE(cases, testing::Trials(12, 6));
+  EXPECT_GE(paused_calls, cases * 5);  // most searches took several calls
+}
+
 TEST(LostInSpaceTest, AnchorsKeepTheSearchSmallAndTheTruth) {
   std::mt19937_64 rng(1301);
   const Rig* cylinder = ResetOnCylinder(128, &rng);
