@@ -15,6 +15,14 @@ PoseFilterNoise PoseFilterNoiseOf(const MotionLimits& lim) {
   return n;
 }
 
+namespace {
+Matrix6d DiagonalCov(double sigma_m, double sigma_rad) {
+  Matrix6d P = Matrix6d::Zero();
+  P.diagonal() << Eigen::Vector3d::Constant(sigma_m * sigma_m), Eigen::Vector3d::Constant(sigma_rad * sigma_rad);
+  return P;
+}
+}  // namespace
+
 void MotionModel::Forget() {
   filter_.Forget();
   filter_pending_ = false;
@@ -30,6 +38,7 @@ void MotionModel::Start(const BodyPose& pose, std::uint64_t t_ns, double sigma_m
   last_sigma_m_ = std::isfinite(sigma_m) ? std::max(0.0, sigma_m) : 0.0;
   last_sigma_rad_ = std::isfinite(sigma_rad) ? std::max(0.0, sigma_rad) : 0.0;
   last_map_sigma_m_ = last_map_sigma_rad_ = 0.0;
+  last_cov_ = DiagonalCov(last_sigma_m_, last_sigma_rad_);
   hist_n_ = last_sigma_m_ == 0.0 && last_sigma_rad_ == 0.0 ? 1 : 0;
   hist_[0] = pose;
   hist_t_ns_[0] = t_ns;
@@ -75,6 +84,8 @@ void MotionModel::Add(const BodyPose& pose, std::uint64_t t_ns, double sigma_m, 
   last_t_ns_ = t_ns;
   last_sigma_m_ = sigma_m;
   last_sigma_rad_ = sigma_rad;
+  last_cov_ = DiagonalCov(sigma_m, sigma_rad);
+  if (cov != nullptr) last_cov_ = *cov;
   last_map_sigma_m_ = map_ratio * last_sigma_m_;
   last_map_sigma_rad_ = map_ratio * last_sigma_rad_;
 }
@@ -106,7 +117,7 @@ BodyPose MotionModel::Predict(std::uint64_t t_ns) const {
 }
 
 PoseBounds MotionModel::Bounds(double since_s, const MotionLimits& lim) const {
-  const double lead = has_velocity_ ? 1.0 + since_s / velocity_baseline_s_ : 1.0;
+  const double lead = Lead(since_s);
   PoseBounds b;
   b.max_m = lim.slack_m + lim.sigmas * last_sigma_m_ * lead;
   b.max_rad = lim.slack_rad + lim.sigmas * last_sigma_rad_ * lead;

@@ -78,6 +78,12 @@ class MotionModel {
   // see the same beacons.
   double last_map_sigma_m() const { return last_map_sigma_m_; }
   double last_map_sigma_rad() const { return last_map_sigma_rad_; }
+  // The last pose's 6x6 covariance for the centroid noise (PoseDelta order; Add's cov, else
+  // its 1-sigmas on the diagonal).
+  const Matrix6d& last_cov() const { return last_cov_; }
+  // How much the last pose's error grows by since_s: the velocity's lever (1 + since_s over
+  // its baseline), 1 without a velocity (Bounds counts the 1-sigma this many times).
+  double Lead(double since_s) const { return has_velocity_ ? 1.0 + since_s / velocity_baseline_s_ : 1.0; }
 
   // The pose at t_ns: constant velocity from the last pose, or the last pose held.
   BodyPose Predict(std::uint64_t t_ns) const;
@@ -101,6 +107,7 @@ class MotionModel {
   std::uint64_t last_t_ns_ = 0;
   double last_sigma_m_ = 0.0, last_sigma_rad_ = 0.0;          // centroid noise
   double last_map_sigma_m_ = 0.0, last_map_sigma_rad_ = 0.0;  // map error
+  Matrix6d last_cov_ = Matrix6d::Zero();                      // centroid noise
   double velocity_baseline_s_ = 1.0;                          // span the velocity was taken over
   Eigen::Vector3d v_w_ = Eigen::Vector3d::Zero();      // m/s, world
   Eigen::Vector3d omega_b_ = Eigen::Vector3d::Zero();  // rad/s, body

@@ -34,6 +34,8 @@ bool TrackOptions::IsValid(const char** why) const {
   else if (!positive(gate_depth_m)) bad = "gate_depth_m";
   else if (!positive(steady_gate_px) || !(steady_gate_fraction >= 0.0) || !std::isfinite(steady_gate_fraction))
     bad = "steady_gate_px / steady_gate_fraction";
+  else if (steady_pose_frames != 0 && steady_pose_frames <= BlobTrackOptions{}.steady_age)
+    bad = "steady_pose_frames";
   else if (!positive(max_seed_s)) bad = "max_seed_s";
   else if (fix_min_beacons < 3) bad = "fix_min_beacons";
   else if (!positive(degraded_rms_px)) bad = "degraded_rms_px";
@@ -47,6 +49,7 @@ bool TrackOptions::IsValid(const char** why) const {
   else if (!(chain_slack_m >= 0.0) || !(chain_slack_rad >= 0.0)) bad = "chain_slack";
   else if (min_acquire_frames < 2) bad = "min_acquire_frames";
   else if (lis_fix_min_beacons < 3) bad = "lis_fix_min_beacons";
+  else if (!(residual_test_sigmas >= 0.0) || !std::isfinite(residual_test_sigmas)) bad = "residual_test_sigmas";
   else if (lis_budget_per_frame < 1) bad = "lis_budget_per_frame";
   else if (!positive(chain_stale_s)) bad = "chain_stale_s";
   else if (!(cold_search_s >= 0.0) || !std::isfinite(cold_search_s)) bad = "cold_search_s";

@@ -72,6 +72,8 @@ bool Tracker::Reset(const Rig& rig) {
   rig_ = nullptr;
   prev_num_blobs_ = -1;
   has_pose_ = false;
+  last_fix_ = false;
+  steady_run_ = 0;
   motion_.Forget();
   acquisition_.Clear();
   counters_ = TrackCounters{};
@@ -87,6 +89,7 @@ bool Tracker::Reset(const Rig& rig) {
 void Tracker::SetPose(const BodyPose& pose, std::uint64_t t_ns, double sigma_m, double sigma_rad) {
   prev_num_blobs_ = -1;
   has_pose_ = true;
+  last_fix_ = false;  // its 1-sigma alone: the pose-space gate
   motion_.Start(pose, t_ns, sigma_m, sigma_rad);
   acquisition_.Clear();
 }
@@ -157,16 +160,11 @@ bool Tracker::NearbyTwin(const TwinRegion& region, const TrackOptions& o, const 
 bool Tracker::TrackPredicted(std::uint64_t t_ns, double since_s, const TrackOptions& o, TrackResult* r) {
   const BodyPose predicted = motion_.Predict(t_ns);
   const PoseBounds bounds = motion_.Bounds(since_s, limits_.motion);
-  const double px = noise_.px_per_rad;
-  double gate = (motion_.has_velocity() ? o.gate_px : o.hold_gate_px) +
-                px * ((bounds.max_rad - o.innovation_rad) + (bounds.max_m - o.innovation_m) / o.gate_depth_m);
+  double gate = 0.0, gate_with_map = 0.0;
+  PredictionGatePx(predicted, since_s, o, &gate, &gate_with_map);
   bool refuted = false;
   if (gate <= o.max_gate_px) {
-    // The map's error moves the last pose by its map-error 1-sigma (a bias the frame sets that
-    // see the same beacons share): a beacon entering the view lands that much off its prediction
-    // (seen: 20 px after three-beacon poses of a 0.4 mm survey). Widened up to max_gate_px.
-    const double map_rad = motion_.last_map_sigma_rad(), map_m = motion_.last_map_sigma_m();
-    gate = std::min(o.max_gate_px, gate + o.gate_sigmas * px * (map_rad + map_m / o.gate_depth_m));
+    gate = std::min(o.max_gate_px, gate_with_map);
     // A beacon predicted well inside an image (by more than the gate) with no blob in its
     // gate refutes the prediction (a kidnapped body, a wrong track).
     matcher_.MatchPose(predicted, MatchOptions{gate, o.miss_margin_px + gate, false}, &set_);
@@ -213,6 +211,7 @@ bool Tracker::TrackFrom(const BodyPose& predicted, const PoseBounds& bounds, dou
   const int n = std::min(ambiguous_.num, o.max_ambiguous_tried);
   if (n > 0) ++counters_.ambiguous_tried;
   int tried = 0, refutations = 0, consistent = 0, competitors = 0;
+  bool best_steady = false;
   for (std::uint32_t choice = 0; choice < (1U << n); ++choice) {
     if (!ChooseAmbiguous(choice, n) || set_.num_beacons < 3) continue;
     ++tried;
@@ -227,11 +226,21 @@ bool Tracker::TrackFrom(const BodyPose& predicted, const PoseBounds& bounds, dou
         Trial{trial_.pose, trial_.matches.num_beacons, trial_.solve.cost, choice,
               trial_.solve.has_covariance ? trial_.solve.covariance : Matrix6d::Zero()};
     if (!ok) continue;
+    // Among trials that explain as many beacons about as well (three beacons fit exactly), one on
+    // steady blobs beats one resting on a blob that continues no image track (a reflection
+    // flickering beside its beacon); then the smaller residual.
     const int nb = trial_.matches.num_beacons;
-    const bool better = consistent == 0 || nb > r->matches.num_beacons ||
-                        (nb == r->matches.num_beacons && trial_.solve.rms_px < r->solve.rms_px);
+    const bool steady = OnSteadyBlobs(trial_.matches);
+    const bool alike = consistent > 0 && nb == r->matches.num_beacons &&
+                       std::abs(trial_.solve.cost - r->solve.cost) * 2.0 <= o.ambiguity_chi2 * noise_.ResidualVariancePx2();
+    bool better = false;
+    if (consistent == 0 || nb > r->matches.num_beacons) better = true;
+    else if (nb < r->matches.num_beacons) better = false;
+    else if (alike && steady != best_steady) better = steady;
+    else better = trial_.solve.rms_px < r->solve.rms_px;
     ++consistent;
     if (better) {
+      best_steady = steady;
       r->pose = trial_.pose;
       r->matches = trial_.matches;
       r->solve = trial_.solve;
@@ -303,7 +312,9 @@ void Tracker::ContinueTracks(const TrackOptions& o) {
     const std::uint32_t id = BeaconTrack(a.camera, a.beacon);
     // `own` continues the beacon's track and `other` is new.
     const auto continues = [&](int own, int other) {
-      return id != 0 && blob_tracks_.id(own) == id && blob_tracks_.steady(own) && blob_tracks_.age(other) == 1;
+      const bool known = (id != 0 && blob_tracks_.id(own) == id) ||
+                         (keep_acquired_blobs_ && acquired_matches_.BeaconOfBlob(own) == a.beacon);
+      return known && blob_tracks_.steady(own) && blob_tracks_.age(other) == 1;
     };
     const int blob = continues(a.blob_near, a.blob_far) ? a.blob_near : continues(a.blob_far, a.blob_near) ? a.blob_far : -1;
     if (blob >= 0 && base_.Add(Match{blob, a.beacon, a.camera})) {
@@ -500,6 +511,73 @@ bool Tracker::DecideByMotion(const BodyPose& predicted, const PoseBounds& bounds
          (r->pose.r_w_wb - chosen.pose.r_w_wb).norm() <= tol_m;
 }
 
+// The tracking gate (px) around every predicted beacon: the base gate (gate_px with a velocity,
+// hold_gate_px without), the motion since the last pose beyond its slack (the acceleration or
+// speed bounds, as the image motion of a beacon at gate_depth_m), and gate_sigmas of the last
+// pose's error. *gate counts the centroid noise's share, *with_map also the map's error (a bias
+// the frame sets that see the same beacons share: a beacon entering the view lands that much
+// off; seen: 20 px after three-beacon poses of a 0.4 mm survey).
+// The pose's error is projected into the images at the prediction (its covariance grown by the
+// velocity's lead; the largest over the beacons predicted in the delivered cameras) when the
+// last pose was a fix on four beacons or more and is recent (within velocity_window_s): then
+// its linearised covariance holds, and it moves the beacons the pose was solved from by about
+// the centroid noise, where a position error seen at gate_depth_m plus an independent attitude
+// error counts the pose's correlated errors twice and the beacons' range as the nearest
+// possible (a narrower gate holds fewer reflections beside beacons: with it the acquisition
+// matrix's 64-beacon box posed 94.5 % of its frame sets after the first fix, 94.1 % without,
+// and on unseen seeds one wrong degraded pose less; docs/acquisition.md, session 18).
+// Otherwise it counts as a position error seen at gate_depth_m plus an attitude error, and a
+// wide gate sends the frame set to re-identification (lost-in-space near the prediction, every consistent pose listed), which
+// three-beacon tracking in a narrow gate would bypass: a degraded pose's covariance may lie
+// (near the P3P's degenerate configurations, seen 37 mm off at 17 of its 1-sigma), and a
+// spurious blob in a narrow gate fits three beacons exactly (seen: 56 mm and 2.4 deg off after
+// 0.4 s with two beacons; 56 mm and 1.7 deg off one frame set after a three-beacon fix 7 mm
+// uncertain, on the matrix's unseen seeds).
+void Tracker::PredictionGatePx(const BodyPose& predicted, double since_s, const TrackOptions& o, double* gate,
+                               double* with_map) const {
+  const double px = noise_.px_per_rad;
+  const double base = motion_.has_velocity() ? o.gate_px : o.hold_gate_px;
+  if (!o.projected_gate || !last_fix_ || since_s > o.velocity_window_s) {
+    const PoseBounds b = motion_.Bounds(since_s, limits_.motion);
+    *gate = base + px * ((b.max_rad - o.innovation_rad) + (b.max_m - o.innovation_m) / o.gate_depth_m);
+    const double map_rad = motion_.last_map_sigma_rad(), map_m = motion_.last_map_sigma_m();
+    *with_map = *gate + o.gate_sigmas * px * (map_rad + map_m / o.gate_depth_m);
+    return;
+  }
+  MotionLimits motion_only = limits_.motion;
+  motion_only.sigmas = 0.0;
+  const PoseBounds m = motion_.Bounds(since_s, motion_only);
+  const double motion_px = base + px * ((m.max_rad - o.innovation_rad) + (m.max_m - o.innovation_m) / o.gate_depth_m);
+  const double image_sigma = ImageSigmaPx(predicted, motion_.last_cov());
+  const double lead = motion_.Lead(since_s), ratio = noise_.MapToCentroidRatio();
+  *gate = motion_px + o.gate_sigmas * lead * image_sigma;
+  *with_map = motion_px + o.gate_sigmas * std::sqrt(lead * lead + ratio * ratio) * image_sigma;
+}
+
+// The largest image 1-sigma (px, the larger axis) that a pose error of covariance cov
+// (PoseDelta order) gives a beacon predicted in a delivered camera's image at `pose`.
+double Tracker::ImageSigmaPx(const BodyPose& pose, const Matrix6d& cov) const {
+  double worst = 0.0;
+  for (int k = 0; k < rig_->num_cameras; ++k) {
+    if ((cameras_ >> k & 1u) == 0) continue;
+    const RigCamera& cam = rig_->cameras[static_cast<std::size_t>(k)];
+    for (int b = 0; b < rig_->num_beacons; ++b) {
+      const Eigen::Vector3d& P_w = rig_->beacons_w[static_cast<std::size_t>(b)];
+      Eigen::Vector2d uv;
+      bool inner = false;
+      if (!matcher_.Predict(k, pose, P_w, 0.0, 0.0, &uv, &inner)) continue;
+      Eigen::Matrix<double, 2, 6> J;
+      if (ProjectBeacon(cam, pose, P_w, &uv, &J) != ProjectStatus::kOk) continue;
+      const Eigen::Matrix2d S = J * cov * J.transpose();
+      // Largest eigenvalue of the symmetric 2x2.
+      const double half_trace = 0.5 * (S(0, 0) + S(1, 1));
+      const double d = 0.5 * (S(0, 0) - S(1, 1));
+      worst = std::max(worst, half_trace + std::sqrt(d * d + S(0, 1) * S(0, 1)));
+    }
+  }
+  return std::sqrt(worst);
+}
+
 // One trial: solve from the prediction with the identities in set_, then the innovation test.
 // *innovation: the solved pose's distance from the prediction over the allowed one (the larger
 // of position and attitude; > 1: refused), -1 when it did not solve.
@@ -568,6 +646,7 @@ bool Tracker::Acquire(std::uint64_t t_ns, const TrackOptions& o, TrackResult* r)
   if (acquisition_.seeded() && ContinuingBlobs(o) > 0)
     counters_.continuity_refuted += static_cast<std::uint32_t>(
         acquisition_.Retain([&](const BodyPose& p) { return KeepsContinuingBlobs(p, o); }));
+  PreferSteadyPose(t_ns, o);
   r->acquisition_poses = acquisition_.size();
   // The last pose must be confirmed by this frame set. A chain seeded by an accepted pose
   // holds the truth when the frame sets had three true beacons; one started from
@@ -598,17 +677,42 @@ bool Tracker::Acquire(std::uint64_t t_ns, const TrackOptions& o, TrackResult* r)
   const TwinRegion twin = seeded ? TwinRegion{nullptr, o.lis.same_pose_m, o.lis.same_pose_rad}
                                  : TwinRegion{nullptr, o.twin_m, o.twin_rad};
   if (set_.num_beacons < 3 || !SolveAt(survivor, twin, o, r)) return false;
+  if (!ResidualsFitTheNoise(r->solve, o)) {  // four beacons or more, one of them a blob beside it
+    ++counters_.residual_refused;
+    return false;
+  }
   // Three beacons fit their pose exactly, and the motion refutes a pose resting on a reflection
   // only when the reflection jumps: one that moves with the scene (a point on a wall) keeps a
   // wrong three-beacon pose consistent frame set after frame set (seen: a seeded chain's
   // survivor 147 mm and 10 deg off, on one beacon and two such reflections, while the true
   // pose had dropped out of the chain). A steady blob it leaves unexplained (a fourth beacon,
   // or such a reflection) is the sign: wait for the pose that explains it.
+  // Unambiguous's trials keep the survivor's blobs where the alternative is a new blob (a
+  // reflection flickering beside its beacon: both fit three beacons exactly, and the trials'
+  // tie-break would pick either; seen: 32 mm off, published as fix).
+  keep_acquired_blobs_ = true;
+  acquired_matches_ = r->matches;
+  // With reflections in view, a three-beacon pose on a blob that continues no image track may
+  // rest on a reflection flickering beside a beacon (it fits exactly all the same; seen: 20-32
+  // mm off, published as fix, the truth dropped from the chain): it waits until its blobs are
+  // steady (two frame sets for a beacon that has just come into view).
+  if (reflections && r->matches.num_beacons == 3 && !OnSteadyBlobs(r->matches)) {
+    ++counters_.unsteady_refused;
+    return false;
+  }
   if (r->matches.num_beacons == 3 && LeavesSteadyBlob(r->matches)) {
     ++counters_.steady_unexplained;
     return false;
   }
   acquisition_.Clear();
+  return true;
+}
+
+// Whether every matched blob is steady (BlobTracks); true without blob tracks.
+bool Tracker::OnSteadyBlobs(const MatchSet& matches) const {
+  if (steady_ == nullptr) return true;
+  for (int m = 0; m < matches.num_matches; ++m)
+    if (!blob_tracks_.steady(matches.matches[static_cast<std::size_t>(m)].blob)) return false;
   return true;
 }
 
@@ -620,6 +724,60 @@ bool Tracker::LeavesSteadyBlob(const MatchSet& matches) const {
     if (matches.BeaconOfBlob(i) < 0) return true;
   }
   return false;
+}
+
+// A reflection flickering beside a beacon (a new blob every frame set) makes, with the other
+// beacons, a pose centimetres from the truth; lost-in-space lists both, and the chain follows
+// both, each within the other's bounds (seen after a 1.5 s gap: two poses for 13 frame sets,
+// the second 5-47 mm and up to 1 deg off, each frame set on another reflection). That pose
+// rests on a blob continuing no image track; the truth's blobs are steady (BlobTracks). When
+// exactly one followed pose matches only steady blobs, with the same beacons, for
+// steady_pose_frames frame sets in a row, it is kept alone. The run is long enough that a true
+// beacon just come into view (a new blob of the truth, beside a pose on steady blobs that leaves
+// it out) turns steady within it, and then two poses are steady: the run ends. A reflection
+// moving with the scene is steady too: both poses stay, and the chain waits.
+void Tracker::PreferSteadyPose(std::uint64_t t_ns, const TrackOptions& o) {
+  const bool continues = steady_run_ > 0 && steady_t_ns_ == prev_t_ns_ && prev_num_blobs_ >= 0;
+  steady_t_ns_ = t_ns;
+  int chosen = -1;
+  std::bitset<limits::kMaxBeacons> beacons;
+  if (o.steady_pose_frames > 0 && steady_ != nullptr && acquisition_.size() >= 2)
+    for (int i = 0; i < acquisition_.size(); ++i) {
+      matcher_.MatchPose(acquisition_.pose(i), o.lis.refine_match, &twin_set_);
+      if (twin_set_.num_matches < 3 || !OnSteadyBlobs(twin_set_)) continue;
+      if (chosen >= 0) {  // two poses on steady blobs: the image cannot tell them apart
+        chosen = -1;
+        break;
+      }
+      chosen = i;
+      beacons.reset();
+      for (int m = 0; m < twin_set_.num_matches; ++m)
+        beacons.set(static_cast<std::size_t>(twin_set_.matches[static_cast<std::size_t>(m)].beacon));
+    }
+  if (chosen < 0) {
+    steady_run_ = 0;
+    return;
+  }
+  steady_run_ = continues && beacons == steady_beacons_ ? steady_run_ + 1 : 1;
+  steady_beacons_ = beacons;
+  if (steady_run_ < o.steady_pose_frames) return;
+  counters_.steady_preferred += static_cast<std::uint32_t>(acquisition_.size() - 1);
+  acquisition_.KeepOnly(chosen);
+}
+
+// Whether a solved pose's residuals are the noise its covariance assumes: their chi-square
+// (the squared residuals over noise_'s residual variance) within the upper quantile of
+// residual_test_sigmas (one-sided normal) for 2 N - 6 degrees of freedom (Wilson-Hilferty).
+// Four beacons or more fit a wrong pose only approximately (seen: a lost-in-space fix on two
+// beacons and two reflections beside them, 2.4 m off, at 0.74 px RMS against 0.1 px noise; the
+// RMS bound of a fix, fix_rms_sigmas, let it pass as fix).
+bool Tracker::ResidualsFitTheNoise(const SolveResult& s, const TrackOptions& o) const {
+  const int dof = 2 * s.num_inliers - 6;
+  if (!(o.residual_test_sigmas > 0.0) || dof <= 0) return true;
+  const double chi2 = 2.0 * s.cost / noise_.ResidualVariancePx2();
+  const double k = dof, a = 2.0 / (9.0 * k);
+  const double quantile = k * std::pow(1.0 - a + o.residual_test_sigmas * std::sqrt(a), 3);
+  return chi2 <= quantile;
 }
 
 // An unseeded chain started from lost-in-space's list of its first frame set; when that frame
@@ -699,6 +857,7 @@ void Tracker::Accept(std::uint64_t t_ns, const TrackOptions& o, TrackResult* r) 
     r->status = TrackStatus::kFix;
     r->reason = TrackReason::kNone;
   }
+  last_fix_ = r->status == TrackStatus::kFix && r->matches.num_beacons >= 4;
   switch (r->source) {
     case TrackSource::kTracked: ++counters_.tracked; break;
     case TrackSource::kLostInSpace: ++counters_.lost_in_space_fixes; break;
@@ -819,6 +978,7 @@ TrackStatus Tracker::TrackOnce(const BlobObs* blobs, int num_blobs, std::uint64_
   r->lis_status = LisStatus::kBadInput;
   r->acquisition_poses = 0;
   r->source = TrackSource::kNone;
+  keep_acquired_blobs_ = false;
   if (rig_ == nullptr || !o.IsValid() || num_blobs < 0 || num_blobs > limits::kMaxObservations ||
       (num_blobs > 0 && blobs == nullptr))
     return Lost(TrackReason::kBadInput, r);
@@ -883,6 +1043,7 @@ TrackStatus Tracker::Reidentify(const BlobObs* blobs, int num_blobs, std::uint64
 // What lost-in-space's outcome (r->lis_status, lis_res_) of a search with or without the prior
 // makes of this frame set: a fix that stands on its own, the acquisition's next step, or lost.
 TrackStatus Tracker::SettleLis(std::uint64_t t_ns, bool use_prior, const TrackOptions& o, TrackResult* r) {
+  bool replaces_prior = false;
   if (use_prior && r->lis_status == LisStatus::kNoHypothesis && lis_res_.complete) {
     // Nothing consistent near the followed (or predicted) poses: fewer than three true beacons
     // in this frame set, or a motion beyond the bounds. A pose lost-in-space settles on its
@@ -892,8 +1053,7 @@ TrackStatus Tracker::SettleLis(std::uint64_t t_ns, bool use_prior, const TrackOp
     if (RunLis(blobs_, num_blobs_, nullptr, o) != LisStatus::kFix ||
         lis_res_.matches.num_beacons < o.lis_fix_min_beacons)
       return Lost(motion_.known() ? TrackReason::kTooFewBeacons : TrackReason::kNoHypothesis, r);
-    has_pose_ = false;
-    motion_.Forget();
+    replaces_prior = true;  // once it is published: a refused fix must not cost the prior
     use_prior = false;
     r->lis_status = LisStatus::kFix;
   }
@@ -913,6 +1073,14 @@ TrackStatus Tracker::SettleLis(std::uint64_t t_ns, bool use_prior, const TrackOp
     if (!SolveAt(lis_res_.pose, TwinRegion{nullptr, o.twin_m, o.twin_rad}, o, r))
       return Lost(TrackReason::kNoHypothesis, r);
     if (!Unambiguous(o, r)) return Lost(TrackReason::kAmbiguous, r);
+    if (!ResidualsFitTheNoise(r->solve, o)) {
+      ++counters_.residual_refused;
+      return Lost(TrackReason::kLargeResidual, r);
+    }
+    if (replaces_prior) {
+      has_pose_ = false;
+      motion_.Forget();
+    }
     return Publish(TrackSource::kLostInSpace, t_ns, o, r);
   }
   if (r->lis_status == LisStatus::kFix || r->lis_status == LisStatus::kAmbiguous ||

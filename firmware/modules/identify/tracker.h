@@ -48,6 +48,7 @@
 
 #include <Eigen/Core>
 #include <array>
+#include <bitset>
 #include <cstddef>
 #include <cstdint>
 
@@ -105,6 +106,10 @@ struct TrackOptions {
   double gate_px = 10.0;             // tracking gate with a velocity prediction
   double hold_gate_px = 60.0;        // tracking gate when only one pose is known
   double max_gate_px = 120.0;
+  // The last pose's error in the gate: projected into the images through its covariance when
+  // it was a fix on four beacons or more within velocity_window_s (false: always as a position
+  // error seen at gate_depth_m plus an attitude error; Tracker::PredictionGatePx).
+  bool projected_gate = true;
   double gate_sigmas = 3.0;          // plus this many 1-sigma errors of the last pose, in px:
   double gate_depth_m = 0.5;         // (position errors seen at this beacon range)
   double velocity_window_s = 0.2;    // velocity from the poses of this last span
@@ -201,6 +206,18 @@ struct TrackOptions {
   // followed poses) searches only the poses that name each continuing blob its beacon
   // (LisPrior::anchors; Tracker::AnchorContinuingBlobs).
   bool anchor_blob_tracks = true;
+  // With steady_blobs_first: when exactly one of the acquisition's followed poses matches only
+  // steady blobs, with the same beacons for this many frame sets in a row, the others (each
+  // resting on a blob that continues nothing: a reflection flickering beside a beacon) are
+  // dropped (Tracker::PreferSteadyPose). At least BlobTrackOptions::steady_age + 1, so that a
+  // true beacon that has just come into view is steady before a pose leaving it out is kept.
+  // 0: never.
+  int steady_pose_frames = 4;
+  // A lost-in-space fix standing on its own (no prior, no chain) must fit the noise: the
+  // chi-square of its residuals (over the expected residual variance: centroid noise and the
+  // map's error) within this one-sided normal quantile (3.72: p = 1e-4) for its degrees of
+  // freedom (Tracker::ResidualsFitTheNoise). 0: not tested.
+  double residual_test_sigmas = 3.72;
   int lis_fix_min_beacons = 4;       // a lost-in-space fix on its own needs this many beacons
                                      // (three fit exactly, so a reflection among them shows not)
   double chain_stale_s = 1.0;        // a followed pose unconfirmed this long restarts it all
@@ -285,6 +302,9 @@ struct TrackCounters {
   std::uint32_t ambiguity_continued = 0;  // an ambiguous beacon given the blob that continues its track
   std::uint32_t continuity_refuted = 0;   // a followed pose that names a continuing blob another beacon
   std::uint32_t anchored_searches = 0;    // lost-in-space searches near a pose with continuing blobs anchored
+  std::uint32_t unsteady_refused = 0;     // an acquired three-beacon pose on a blob that is not steady
+  std::uint32_t residual_refused = 0;     // a lost-in-space fix whose residuals exceed the noise
+  std::uint32_t steady_preferred = 0;     // followed poses dropped for an unsteady blob (PreferSteadyPose)
   SolveCounters solve;
 };
 static_assert(std::tuple_size_v<decltype(TrackCounters::by_status)> == static_cast<std::size_t>(TrackStatus::kCount),
@@ -359,6 +379,12 @@ class Tracker {
   bool ExplainsPrevious(const BodyPose& pose, std::uint64_t t_ns, const TrackOptions& o, int* unexplained);
   bool SurvivorIsBest(std::uint64_t t_ns, const TrackOptions& o);
   bool LeavesSteadyBlob(const MatchSet& matches) const;
+  bool OnSteadyBlobs(const MatchSet& matches) const;
+  void PredictionGatePx(const BodyPose& predicted, double since_s, const TrackOptions& o, double* gate,
+                        double* with_map) const;
+  double ImageSigmaPx(const BodyPose& pose, const Matrix6d& cov) const;
+  void PreferSteadyPose(std::uint64_t t_ns, const TrackOptions& o);
+  bool ResidualsFitTheNoise(const SolveResult& s, const TrackOptions& o) const;
   void KeepBlobs(std::uint64_t t_ns);
   TrackStatus TrackOnce(const BlobObs* blobs, int num_blobs, std::uint64_t t_ns, const TrackOptions& o,
                         TrackResult* result);
@@ -422,8 +448,18 @@ class Tracker {
   // The track: tracking may predict from the motion model's last pose (has_pose_); the motion
   // model alone may still seed re-acquisition (MotionModel::known) up to max_seed_s.
   bool has_pose_ = false;
+  bool last_fix_ = false;  // the last accepted pose was a fix (PredictionGatePx)
   MotionModel motion_;
   Acquisition acquisition_;  // poses followed while lost-in-space is ambiguous
+  // PreferSteadyPose's run: the frame sets in a row, up to steady_t_ns_, in which one followed
+  // pose alone matched only steady blobs, and its beacons.
+  int steady_run_ = 0;
+  std::uint64_t steady_t_ns_ = 0;
+  std::bitset<limits::kMaxBeacons> steady_beacons_;
+  // This frame set's acquired pose (its matches): a beacon with two blobs in Unambiguous's gate
+  // takes the pose's blob when that is steady and the other new (ContinueTracks).
+  bool keep_acquired_blobs_ = false;
+  MatchSet acquired_matches_;
   // The previous frame set's blobs (ExplainsPrevious); -1: none.
   int prev_num_blobs_ = -1;
   std::uint32_t cameras_ = kAllCameras, prev_cameras_ = kAllCameras;

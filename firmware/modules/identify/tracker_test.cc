@@ -61,9 +61,10 @@ struct Sweep {
   }
 };
 
-void Step(const Rig& rig, const Scene& s, std::uint64_t t_ns, const TrackOptions& o, Sweep* run) {
+void Step(const Rig& rig, const Scene& s, std::uint64_t t_ns, const TrackOptions& o, Sweep* run,
+          std::uint32_t cameras = kAllCameras) {
   const int visible = s.NumVisibleBeacons();
-  const TrackStatus st = g_tracker.Track(s.blobs.data(), s.num_blobs, t_ns, o, &g_result);
+  const TrackStatus st = g_tracker.Track(s.blobs.data(), s.num_blobs, t_ns, o, &g_result, cameras);
   const bool accepted = st != TrackStatus::kLost;
   if (std::getenv("TRACK_DEBUG") != nullptr)
     std::printf("frame %d visible %d blobs %d: %s %s %s lis %s chain %d\n", run->frames, visible, s.num_blobs,
@@ -79,7 +80,14 @@ void Step(const Rig& rig, const Scene& s, std::uint64_t t_ns, const TrackOptions
     const bool right = IdentitiesRight(s, g_result.matches) && mahalanobis_sq < 50.0;
     EXPECT_TRUE(right) << "frame " << run->frames << " source " << ToString(g_result.source) << " identities "
                        << (IdentitiesRight(s, g_result.matches) ? "right" : "WRONG") << ", error "
-                       << e.head<3>().norm() << " m, Mahalanobis^2 " << mahalanobis_sq;
+                       << e.head<3>().norm() << " m, Mahalanobis^2 " << mahalanobis_sq << ", beacons "
+                       << g_result.matches.num_beacons << ", rms " << g_result.solve.rms_px;
+    if (std::getenv("TRACK_DEBUG") != nullptr)
+      for (int i = 0; i < g_result.matches.num_matches; ++i) {
+        const Match& x = g_result.matches.matches[static_cast<std::size_t>(i)];
+        std::printf("  blob %d cam %d -> beacon %d (truth %d)\n", x.blob, x.camera, x.beacon,
+                    s.truth_beacon[static_cast<std::size_t>(x.blob)]);
+      }
     run->wrong += !right;
     // (A pose published degraded for a reflection beside a beacon names only the identities
     // not in doubt: maybe fewer than three.)
@@ -249,14 +257,15 @@ TEST(TrackerTest, ReflectionsBesideBeaconsKeepTheTrack) {
               "%d of %d (left out)\n", tried.posed, tried.eligible, left_out.posed, left_out.eligible);
   EXPECT_EQ(tried.wrong, 0);
   EXPECT_EQ(left_out.wrong, 0);
-  // (Measured: 99 of 100 tried, 31 of 47 left out; 93 of 97 before trials that disagree were
-  // decided by the motion (MotionDecidesBetweenTrialsThatDisagree), 77 of 88 before a
-  // disagreement within ambiguity_max_spread_m was published degraded. Every published pose,
-  // degraded ones included, lies within its covariance: Step checks it.)
+  // (Measured: 100 of 100 tried, 59 of 68 left out since the gate is the last fix's covariance
+  // projected into the images (Tracker::PredictionGatePx; 99 of 100 and 31 of 47 with the wider
+  // pose-space gate); 93 of 97 before trials that disagree were decided by the motion
+  // (MotionDecidesBetweenTrialsThatDisagree), 77 of 88 before a disagreement within
+  // ambiguity_max_spread_m was published degraded. Every published pose, degraded ones
+  // included, lies within its covariance: Step checks it.)
   ASSERT_GT(tried.eligible, frames / 8);
   EXPECT_GE(tried.posed * 100, tried.eligible * 75);
-  EXPECT_LT(left_out.posed * 100, left_out.eligible * 72);  // the trials are what keeps it
-  EXPECT_GT(tried.posed * left_out.eligible, left_out.posed * tried.eligible);
+  EXPECT_GT(tried.posed * left_out.eligible, left_out.posed * tried.eligible);  // the trials keep more
   EXPECT_GT(g_tracker.counters().ambiguous_tried, 0U);
   EXPECT_GT(g_tracker.counters().ambiguous_published, 0U);
   EXPECT_LE(g_tracker.counters().ambiguous_published, g_tracker.counters().ambiguous_refused);
@@ -378,6 +387,136 @@ TEST(TrackerTest, LargeMapStallIsBridgedBySeededSearch) {
   }
   EXPECT_LE(worst, 10);  // measured 0-2
   EXPECT_GT(cases, 0);
+}
+
+// After a gap with two beacons in view, a third comes into view with reflections flickering
+// beside the beacons (a new blob every frame set): the seeded re-identification lists the truth
+// and poses resting on a reflection, centimetres from it, and follows both (each within the
+// other's bounds). The truth's blobs are steady image tracks, a reflection's are not: keeping
+// the one pose on steady blobs (TrackOptions::steady_pose_frames) poses these frame sets, never
+// on a reflection (Step checks every published pose). Counted: frame sets with the three beacons
+// that carry a pose, with and without it, over random cylinder maps and paths. The map keeps
+// three beacons in view along the path (the others it would show face away: the navigator's map
+// says so too); during the gap the third beacon's camera delivers nothing.
+struct ThirdBeaconRun {
+  int eligible = 0, posed = 0, wrong = 0;
+  std::uint32_t preferred = 0;
+};
+
+constexpr int kGapFrom = 20, kThirdFrom = 45, kPathFrames = 90, kReflections = 4;
+
+BodyPose PathPoseFrom(const BodyPose& start, int f) {
+  const Eigen::Vector3d v_w(0.02, 0.0, 0.01), omega_b(0.0, 0.03, 0.02);
+  const double t = static_cast<double>(f) * kFrameNs * 1e-9;
+  BodyPose p = start;
+  p.r_w_wb += v_w * t;
+  p.C_w_b = start.C_w_b * ExpSO3(omega_b * t);
+  return p;
+}
+
+// A cylinder map and a path along which exactly three beacons are in view, two in one camera and
+// one in another (*third_camera); false when the attempts found none.
+bool ThreeBeaconPath(std::mt19937_64* rng, Rig* rig, BodyPose* start, int* third_camera) {
+  for (int attempt = 0; attempt < 200; ++attempt) {
+    *rig = testing::RandomCylinderRig(64, true, rng);
+    *start = testing::RandomCylinderPose(rng, 2.1, 6.0, 0.8);
+    // Beacons seen at both ends of the path, by camera.
+    std::array<std::array<bool, limits::kMaxBeacons>, limits::kMaxCameras> both{}, end_seen{};
+    testing::Observe(*rig, PathPoseFrom(*start, kPathFrames - 1), 0.0, rng, &g_scene);
+    for (int i = 0; i < g_scene.num_blobs; ++i)
+      end_seen[static_cast<std::size_t>(g_scene.blobs[static_cast<std::size_t>(i)].camera)]
+              [static_cast<std::size_t>(g_scene.truth_beacon[static_cast<std::size_t>(i)])] = true;
+    testing::Observe(*rig, *start, 0.0, rng, &g_scene);
+    for (auto& per_camera : both) per_camera.fill(false);
+    for (int i = 0; i < g_scene.num_blobs; ++i) {
+      const auto k = static_cast<std::size_t>(g_scene.blobs[static_cast<std::size_t>(i)].camera);
+      const auto b = static_cast<std::size_t>(g_scene.truth_beacon[static_cast<std::size_t>(i)]);
+      both[k][b] = end_seen[k][b];
+    }
+    std::array<int, 3> keep{-1, -1, -1};
+    // Two beacons of camera a, one of camera c.
+    int a = -1, c = -1;
+    for (int k = 0; k < rig->num_cameras; ++k) {
+      int n = 0;
+      for (int b = 0; b < rig->num_beacons; ++b) n += both[static_cast<std::size_t>(k)][static_cast<std::size_t>(b)];
+      if (n >= 2 && a < 0) a = k;
+      else if (n >= 1 && c < 0) c = k;
+    }
+    if (a < 0 || c < 0) continue;
+    int n = 0;
+    for (int b = 0; b < rig->num_beacons && n < 2; ++b)
+      if (both[static_cast<std::size_t>(a)][static_cast<std::size_t>(b)]) keep[static_cast<std::size_t>(n++)] = b;
+    for (int b = 0; b < rig->num_beacons; ++b)
+      if (both[static_cast<std::size_t>(c)][static_cast<std::size_t>(b)] && b != keep[0] && b != keep[1]) keep[2] = b;
+    if (keep[2] < 0) continue;
+    // Every other beacon seen along the path faces away from the module's inside.
+    bool three = true;
+    for (int f = 0; f < kPathFrames; ++f) {
+      testing::Observe(*rig, PathPoseFrom(*start, f), 0.0, rng, &g_scene);
+      for (int i = 0; i < g_scene.num_blobs; ++i) {
+        const auto b = static_cast<std::size_t>(g_scene.truth_beacon[static_cast<std::size_t>(i)]);
+        if (std::find(keep.begin(), keep.end(), static_cast<int>(b)) == keep.end())
+          rig->beacon_normal_w[b] = -rig->beacon_normal_w[b];
+      }
+    }
+    for (int f = 0; f < kPathFrames && three; ++f) {
+      testing::Observe(*rig, PathPoseFrom(*start, f), 0.0, rng, &g_scene);
+      three = g_scene.NumVisibleBeacons() == 3 && g_scene.per_camera[static_cast<std::size_t>(c)] == 1;
+    }
+    if (!three) continue;
+    *third_camera = c;
+    return true;
+  }
+  return false;
+}
+
+ThirdBeaconRun ThirdBeaconBesideReflections(const TrackOptions& o, int trials) {
+  std::mt19937_64 rng(1700);
+  static Rig rig;
+  ThirdBeaconRun out;
+  for (int trial = 0; trial < trials; ++trial) {
+    BodyPose start;
+    int third_camera = -1;
+    if (!ThreeBeaconPath(&rng, &rig, &start, &third_camera) || !g_tracker.Reset(rig)) continue;
+    g_tracker.SetPose(start, 0, 0.0, 0.0);
+    Sweep run;
+    for (int f = 0; f < kPathFrames; ++f) {
+      testing::Observe(rig, PathPoseFrom(start, f), 0.1, &rng, &g_scene);
+      testing::AddReflections(rig, kReflections, 5.0, 40.0, &rng, &g_scene);
+      testing::AddSpurious(rig, 3, &rng, &g_scene);
+      const auto t_ns = static_cast<std::uint64_t>(f) * kFrameNs;
+      if (f >= kGapFrom && f < kThirdFrom) {
+        // The third beacon's camera delivers nothing: two beacons in view.
+        Step(rig, g_scene, t_ns, o, &run, kAllCameras & ~(1u << third_camera));
+        continue;
+      }
+      Step(rig, g_scene, t_ns, o, &run);
+      if (f >= kThirdFrom) {
+        ++out.eligible;
+        out.posed += g_result.status != TrackStatus::kLost;
+      }
+    }
+    out.wrong += run.wrong;
+    out.preferred += g_tracker.counters().steady_preferred;
+  }
+  return out;
+}
+
+TEST(TrackerTest, ThirdBeaconBesideFlickeringReflectionsIsAcquired) {
+  const int trials = testing::Trials(8, 3);
+  TrackOptions off;
+  off.steady_pose_frames = 0;
+  const ThirdBeaconRun without = ThirdBeaconBesideReflections(off, trials);
+  const ThirdBeaconRun with = ThirdBeaconBesideReflections(TrackOptions{}, trials);
+  std::printf("a third beacon beside flickering reflections: posed %d of %d frame sets (%u poses dropped for an "
+              "unsteady blob), %d of %d without\n", with.posed, with.eligible, with.preferred, without.posed,
+              without.eligible);
+  EXPECT_EQ(with.wrong, 0);
+  EXPECT_EQ(without.wrong, 0);
+  EXPECT_EQ(without.preferred, 0U);
+  EXPECT_GT(with.preferred, 0U);
+  ASSERT_GT(with.eligible, 0);
+  EXPECT_GT(with.posed * without.eligible, without.posed * with.eligible);
 }
 
 // Yaw sweep of the paper rig, tracked with a surveyed map (every beacon coordinate off by
