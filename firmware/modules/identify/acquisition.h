@@ -65,11 +65,6 @@ class Acquisition {
   // Follows the chain with a frame set's complete list; empty afterwards when no listed pose
   // lies within the bounds of a followed one.
   void Follow(const LisResult& list, std::uint64_t t_ns);
-  // Keeps followed pose i alone (0 <= i < size()).
-  void KeepOnly(int i) {
-    chain_[0] = chain_[static_cast<std::size_t>(i)];
-    n_ = 1;
-  }
   // Keeps the followed poses for which keep(pose) is true (order kept); returns how many
   // were dropped.
   template <typename Keep>

@@ -34,8 +34,6 @@ bool TrackOptions::IsValid(const char** why) const {
   else if (!positive(gate_depth_m)) bad = "gate_depth_m";
   else if (!positive(steady_gate_px) || !(steady_gate_fraction >= 0.0) || !std::isfinite(steady_gate_fraction))
     bad = "steady_gate_px / steady_gate_fraction";
-  else if (steady_pose_frames != 0 && steady_pose_frames <= BlobTrackOptions{}.steady_age)
-    bad = "steady_pose_frames";
   else if (!positive(max_seed_s)) bad = "max_seed_s";
   else if (fix_min_beacons < 3) bad = "fix_min_beacons";
   else if (!positive(degraded_rms_px)) bad = "degraded_rms_px";

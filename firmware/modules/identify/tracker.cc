@@ -73,7 +73,6 @@ bool Tracker::Reset(const Rig& rig) {
   prev_num_blobs_ = -1;
   has_pose_ = false;
   last_fix_ = false;
-  steady_run_ = 0;
   motion_.Forget();
   acquisition_.Clear();
   counters_ = TrackCounters{};
@@ -524,7 +523,7 @@ bool Tracker::DecideByMotion(const BodyPose& predicted, const PoseBounds& bounds
 // the centroid noise, where a position error seen at gate_depth_m plus an independent attitude
 // error counts the pose's correlated errors twice and the beacons' range as the nearest
 // possible (a narrower gate holds fewer reflections beside beacons: with it the acquisition
-// matrix's 64-beacon box posed 94.5 % of its frame sets after the first fix, 94.1 % without,
+// matrix's 64-beacon box posed 92.1 % of its frame sets after the first fix, 91.7 % without,
 // and on unseen seeds one wrong degraded pose less; docs/acquisition.md, session 18).
 // Otherwise it counts as a position error seen at gate_depth_m plus an attitude error, and a
 // wide gate sends the frame set to re-identification (lost-in-space near the prediction, every consistent pose listed), which
@@ -646,7 +645,6 @@ bool Tracker::Acquire(std::uint64_t t_ns, const TrackOptions& o, TrackResult* r)
   if (acquisition_.seeded() && ContinuingBlobs(o) > 0)
     counters_.continuity_refuted += static_cast<std::uint32_t>(
         acquisition_.Retain([&](const BodyPose& p) { return KeepsContinuingBlobs(p, o); }));
-  PreferSteadyPose(t_ns, o);
   r->acquisition_poses = acquisition_.size();
   // The last pose must be confirmed by this frame set. A chain seeded by an accepted pose
   // holds the truth when the frame sets had three true beacons; one started from
@@ -724,45 +722,6 @@ bool Tracker::LeavesSteadyBlob(const MatchSet& matches) const {
     if (matches.BeaconOfBlob(i) < 0) return true;
   }
   return false;
-}
-
-// A reflection flickering beside a beacon (a new blob every frame set) makes, with the other
-// beacons, a pose centimetres from the truth; lost-in-space lists both, and the chain follows
-// both, each within the other's bounds (seen after a 1.5 s gap: two poses for 13 frame sets,
-// the second 5-47 mm and up to 1 deg off, each frame set on another reflection). That pose
-// rests on a blob continuing no image track; the truth's blobs are steady (BlobTracks). When
-// exactly one followed pose matches only steady blobs, with the same beacons, for
-// steady_pose_frames frame sets in a row, it is kept alone. The run is long enough that a true
-// beacon just come into view (a new blob of the truth, beside a pose on steady blobs that leaves
-// it out) turns steady within it, and then two poses are steady: the run ends. A reflection
-// moving with the scene is steady too: both poses stay, and the chain waits.
-void Tracker::PreferSteadyPose(std::uint64_t t_ns, const TrackOptions& o) {
-  const bool continues = steady_run_ > 0 && steady_t_ns_ == prev_t_ns_ && prev_num_blobs_ >= 0;
-  steady_t_ns_ = t_ns;
-  int chosen = -1;
-  std::bitset<limits::kMaxBeacons> beacons;
-  if (o.steady_pose_frames > 0 && steady_ != nullptr && acquisition_.size() >= 2)
-    for (int i = 0; i < acquisition_.size(); ++i) {
-      matcher_.MatchPose(acquisition_.pose(i), o.lis.refine_match, &twin_set_);
-      if (twin_set_.num_matches < 3 || !OnSteadyBlobs(twin_set_)) continue;
-      if (chosen >= 0) {  // two poses on steady blobs: the image cannot tell them apart
-        chosen = -1;
-        break;
-      }
-      chosen = i;
-      beacons.reset();
-      for (int m = 0; m < twin_set_.num_matches; ++m)
-        beacons.set(static_cast<std::size_t>(twin_set_.matches[static_cast<std::size_t>(m)].beacon));
-    }
-  if (chosen < 0) {
-    steady_run_ = 0;
-    return;
-  }
-  steady_run_ = continues && beacons == steady_beacons_ ? steady_run_ + 1 : 1;
-  steady_beacons_ = beacons;
-  if (steady_run_ < o.steady_pose_frames) return;
-  counters_.steady_preferred += static_cast<std::uint32_t>(acquisition_.size() - 1);
-  acquisition_.KeepOnly(chosen);
 }
 
 // Whether a solved pose's residuals are the noise its covariance assumes: their chi-square

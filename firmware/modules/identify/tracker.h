@@ -48,7 +48,6 @@
 
 #include <Eigen/Core>
 #include <array>
-#include <bitset>
 #include <cstddef>
 #include <cstdint>
 
@@ -206,13 +205,6 @@ struct TrackOptions {
   // followed poses) searches only the poses that name each continuing blob its beacon
   // (LisPrior::anchors; Tracker::AnchorContinuingBlobs).
   bool anchor_blob_tracks = true;
-  // With steady_blobs_first: when exactly one of the acquisition's followed poses matches only
-  // steady blobs, with the same beacons for this many frame sets in a row, the others (each
-  // resting on a blob that continues nothing: a reflection flickering beside a beacon) are
-  // dropped (Tracker::PreferSteadyPose). At least BlobTrackOptions::steady_age + 1, so that a
-  // true beacon that has just come into view is steady before a pose leaving it out is kept.
-  // 0: never.
-  int steady_pose_frames = 4;
   // A lost-in-space fix standing on its own (no prior, no chain) must fit the noise: the
   // chi-square of its residuals (over the expected residual variance: centroid noise and the
   // map's error) within this one-sided normal quantile (3.72: p = 1e-4) for its degrees of
@@ -304,7 +296,6 @@ struct TrackCounters {
   std::uint32_t anchored_searches = 0;    // lost-in-space searches near a pose with continuing blobs anchored
   std::uint32_t unsteady_refused = 0;     // an acquired three-beacon pose on a blob that is not steady
   std::uint32_t residual_refused = 0;     // a lost-in-space fix whose residuals exceed the noise
-  std::uint32_t steady_preferred = 0;     // followed poses dropped for an unsteady blob (PreferSteadyPose)
   SolveCounters solve;
 };
 static_assert(std::tuple_size_v<decltype(TrackCounters::by_status)> == static_cast<std::size_t>(TrackStatus::kCount),
@@ -383,7 +374,6 @@ class Tracker {
   void PredictionGatePx(const BodyPose& predicted, double since_s, const TrackOptions& o, double* gate,
                         double* with_map) const;
   double ImageSigmaPx(const BodyPose& pose, const Matrix6d& cov) const;
-  void PreferSteadyPose(std::uint64_t t_ns, const TrackOptions& o);
   bool ResidualsFitTheNoise(const SolveResult& s, const TrackOptions& o) const;
   void KeepBlobs(std::uint64_t t_ns);
   TrackStatus TrackOnce(const BlobObs* blobs, int num_blobs, std::uint64_t t_ns, const TrackOptions& o,
@@ -451,11 +441,6 @@ class Tracker {
   bool last_fix_ = false;  // the last accepted pose was a fix (PredictionGatePx)
   MotionModel motion_;
   Acquisition acquisition_;  // poses followed while lost-in-space is ambiguous
-  // PreferSteadyPose's run: the frame sets in a row, up to steady_t_ns_, in which one followed
-  // pose alone matched only steady blobs, and its beacons.
-  int steady_run_ = 0;
-  std::uint64_t steady_t_ns_ = 0;
-  std::bitset<limits::kMaxBeacons> steady_beacons_;
   // This frame set's acquired pose (its matches): a beacon with two blobs in Unambiguous's gate
   // takes the pose's blob when that is steady and the other new (ContinueTracks).
   bool keep_acquired_blobs_ = false;

@@ -390,20 +390,22 @@ TEST(TrackerTest, LargeMapStallIsBridgedBySeededSearch) {
 }
 
 // After a gap with two beacons in view, a third comes into view with reflections flickering
-// beside the beacons (a new blob every frame set): the seeded re-identification lists the truth
-// and poses resting on a reflection, centimetres from it, and follows both (each within the
-// other's bounds). The truth's blobs are steady image tracks, a reflection's are not: keeping
-// the one pose on steady blobs (TrackOptions::steady_pose_frames) poses these frame sets, never
-// on a reflection (Step checks every published pose). Counted: frame sets with the three beacons
-// that carry a pose, with and without it, over random cylinder maps and paths. The map keeps
-// three beacons in view along the path (the others it would show face away: the navigator's map
-// says so too); during the gap the third beacon's camera delivers nothing.
+// beside the beacons (a new blob every frame set) and spots elsewhere: two beacons and a
+// reflection fit a pose exactly, centimetres from the truth, and two beacons and two
+// reflections may fit a pose metres away. Every published pose is checked against the truth
+// and its covariance (Step), the two-beacon frame sets too. Wrong poses found here: a
+// lost-in-space fix on two beacons and two reflections 2.4 m off at 0.74 px RMS (now refused by
+// the chi-square test of its residuals, residual_test_sigmas), acquired three-beacon poses on a
+// reflection 20-32 mm off at 40 of their 1-sigma (a three-beacon acquired pose now waits until
+// its blobs are steady, unsteady_refused; trials that fit alike prefer steady blobs; the
+// acquired pose's own blobs win Unambiguous's trials). The map keeps three beacons in view
+// along the path (the others it would show face away: the navigator's map says so too);
+// during the gap the third beacon's camera delivers nothing. Random cylinder maps and paths.
 struct ThirdBeaconRun {
   int eligible = 0, posed = 0, wrong = 0;
-  std::uint32_t preferred = 0;
 };
 
-constexpr int kGapFrom = 20, kThirdFrom = 45, kPathFrames = 90, kReflections = 4;
+constexpr int kGapFrom = 20, kThirdFrom = 45, kPathFrames = 90, kReflections = 2;
 
 BodyPose PathPoseFrom(const BodyPose& start, int f) {
   const Eigen::Vector3d v_w(0.02, 0.0, 0.01), omega_b(0.0, 0.03, 0.02);
@@ -497,26 +499,20 @@ ThirdBeaconRun ThirdBeaconBesideReflections(const TrackOptions& o, int trials) {
       }
     }
     out.wrong += run.wrong;
-    out.preferred += g_tracker.counters().steady_preferred;
   }
   return out;
 }
 
-TEST(TrackerTest, ThirdBeaconBesideFlickeringReflectionsIsAcquired) {
-  const int trials = testing::Trials(8, 3);
-  TrackOptions off;
-  off.steady_pose_frames = 0;
-  const ThirdBeaconRun without = ThirdBeaconBesideReflections(off, trials);
-  const ThirdBeaconRun with = ThirdBeaconBesideReflections(TrackOptions{}, trials);
-  std::printf("a third beacon beside flickering reflections: posed %d of %d frame sets (%u poses dropped for an "
-              "unsteady blob), %d of %d without\n", with.posed, with.eligible, with.preferred, without.posed,
-              without.eligible);
-  EXPECT_EQ(with.wrong, 0);
-  EXPECT_EQ(without.wrong, 0);
-  EXPECT_EQ(without.preferred, 0U);
-  EXPECT_GT(with.preferred, 0U);
-  ASSERT_GT(with.eligible, 0);
-  EXPECT_GT(with.posed * without.eligible, without.posed * with.eligible);
+TEST(TrackerTest, ThirdBeaconBesideFlickeringReflectionsIsNeverWrong) {
+  const ThirdBeaconRun run = ThirdBeaconBesideReflections(TrackOptions{}, testing::Trials(12, 3));
+  std::printf("a third beacon beside flickering reflections: posed %d of %d frame sets after the gap, wrong %d\n",
+              run.posed, run.eligible, run.wrong);
+  // (Session 17's tracker: wrong poses in these 12 paths, the lost-in-space fix 2.4 m off among
+  // them.)
+  EXPECT_EQ(run.wrong, 0);
+  ASSERT_GT(run.eligible, 0);
+  // (Measured: 367 of 540 (68 %); 129 of 135 in the fast mode.)
+  EXPECT_GE(run.posed * 100, run.eligible * 55);
 }
 
 // Yaw sweep of the paper rig, tracked with a surveyed map (every beacon coordinate off by
