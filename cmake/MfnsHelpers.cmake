@@ -5,7 +5,7 @@ function(mfns_warnings target)
   target_compile_options(${target} PRIVATE
     -Wall -Wextra -Wpedantic -Wshadow -Wnon-virtual-dtor -Wcast-align
     -Wunused -Woverloaded-virtual -Wdouble-promotion -Wformat=2
-    -Wimplicit-fallthrough)
+    -Wimplicit-fallthrough -Wsign-conversion)
   if(MFNS_WERROR)
     target_compile_options(${target} PRIVATE -Werror)
   endif()

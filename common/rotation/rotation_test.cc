@@ -153,7 +153,7 @@ TEST(Rotation, WrapIsHalfOpenAtHalfATurn) {
   EXPECT_NEAR(WrapPi(0.1 + 4.0 * kPi), 0.1, 1e-12);
   EXPECT_NEAR(WrapPi(-0.1 - 6.0 * kPi), -0.1, 1e-12);
   EXPECT_TRUE(std::isnan(WrapPi(std::nan(""))));
-  EXPECT_TRUE(std::isinf(Wrap180Deg(INFINITY)));
+  EXPECT_TRUE(std::isinf(Wrap180Deg(HUGE_VAL)));
   // Against a reference built from atan2 (a different route to the same wrap), over many turns.
   for (double a = -20.0; a <= 20.0; a += 0.0137) {
     const double ref = std::atan2(std::sin(a), std::cos(a));

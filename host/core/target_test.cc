@@ -98,7 +98,7 @@ TEST(AprilGrid, TagCellsAreLibapriltagsPicture) {
   for (int r = 0; r < spec.tag_rows; ++r) {
     for (int c = 0; c < spec.tag_cols; ++c) {
       const int id = spec.first_id + r * spec.tag_cols + c;
-      std::unique_ptr<image_u8_t, void (*)(image_u8_t*)> picture(apriltag_to_image(family.get(), static_cast<uint32_t>(id)),
+      std::unique_ptr<image_u8_t, void (*)(image_u8_t*)> picture(apriltag_to_image(family.get(), id),
                                                                  image_u8_destroy);
       ASSERT_EQ(picture->width, 10);
       const double x0 = c * (s + g), y_top = r * (s + g) + s;

@@ -270,7 +270,7 @@ TEST(NavLoop, NoAllocationAfterStartWithTriggerUdpMavlinkAndLog) {
     posed += rec.status != NavStatus::kLost;
     while (::recv(rx, datagram.data(), datagram.size(), MSG_DONTWAIT) > 0) ++received;  // (keeps the queue short)
     while (::recv(mav_rx, datagram.data(), datagram.size(), MSG_DONTWAIT) > 10) {
-      const std::uint32_t id = datagram[7] | datagram[8] << 8 | datagram[9] << 16;
+      const auto id = static_cast<std::uint32_t>(datagram[7] | datagram[8] << 8 | datagram[9] << 16);
       heartbeats += id == mavlink::kHeartbeatId;
       odometry += id == mavlink::kOdometryId;
     }

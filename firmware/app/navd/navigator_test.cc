@@ -96,7 +96,7 @@ SweepResult Sweep(int spurious, int step_deg, std::uint64_t seed, bool with_lis_
     const BodyPose truth = Yaw(i * step_deg);
     const Scene s = Observe(rig, truth, 0.1, spurious, rng);
     const int n = static_cast<int>(s.blobs.size());
-    nav.Step(s.blobs.data(), n, 1'000'000'000ull + static_cast<std::uint64_t>(i) * 53763441ull, kAllCameras, false,
+    nav.Step(s.blobs.data(), n, 1'000'000'000 + static_cast<std::uint64_t>(i) * 53763441, kAllCameras, false,
              &out);
     const bool fix = out.status != NavStatus::kLost;
     if (s.visible >= 3) {
@@ -208,7 +208,7 @@ TEST(Navigator, PublishedCovarianceCountsTheMapError) {
     for (int i = 0; i < 360; ++i) {
       const BodyPose truth = Yaw(i);
       const Scene s = Observe(truth_rig, truth, 0.1, 0, rng);
-      nav.Step(s.blobs.data(), static_cast<int>(s.blobs.size()), 1'000'000'000ull + static_cast<std::uint64_t>(i) * 53763441ull,
+      nav.Step(s.blobs.data(), static_cast<int>(s.blobs.size()), 1'000'000'000 + static_cast<std::uint64_t>(i) * 53763441,
                kAllCameras, false, &out);
       if (out.status == NavStatus::kLost) continue;
       Eigen::Matrix<double, 6, 1> e;
@@ -325,7 +325,7 @@ TEST(Navigator, LostWithTooFewBlobsAndCameraDownDegrades) {
   bool acquired = false, previous_fix = false;
   for (int i = 0; i < 200; ++i) {
     Scene s = Observe(rig, Yaw(i), 0.1, 0, rng);
-    const std::uint64_t t_ns = 1'000'000'000ull + static_cast<std::uint64_t>(i) * 53763441ull;
+    const std::uint64_t t_ns = 1'000'000'000 + static_cast<std::uint64_t>(i) * 53763441;
     if (!acquired) {
       nav.Step(s.blobs.data(), static_cast<int>(s.blobs.size()), t_ns, kAllCameras, false, &out);
       acquired = previous_fix = out.status != NavStatus::kLost;

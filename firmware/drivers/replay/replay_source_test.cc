@@ -121,7 +121,7 @@ TEST_F(ReplayTest, TimestampsFromTheRateWithoutTruth) {
     FrameView v;
     ASSERT_EQ(src.Acquire(0, 50, &v), SourceStatus::kOk);
     // round(f * 1e9 / 30) in integer arithmetic: (2 f 1e9 + 30) / 60.
-    const std::uint64_t expected = (2ULL * static_cast<std::uint64_t>(f) * 1000000000ULL + 30ULL) / 60ULL;
+    const std::uint64_t expected = (2 * static_cast<std::uint64_t>(f) * 1000000000 + 30) / 60;
     EXPECT_EQ(v.t_capture_ns, expected);
     src.Release(0);
   }

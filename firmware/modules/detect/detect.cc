@@ -321,32 +321,35 @@ struct detail::DetectWorkspace {
   int segment_px = 0;  // kSegmentPx (kAdaptive) or the frame width (kFixed)
   int num_segments = 0;
 
+  // The component of label l (labels are ints, -1 for none; here l >= 0).
+  Component& Comp(int l) { return comps[static_cast<std::size_t>(l)]; }
+
   int Find(int a) {
     // Path halving; depth is small because labels merged in a row are freed at its end.
-    for (int i = 0; i < max_labels && comps[a].parent != a; ++i) {
-      comps[a].parent = comps[comps[a].parent].parent;
-      a = comps[a].parent;
+    for (int i = 0; i < max_labels && Comp(a).parent != a; ++i) {
+      Comp(a).parent = Comp(Comp(a).parent).parent;
+      a = Comp(a).parent;
     }
     return a;
   }
 
   int Alloc(int y) {
     if (num_free == 0) return -1;
-    const int l = free_labels[--num_free];
-    comps[l] = Component{0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0, 0, 0, width, -1, height, -1, l, y};
+    const int l = free_labels[static_cast<std::size_t>(--num_free)];
+    Comp(l) = Component{0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0, 0, 0, width, -1, height, -1, l, y};
     return l;
   }
 
-  void Release(int l) { free_labels[num_free++] = l; }
+  void Release(int l) { free_labels[static_cast<std::size_t>(num_free++)] = l; }
 
   // Joins the components of labels a and b; returns the surviving root.
   int Union(int a, int b) {
     const int ra = Find(a);
     const int rb = Find(b);
     if (ra == rb) return ra;
-    AddComponent(&comps[ra], comps[rb]);
-    comps[rb].parent = ra;
-    merged[num_merged++] = rb;
+    AddComponent(&Comp(ra), Comp(rb));
+    Comp(rb).parent = ra;
+    merged[static_cast<std::size_t>(num_merged++)] = rb;
     return ra;
   }
 
@@ -356,8 +359,8 @@ struct detail::DetectWorkspace {
     double f = 0.0;
     Bracket(centre_y.data(), ny, tile, y, &j, &f);
     for (int i = 0; i < nx; ++i) {
-      const double a = mesh_bg[j * nx + i];
-      out[i] = ny == 1 ? a : a + f * (mesh_bg[(j + 1) * nx + i] - a);
+      const double a = mesh_bg[static_cast<std::size_t>(j * nx + i)];
+      out[i] = ny == 1 ? a : a + f * (mesh_bg[static_cast<std::size_t>((j + 1) * nx + i)] - a);
     }
   }
 
@@ -374,7 +377,8 @@ struct detail::DetectWorkspace {
       const double* row = mesh_bg.data() + j * nx;
       for (int k = 0; k < num_segments; ++k) {
         const int x0 = k * segment_px, x1 = std::min(x0 + segment_px, width);
-        segment_bg[j * num_segments + k] = Interpolate(centre_x.data(), row, nx, tile, 0.5 * (x0 + x1 - 1));
+        segment_bg[static_cast<std::size_t>(j * num_segments + k)] =
+            Interpolate(centre_x.data(), row, nx, tile, 0.5 * (x0 + x1 - 1));
       }
     }
   }
@@ -392,7 +396,7 @@ struct detail::DetectWorkspace {
     for (int k = 0; k < num_segments; ++k) {
       // pixel > t <=> pixel > floor(t) for integer pixels; t is clamped >= 0, so truncate.
       const double t = a[k] + f * (b[k] - a[k]) + contrast;
-      segment_thr[k] = static_cast<int>(std::clamp(t, 0.0, top));
+      segment_thr[static_cast<std::size_t>(k)] = static_cast<int>(std::clamp(t, 0.0, top));
     }
   }
 };
@@ -461,8 +465,10 @@ void FramePass<RowT>::EstimateBackground() {
   ws_.num_segments = (f_.width + kSegmentPx - 1) / kSegmentPx;
   const int nx = ws_.nx;
   const int ny = ws_.ny;
-  for (int i = 0; i < nx; ++i) ws_.centre_x[i] = 0.5 * (i * T + std::min((i + 1) * T, f_.width) - 1);
-  for (int j = 0; j < ny; ++j) ws_.centre_y[j] = 0.5 * (j * T + std::min((j + 1) * T, f_.height) - 1);
+  for (int i = 0; i < nx; ++i)
+    ws_.centre_x[static_cast<std::size_t>(i)] = 0.5 * (i * T + std::min((i + 1) * T, f_.width) - 1);
+  for (int j = 0; j < ny; ++j)
+    ws_.centre_y[static_cast<std::size_t>(j)] = 0.5 * (j * T + std::min((j + 1) * T, f_.height) - 1);
 
   const int max_abs = f_.format == PixelFormat::kMono8 ? 255 : 0;  // mono16: find the range
   for (int j = 0; j < ny; ++j) {
@@ -472,7 +478,7 @@ void FramePass<RowT>::EstimateBackground() {
       // Sample grid centred in the tile (a partial edge tile still gets one sample per axis).
       const int ox = std::min(step / 2, (x1 - x0 - 1) / 2);
       const int oy = std::min(step / 2, (y1 - y0 - 1) / 2);
-      int n = 0;
+      std::size_t n = 0;
       for (int y = y0 + oy; y < y1; y += step) {
         const RowT row = Row(y);
         for (int x = x0 + ox; x < x1; x += step) {
@@ -484,12 +490,13 @@ void FramePass<RowT>::EstimateBackground() {
         }
       }
       double level = 0.0, spread = 0.0, diff_mean = 0.0, diff_rms = 0.0;
-      ClippedMeanRms(ws_.samples.data(), n, max_abs, ws_.histogram.data(), ws_.scratch.data(), &level,
+      ClippedMeanRms(ws_.samples.data(), static_cast<int>(n), max_abs, ws_.histogram.data(), ws_.scratch.data(), &level,
                      &spread);
-      ClippedMeanRms(ws_.differences.data(), n, max_abs, ws_.histogram.data(), ws_.scratch.data(),
+      ClippedMeanRms(ws_.differences.data(), static_cast<int>(n), max_abs, ws_.histogram.data(), ws_.scratch.data(),
                      &diff_mean, &diff_rms);
-      ws_.mesh_bg[j * nx + i] = level;
-      ws_.mesh_sigma[j * nx + i] = diff_rms / std::numbers::sqrt2;  // var(a - b) = 2 var(a)
+      const auto cell = static_cast<std::size_t>(j * nx + i);
+      ws_.mesh_bg[cell] = level;
+      ws_.mesh_sigma[cell] = diff_rms / std::numbers::sqrt2;  // var(a - b) = 2 var(a)
     }
   }
 
@@ -500,11 +507,11 @@ void FramePass<RowT>::EstimateBackground() {
     for (int j = 1; j + 1 < ny; ++j) {
       for (int i = 1; i + 1 < nx; ++i) {
         std::array<double, 9> w{};
-        int k = 0;
+        std::size_t k = 0;
         for (int dj = -1; dj <= 1; ++dj)
-          for (int di = -1; di <= 1; ++di) w[k++] = ws_.mesh_tmp[(j + dj) * nx + (i + di)];
+          for (int di = -1; di <= 1; ++di) w[k++] = ws_.mesh_tmp[static_cast<std::size_t>((j + dj) * nx + (i + di))];
         std::nth_element(w.begin(), w.begin() + 4, w.end());
-        ws_.mesh_bg[j * nx + i] = w[4];
+        ws_.mesh_bg[static_cast<std::size_t>(j * nx + i)] = w[4];
       }
     }
   }
@@ -512,14 +519,14 @@ void FramePass<RowT>::EstimateBackground() {
   // Frame noise: the median of the tiles' (read noise dominates a dark frame).
   std::copy_n(ws_.mesh_sigma.begin(), cells, ws_.mesh_tmp.begin());
   std::nth_element(ws_.mesh_tmp.begin(), ws_.mesh_tmp.begin() + cells / 2, ws_.mesh_tmp.begin() + cells);
-  const double noise = ws_.mesh_tmp[cells / 2];
+  const double noise = ws_.mesh_tmp[static_cast<std::size_t>(cells / 2)];
   ws_.contrast = std::max(o_.k_sigma * noise, o_.min_contrast_dn);
 
   std::copy_n(ws_.mesh_bg.begin(), cells, ws_.mesh_tmp.begin());
   const auto [lo, hi] = std::minmax_element(ws_.mesh_tmp.begin(), ws_.mesh_tmp.begin() + cells);
   const double bg_min = *lo, bg_max = *hi;
   std::nth_element(ws_.mesh_tmp.begin(), ws_.mesh_tmp.begin() + cells / 2, ws_.mesh_tmp.begin() + cells);
-  out_->background_dn = ws_.mesh_tmp[cells / 2];
+  out_->background_dn = ws_.mesh_tmp[static_cast<std::size_t>(cells / 2)];
   out_->noise_dn = noise;
   out_->contrast_dn = ws_.contrast;
   const auto clamp_thr = [this](double t) {
@@ -540,7 +547,7 @@ int FramePass<RowT>::ScanRow(int y, Run* runs) const {
   int n = 0;
   int start = -1;
   for (int k = 0; k < ws_.num_segments; ++k) {
-    const int t = ws_.segment_thr[k];
+    const int t = ws_.segment_thr[static_cast<std::size_t>(k)];
     const int x1 = std::min((k + 1) * L, W);
     int x = k * L;
     while (x < x1) {
@@ -668,12 +675,12 @@ void FramePass<RowT>::Close(const Component& c) {
 template <typename RowT>
 void FramePass<RowT>::Emit(const Blob& b) {
   if (out_->count < o_.max_blobs) {
-    out_->blobs[out_->count++] = b;
+    out_->blobs[static_cast<std::size_t>(out_->count++)] = b;
     return;
   }
   ++out_->counters.over_blob_limit;
-  int faintest = 0;
-  for (int i = 1; i < out_->count; ++i)
+  std::size_t faintest = 0;
+  for (std::size_t i = 1; i < static_cast<std::size_t>(out_->count); ++i)
     if (BrighterFirst(out_->blobs[faintest], out_->blobs[i])) faintest = i;
   if (BrighterFirst(b, out_->blobs[faintest])) out_->blobs[faintest] = b;
 }
@@ -684,7 +691,7 @@ template <typename RowT>
 DetectStatus FramePass<RowT>::Label() {
   detail::DetectWorkspace& w = ws_;
   w.num_free = 0;
-  for (int l = w.max_labels - 1; l >= 0; --l) w.free_labels[w.num_free++] = l;
+  for (int l = w.max_labels - 1; l >= 0; --l) w.free_labels[static_cast<std::size_t>(w.num_free++)] = l;
   Run* prev = w.runs_a.data();
   Run* cur = w.runs_b.data();
   int n_prev = 0;
@@ -713,31 +720,31 @@ DetectStatus FramePass<RowT>::Label() {
         }
       }
       run.label = label;
-      Accumulate(run, y, &w.comps[label]);
+      Accumulate(run, y, &w.Comp(label));
     }
     // Resolve the current runs to their roots and mark those roots as continuing.
     for (int r = 0; r < n_cur; ++r) {
       cur[r].label = w.Find(cur[r].label);
-      w.comps[cur[r].label].stamp = y;
+      w.Comp(cur[r].label).stamp = y;
     }
     // Roots of the previous row not continued in this one are complete.
     for (int k = 0; k < n_prev; ++k) {
       const int root = w.Find(prev[k].label);
-      if (w.comps[root].stamp != y) {
-        w.comps[root].stamp = y;  // closed once even when several runs point to it
-        Close(w.comps[root]);
+      if (w.Comp(root).stamp != y) {
+        w.Comp(root).stamp = y;  // closed once even when several runs point to it
+        Close(w.Comp(root));
         w.Release(root);
       }
     }
-    for (int m = 0; m < w.num_merged; ++m) w.Release(w.merged[m]);
+    for (int m = 0; m < w.num_merged; ++m) w.Release(w.merged[static_cast<std::size_t>(m)]);
     std::swap(prev, cur);
     n_prev = n_cur;
   }
   for (int k = 0; k < n_prev; ++k) {
     const int root = prev[k].label;  // resolved at the end of the last row
-    if (w.comps[root].stamp != f_.height) {
-      w.comps[root].stamp = f_.height;
-      Close(w.comps[root]);
+    if (w.Comp(root).stamp != f_.height) {
+      w.Comp(root).stamp = f_.height;
+      Close(w.Comp(root));
       w.Release(root);
     }
   }
@@ -917,7 +924,7 @@ DetectStatus BlobDetector::Detect(const FrameView& frame, const CameraIntrinsics
 
   std::sort(out->blobs.begin(), out->blobs.begin() + out->count, BrighterFirst);
   for (int i = 0; i < out->count && camera != nullptr; ++i) {
-    Blob& b = out->blobs[i];
+    Blob& b = out->blobs[static_cast<std::size_t>(i)];
     b.normalised_ok = Unproject(*camera, b.uv_px, &b.x_n) == UnprojectStatus::kOk;
     if (!b.normalised_ok) ++out->counters.undistort_failures;
   }

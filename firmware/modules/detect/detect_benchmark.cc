@@ -99,8 +99,8 @@ void BM_OpenCvThresholdComponentsCentroid(benchmark::State& state) {
           sy += w * y;
         }
       }
-      u[l] = sx / s0;
-      v[l] = sy / s0;
+      u[static_cast<std::size_t>(l)] = sx / s0;
+      v[static_cast<std::size_t>(l)] = sy / s0;
     }
     benchmark::DoNotOptimize(u.data());
     benchmark::DoNotOptimize(v.data());

@@ -120,14 +120,14 @@ TEST_P(OpenCvReference, SameComponentsAndCentroidsOnRandomMultiSpotImages) {
     ASSERT_EQ(detector.Detect(fb.view, nullptr, &out), DetectStatus::kOk);
     ASSERT_EQ(out.count, static_cast<int>(ref.size())) << "trial " << trial;
     std::vector<int> used(ref.size(), 0);
-    for (int i = 0; i < out.count; ++i) {
+    for (std::size_t i = 0; i < static_cast<std::size_t>(out.count); ++i) {
       const Blob& b = out.blobs[i];
-      int match = -1;
-      for (std::size_t r = 0; r < ref.size() && match < 0; ++r)
+      std::size_t match = ref.size();
+      for (std::size_t r = 0; r < ref.size() && match == ref.size(); ++r)
         if (!used[r] && ref[r].x_min == b.x_min && ref[r].y_min == b.y_min &&
             ref[r].x_max == b.x_max && ref[r].y_max == b.y_max && ref[r].area == b.area_px)
-          match = static_cast<int>(r);
-      ASSERT_GE(match, 0) << "trial " << trial << ": no OpenCV component with blob " << i << "'s box";
+          match = r;
+      ASSERT_LT(match, ref.size()) << "trial " << trial << ": no OpenCV component with blob " << i << "'s box";
       used[match] = 1;
       EXPECT_NEAR(b.uv_px.x(), ref[match].u, 1e-6);
       EXPECT_NEAR(b.uv_px.y(), ref[match].v, 1e-6);

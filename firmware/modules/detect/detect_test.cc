@@ -54,10 +54,10 @@ using testing::Spot;
 using testing::SyntheticImage;
 
 // Index of the true spot nearest to uv, and its distance.
-int Nearest(const std::vector<Spot>& spots, const Eigen::Vector2d& uv, double* dist) {
-  int best = -1;
+std::size_t Nearest(const std::vector<Spot>& spots, const Eigen::Vector2d& uv, double* dist) {
+  std::size_t best = spots.size();
   double d_best = 1e300;
-  for (int i = 0; i < static_cast<int>(spots.size()); ++i) {
+  for (std::size_t i = 0; i < spots.size(); ++i) {
     const double d = std::hypot(spots[i].u - uv.x(), spots[i].v - uv.y());
     if (d < d_best) {
       d_best = d;
@@ -315,10 +315,10 @@ TEST_P(CentroidAccuracy, ZeroNoiseWithinTwoHundredthsPixel) {
   EXPECT_NEAR(out.background_dn, fc.background, 0.5);
   std::vector<int> hits(spots.size(), 0);
   double worst = 0.0;
-  for (int i = 0; i < out.count; ++i) {
+  for (std::size_t i = 0; i < static_cast<std::size_t>(out.count); ++i) {
     const Blob& b = out.blobs[i];
     double d = 0.0;
-    const int k = Nearest(spots, b.uv_px, &d);
+    const std::size_t k = Nearest(spots, b.uv_px, &d);
     ++hits[k];
     worst = std::max(worst, d);
     EXPECT_NEAR(b.background_dn, fc.background, 0.5);
@@ -631,9 +631,9 @@ TEST(BlobDetector, BlobLimitKeepsBrightestAndCounts) {
   for (const Spot& s : spots) fluxes.push_back(s.flux);
   std::sort(fluxes.begin(), fluxes.end(), std::greater<>());
   const double cut = 0.5 * (fluxes[limits::kMaxBlobsPerFrame - 1] + fluxes[limits::kMaxBlobsPerFrame]);
-  for (int i = 0; i < out.count; ++i) {
+  for (std::size_t i = 0; i < static_cast<std::size_t>(out.count); ++i) {
     double d = 0.0;
-    const int k = Nearest(spots, out.blobs[i].uv_px, &d);
+    const std::size_t k = Nearest(spots, out.blobs[i].uv_px, &d);
     EXPECT_LT(d, 0.05);
     EXPECT_GT(spots[k].flux, cut);
     if (i > 0) {
@@ -679,7 +679,7 @@ TEST(BlobDetector, LabelTableFullKeepsBlobsClosedBefore) {
   BlobList out;
   ASSERT_EQ(small.Detect(fb.view, nullptr, &out), DetectStatus::kLabelTableFull);
   ASSERT_EQ(out.count, 3);
-  for (int i = 0; i < out.count; ++i) {
+  for (std::size_t i = 0; i < static_cast<std::size_t>(out.count); ++i) {
     double d = 0.0;
     Nearest(top, out.blobs[i].uv_px, &d);
     EXPECT_LT(d, 0.03);
@@ -714,10 +714,10 @@ TEST(BlobDetector, AdaptiveThresholdFollowsBackgroundGradient) {
   EXPECT_GT(out.threshold_max_dn - out.threshold_min_dn, 0.8 * span);
   ASSERT_EQ(out.count, static_cast<int>(spots.size()));
   std::vector<int> hits(spots.size(), 0);
-  for (int i = 0; i < out.count; ++i) {
+  for (std::size_t i = 0; i < static_cast<std::size_t>(out.count); ++i) {
     const Blob& b = out.blobs[i];
     double d = 0.0;
-    const int k = Nearest(spots, b.uv_px, &d);
+    const std::size_t k = Nearest(spots, b.uv_px, &d);
     ++hits[k];
     const Scatter e = ExpectedScatter(spots[k], out.contrast_dn, kNoise);
     EXPECT_LT(d, 4.5 * e.first_order + 0.02) << "spot " << k;  // 2-D, both axes
@@ -734,7 +734,7 @@ TEST(BlobDetector, AdaptiveThresholdFollowsBackgroundGradient) {
     BlobDetector f(fixed);
     f.Detect(fb.view, nullptr, &out);
     int good = 0;
-    for (int i = 0; i < out.count; ++i) {
+    for (std::size_t i = 0; i < static_cast<std::size_t>(out.count); ++i) {
       double d = 0.0;
       Nearest(spots, out.blobs[i].uv_px, &d);
       good += d < 0.5 ? 1 : 0;
@@ -759,7 +759,7 @@ TEST(BlobDetector, NormalisedCoordinatesMatchUnprojectOfTrueCentre) {
   ASSERT_EQ(detector.Detect(fb.view, &cam, &out), DetectStatus::kOk);
   ASSERT_EQ(out.count, static_cast<int>(spots.size()));
   EXPECT_EQ(out.counters.undistort_failures, 0u);
-  for (int i = 0; i < out.count; ++i) {
+  for (std::size_t i = 0; i < static_cast<std::size_t>(out.count); ++i) {
     const Blob& b = out.blobs[i];
     ASSERT_TRUE(b.normalised_ok);
     double d = 0.0;
@@ -777,7 +777,7 @@ TEST(BlobDetector, NormalisedCoordinatesMatchUnprojectOfTrueCentre) {
   wild.kc = {-5.0, 50.0, 0.0, 0.0, -400.0};
   ASSERT_EQ(detector.Detect(fb.view, &wild, &out), DetectStatus::kOk);
   int failed = 0;
-  for (int i = 0; i < out.count; ++i) failed += out.blobs[i].normalised_ok ? 0 : 1;
+  for (std::size_t i = 0; i < static_cast<std::size_t>(out.count); ++i) failed += out.blobs[i].normalised_ok ? 0 : 1;
   EXPECT_GT(failed, 0);
   EXPECT_EQ(out.counters.undistort_failures, static_cast<std::uint64_t>(failed));
 }
@@ -794,15 +794,15 @@ struct RefComponent {
 
 std::vector<RefComponent> FloodFill(const FrameView& f, int threshold, double background,
                                     CentroidWeights weights) {
-  std::vector<int> seen(static_cast<std::size_t>(f.width) * f.height, 0);
+  std::vector<int> seen(static_cast<std::size_t>(f.width) * static_cast<std::size_t>(f.height), 0);
   std::vector<RefComponent> out;
   std::vector<std::pair<int, int>> queue;
   for (int y0 = 0; y0 < f.height; ++y0) {
     for (int x0 = 0; x0 < f.width; ++x0) {
-      if (seen[y0 * f.width + x0] || f.At(x0, y0) <= threshold) continue;
+      if (seen[static_cast<std::size_t>(y0 * f.width + x0)] || f.At(x0, y0) <= threshold) continue;
       RefComponent c;
       queue.assign(1, {x0, y0});
-      seen[y0 * f.width + x0] = 1;
+      seen[static_cast<std::size_t>(y0 * f.width + x0)] = 1;
       for (std::size_t q = 0; q < queue.size(); ++q) {
         const auto [x, y] = queue[q];
         const int p = f.At(x, y);
@@ -823,8 +823,8 @@ std::vector<RefComponent> FloodFill(const FrameView& f, int threshold, double ba
           for (int dx = -1; dx <= 1; ++dx) {
             const int xn = x + dx, yn = y + dy;
             if (xn < 0 || yn < 0 || xn >= f.width || yn >= f.height) continue;
-            if (seen[yn * f.width + xn] || f.At(xn, yn) <= threshold) continue;
-            seen[yn * f.width + xn] = 1;
+            if (seen[static_cast<std::size_t>(yn * f.width + xn)] || f.At(xn, yn) <= threshold) continue;
+            seen[static_cast<std::size_t>(yn * f.width + xn)] = 1;
             queue.push_back({xn, yn});
           }
         }
@@ -871,16 +871,16 @@ TEST(BlobDetector, StreamingLabelsMatchFloodFillOnRandomImages) {
     ASSERT_EQ(d.Detect(fb.view, nullptr, &out), DetectStatus::kOk);
     ASSERT_EQ(out.count, static_cast<int>(ref.size())) << "trial " << trial;
     std::vector<int> used(ref.size(), 0);
-    for (int i = 0; i < out.count; ++i) {
+    for (std::size_t i = 0; i < static_cast<std::size_t>(out.count); ++i) {
       const Blob& b = out.blobs[i];
-      int match = -1;
+      std::size_t match = ref.size();
       for (std::size_t r = 0; r < ref.size(); ++r)
         if (!used[r] && ref[r].x_min == b.x_min && ref[r].y_min == b.y_min && ref[r].x_max == b.x_max &&
             ref[r].y_max == b.y_max && ref[r].area == b.area_px &&
             std::abs(ref[r].sx / ref[r].s0 - b.uv_px.x()) < 1e-9 &&
             std::abs(ref[r].sy / ref[r].s0 - b.uv_px.y()) < 1e-9)
-          match = static_cast<int>(r);
-      ASSERT_GE(match, 0) << "trial " << trial << " blob " << i;
+          match = r;
+      ASSERT_LT(match, ref.size()) << "trial " << trial << " blob " << i;
       used[match] = 1;
       EXPECT_EQ(b.peak_dn, ref[match].peak);
       EXPECT_NEAR(b.flux_dn, ref[match].flux, 1e-9 * ref[match].flux);
@@ -919,7 +919,7 @@ TEST(BlobDetector, NoAllocationWhileDetecting) {
   const long before = g_news.load();
   int total = 0;
   for (int f = 0; f < 100; ++f) {
-    const FrameBuffer& fb = frames[f % frames.size()];
+    const FrameBuffer& fb = frames[static_cast<std::size_t>(f) % frames.size()];
     BlobDetector& d = (f % 5 == 4 && fb.view.format == PixelFormat::kMono8) ? fixed_detector : adaptive;
     const DetectStatus s = d.Detect(fb.view, &cam, &out);
     total += s == DetectStatus::kOk ? out.count : 0;

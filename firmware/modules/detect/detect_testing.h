@@ -39,10 +39,14 @@ struct SyntheticImage {
   int height = 0;
   std::vector<double> value;
 
-  SyntheticImage(int w, int h) : width(w), height(h), value(static_cast<std::size_t>(w) * h, 0.0) {}
+  SyntheticImage(int w, int h)
+      : width(w), height(h), value(static_cast<std::size_t>(w) * static_cast<std::size_t>(h), 0.0) {}
 
-  double& At(int x, int y) { return value[static_cast<std::size_t>(y) * width + x]; }
-  double At(int x, int y) const { return value[static_cast<std::size_t>(y) * width + x]; }
+  double& At(int x, int y) { return value[Index(x, y)]; }
+  double At(int x, int y) const { return value[Index(x, y)]; }
+  std::size_t Index(int x, int y) const {
+    return static_cast<std::size_t>(y) * static_cast<std::size_t>(width) + static_cast<std::size_t>(x);
+  }
 
   // level + gx (x - x_c) + gy (y - y_c) with (x_c, y_c) the image centre.
   void AddBackground(double level, double gx = 0.0, double gy = 0.0) {
@@ -86,10 +90,12 @@ inline FrameBuffer Quantize(const SyntheticImage& img, PixelFormat format, int p
   FrameBuffer fb;
   const int bpp = BytesPerPixel(format);
   const int stride = img.width * bpp + pad_bytes;
-  fb.bytes.assign(static_cast<std::size_t>(stride) * img.height + offset_bytes, 0xA5);
+  fb.bytes.assign(
+      static_cast<std::size_t>(stride) * static_cast<std::size_t>(img.height) + static_cast<std::size_t>(offset_bytes),
+      0xA5);
   const double full = format == PixelFormat::kMono8 ? 255.0 : 65535.0;
   for (int y = 0; y < img.height; ++y) {
-    std::uint8_t* row = fb.bytes.data() + offset_bytes + static_cast<std::size_t>(y) * stride;
+    std::uint8_t* row = fb.bytes.data() + offset_bytes + static_cast<std::ptrdiff_t>(y) * stride;
     for (int x = 0; x < img.width; ++x) {
       const double q = std::clamp(std::round(img.At(x, y)), 0.0, full);
       if (format == PixelFormat::kMono8) {

@@ -500,7 +500,8 @@ void LostInSpace::OrderItems(bool near_pass) {
           // likely beacons, at any depth, and a near pass over every steady triple first
           // spent whole searches short of the truth (a 128-beacon cylinder with 20 beacons in
           // view: 20 000 hypotheses over 240 near items).
-          const bool all_steady = steady_first && sel_steady_[i] && sel_steady_[j] && sel_steady_[k];
+          const bool all_steady = steady_first && sel_steady_[static_cast<std::size_t>(i)] &&
+                                  sel_steady_[static_cast<std::size_t>(j)] && sel_steady_[static_cast<std::size_t>(k)];
           const int group = all_steady ? (same ? 0 : 2) : (steady_first ? 4 : 0) + (same ? 0 : 2) + (near ? 0 : 1);
           items_[static_cast<std::size_t>(num_items_++)] =
               Item{static_cast<std::uint16_t>(t), near, same, group, static_cast<float>(same ? widest : t)};

@@ -64,7 +64,7 @@ struct MatchOptions {
 template <int kCapacity>
 struct MatchList {
   int num_matches = 0;
-  std::array<Match, kCapacity> matches{};
+  std::array<Match, static_cast<std::size_t>(kCapacity)> matches{};
   BeaconSet beacons;          // beacons matched in some camera
   int num_beacons = 0;        // distinct matched beacons
   int num_predicted = 0;      // (camera, beacon) pairs predicted inside the image

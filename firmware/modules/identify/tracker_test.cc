@@ -109,7 +109,7 @@ void Step(const Rig& rig, const Scene& s, std::uint64_t t_ns, const TrackOptions
       if (run->gap_len == 0) run->gap_after_fix = run->last_accepted;
       ++run->gap_len;
     } else {
-      if (run->gap_len > 0 && run->gap_after_fix && run->gap_len * kFrameNs * 1e-9 < o.max_coast_s) {
+      if (run->gap_len > 0 && run->gap_after_fix && static_cast<std::uint64_t>(run->gap_len) * kFrameNs * 1e-9 < o.max_coast_s) {
         ++run->short_gaps;
         run->since_gap = 0;
       }

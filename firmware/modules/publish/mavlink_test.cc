@@ -305,7 +305,7 @@ TEST(MavlinkStream, HeartbeatWithoutFramesOnTheMonotonicClock) {
   int heartbeats = 0;
   for (int i = 0; i < 25; ++i) {
     PoseRecord r = At(NavStatus::kLost, 0);
-    r.t_publish_ns = 1'000'000'000ull + static_cast<std::uint64_t>(i) * 200'000'000ull;  // 5 Hz
+    r.t_publish_ns = 1'000'000'000 + static_cast<std::uint64_t>(i) * 200'000'000;  // 5 Hz
     const int n = s.Next(r);
     ASSERT_LE(n, 1);
     heartbeats += n;

@@ -377,7 +377,7 @@ TEST(NavMatrix, ReducedMatrixNeverPublishesAWrongFix) {
 // pose, never move it.
 TEST(NavMatrix, SeenWrongFixesStayFixed) {
   std::vector<RunSpec> runs;
-  for (const std::uint64_t seed : {12, 13}) {
+  for (const std::uint64_t seed : {12u, 13u}) {
     RunSpec r;
     r.preset = "station-box";
     r.count = r.map_beacons = 64;

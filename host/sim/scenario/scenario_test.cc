@@ -67,7 +67,8 @@ TEST(Scenario, TurntableKinematics) {
 TEST(Scenario, BelievedRigPerturbsOnlyWhatIsEnabled) {
   Scenario s = LoadPreset("free-flight");
   const Rig same = BelievedRig(s);  // only pixel noise on: belief == truth
-  for (int i = 0; i < s.rig.num_beacons; ++i) EXPECT_EQ(same.beacons_w[i], s.rig.beacons_w[i]);
+  for (std::size_t i = 0; i < static_cast<std::size_t>(s.rig.num_beacons); ++i)
+    EXPECT_EQ(same.beacons_w[i], s.rig.beacons_w[i]);
   EXPECT_EQ(same.cameras[0].C_k_b, s.rig.cameras[0].C_k_b);
   EXPECT_GT(s.rig.beacon_sigma, 0.0);  // the preset quotes a survey accuracy...
   EXPECT_EQ(same.beacon_sigma, 0.0);   // ...but the believed map is the true one
@@ -76,7 +77,8 @@ TEST(Scenario, BelievedRigPerturbsOnlyWhatIsEnabled) {
   s.errors.beacon_sigma = 0.4e-3;
   const Rig b = BelievedRig(s);
   double sum2 = 0;
-  for (int i = 0; i < s.rig.num_beacons; ++i) sum2 += (b.beacons_w[i] - s.rig.beacons_w[i]).squaredNorm();
+  for (std::size_t i = 0; i < static_cast<std::size_t>(s.rig.num_beacons); ++i)
+    sum2 += (b.beacons_w[i] - s.rig.beacons_w[i]).squaredNorm();
   EXPECT_NEAR(std::sqrt(sum2 / (3.0 * s.rig.num_beacons)) / 0.4e-3, 1.0, 0.2);
   EXPECT_EQ(b.cameras[1].r_b_bk, s.rig.cameras[1].r_b_bk);
   EXPECT_EQ(b.beacon_sigma, 0.4e-3);
