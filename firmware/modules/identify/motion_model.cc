@@ -84,8 +84,7 @@ void MotionModel::Add(const BodyPose& pose, std::uint64_t t_ns, double sigma_m, 
   last_t_ns_ = t_ns;
   last_sigma_m_ = sigma_m;
   last_sigma_rad_ = sigma_rad;
-  last_cov_ = DiagonalCov(sigma_m, sigma_rad);
-  if (cov != nullptr) last_cov_ = *cov;
+  last_cov_ = cov != nullptr ? *cov : DiagonalCov(sigma_m, sigma_rad);
   last_map_sigma_m_ = map_ratio * last_sigma_m_;
   last_map_sigma_rad_ = map_ratio * last_sigma_rad_;
 }
@@ -94,15 +93,10 @@ void MotionModel::AddToFilter(const BodyPose& pose, std::uint64_t t_ns, double s
                               double map_ratio, const MotionLimits& lim, const Matrix6d* cov) {
   const PoseFilterNoise noise = PoseFilterNoiseOf(lim);
   if (filter_pending_) {
-    Matrix6d P0 = Matrix6d::Zero();
-    P0.diagonal() << Eigen::Vector3d::Constant(last_sigma_m_ * last_sigma_m_),
-        Eigen::Vector3d::Constant(last_sigma_rad_ * last_sigma_rad_);
-    filter_.Start(last_pose_, last_t_ns_, P0, noise);
+    filter_.Start(last_pose_, last_t_ns_, last_cov_, noise);  // Start's pose and 1-sigmas
     filter_pending_ = false;
   }
-  Matrix6d R = Matrix6d::Zero();
-  if (cov != nullptr) R = *cov;
-  else R.diagonal() << Eigen::Vector3d::Constant(sigma_m * sigma_m), Eigen::Vector3d::Constant(sigma_rad * sigma_rad);
+  Matrix6d R = cov != nullptr ? *cov : DiagonalCov(sigma_m, sigma_rad);
   R *= 1.0 + map_ratio * map_ratio;
   if (!filter_.Update(pose, t_ns, R)) filter_.Start(pose, t_ns, R, noise);
 }

@@ -230,12 +230,11 @@ bool Tracker::TrackFrom(const BodyPose& predicted, const PoseBounds& bounds, dou
     // flickering beside its beacon); then the smaller residual.
     const int nb = trial_.matches.num_beacons;
     const bool steady = OnSteadyBlobs(trial_.matches);
-    const bool alike = consistent > 0 && nb == r->matches.num_beacons &&
-                       std::abs(trial_.solve.cost - r->solve.cost) * 2.0 <= o.ambiguity_chi2 * noise_.ResidualVariancePx2();
+    const bool alike = std::abs(trial_.solve.cost - r->solve.cost) * 2.0 <= o.ambiguity_chi2 * noise_.ResidualVariancePx2();
     bool better = false;
     if (consistent == 0 || nb > r->matches.num_beacons) better = true;
     else if (nb < r->matches.num_beacons) better = false;
-    else if (alike && steady != best_steady) better = steady;
+    else if (alike && steady != best_steady) better = steady;  // as many beacons, about as well
     else better = trial_.solve.rms_px < r->solve.rms_px;
     ++consistent;
     if (better) {
@@ -312,7 +311,7 @@ void Tracker::ContinueTracks(const TrackOptions& o) {
     // `own` continues the beacon's track and `other` is new.
     const auto continues = [&](int own, int other) {
       const bool known = (id != 0 && blob_tracks_.id(own) == id) ||
-                         (keep_acquired_blobs_ && acquired_matches_.BeaconOfBlob(own) == a.beacon);
+                         acquired_matches_.BeaconOfBlob(own) == a.beacon;
       return known && blob_tracks_.steady(own) && blob_tracks_.age(other) == 1;
     };
     const int blob = continues(a.blob_near, a.blob_far) ? a.blob_near : continues(a.blob_far, a.blob_near) ? a.blob_far : -1;
@@ -526,8 +525,8 @@ bool Tracker::DecideByMotion(const BodyPose& predicted, const PoseBounds& bounds
 // matrix's 64-beacon box posed 92.1 % of its frame sets after the first fix, 91.7 % without,
 // and on unseen seeds one wrong degraded pose less; docs/acquisition.md, session 18).
 // Otherwise it counts as a position error seen at gate_depth_m plus an attitude error, and a
-// wide gate sends the frame set to re-identification (lost-in-space near the prediction, every consistent pose listed), which
-// three-beacon tracking in a narrow gate would bypass: a degraded pose's covariance may lie
+// wide gate sends the frame set to re-identification (lost-in-space near the prediction, every
+// consistent pose listed), which three-beacon tracking in a narrow gate would bypass: a degraded pose's covariance may lie
 // (near the P3P's degenerate configurations, seen 37 mm off at 17 of its 1-sigma), and a
 // spurious blob in a narrow gate fits three beacons exactly (seen: 56 mm and 2.4 deg off after
 // 0.4 s with two beacons; 56 mm and 1.7 deg off one frame set after a three-beacon fix 7 mm
@@ -536,17 +535,19 @@ void Tracker::PredictionGatePx(const BodyPose& predicted, double since_s, const 
                                double* with_map) const {
   const double px = noise_.px_per_rad;
   const double base = motion_.has_velocity() ? o.gate_px : o.hold_gate_px;
+  // Pose-space bounds beyond the slack, as the image motion of a beacon at gate_depth_m.
+  const auto bounds_px = [&](const PoseBounds& b) {
+    return px * ((b.max_rad - o.innovation_rad) + (b.max_m - o.innovation_m) / o.gate_depth_m);
+  };
   if (!o.projected_gate || !last_fix_ || since_s > o.velocity_window_s) {
-    const PoseBounds b = motion_.Bounds(since_s, limits_.motion);
-    *gate = base + px * ((b.max_rad - o.innovation_rad) + (b.max_m - o.innovation_m) / o.gate_depth_m);
+    *gate = base + bounds_px(motion_.Bounds(since_s, limits_.motion));
     const double map_rad = motion_.last_map_sigma_rad(), map_m = motion_.last_map_sigma_m();
     *with_map = *gate + o.gate_sigmas * px * (map_rad + map_m / o.gate_depth_m);
     return;
   }
   MotionLimits motion_only = limits_.motion;
   motion_only.sigmas = 0.0;
-  const PoseBounds m = motion_.Bounds(since_s, motion_only);
-  const double motion_px = base + px * ((m.max_rad - o.innovation_rad) + (m.max_m - o.innovation_m) / o.gate_depth_m);
+  const double motion_px = base + bounds_px(motion_.Bounds(since_s, motion_only));
   const double image_sigma = ImageSigmaPx(predicted, motion_.last_cov());
   const double lead = motion_.Lead(since_s), ratio = noise_.MapToCentroidRatio();
   *gate = motion_px + o.gate_sigmas * lead * image_sigma;
@@ -679,16 +680,9 @@ bool Tracker::Acquire(std::uint64_t t_ns, const TrackOptions& o, TrackResult* r)
     ++counters_.residual_refused;
     return false;
   }
-  // Three beacons fit their pose exactly, and the motion refutes a pose resting on a reflection
-  // only when the reflection jumps: one that moves with the scene (a point on a wall) keeps a
-  // wrong three-beacon pose consistent frame set after frame set (seen: a seeded chain's
-  // survivor 147 mm and 10 deg off, on one beacon and two such reflections, while the true
-  // pose had dropped out of the chain). A steady blob it leaves unexplained (a fourth beacon,
-  // or such a reflection) is the sign: wait for the pose that explains it.
   // Unambiguous's trials keep the survivor's blobs where the alternative is a new blob (a
   // reflection flickering beside its beacon: both fit three beacons exactly, and the trials'
   // tie-break would pick either; seen: 32 mm off, published as fix).
-  keep_acquired_blobs_ = true;
   acquired_matches_ = r->matches;
   // With reflections in view, a three-beacon pose on a blob that continues no image track may
   // rest on a reflection flickering beside a beacon (it fits exactly all the same; seen: 20-32
@@ -698,6 +692,12 @@ bool Tracker::Acquire(std::uint64_t t_ns, const TrackOptions& o, TrackResult* r)
     ++counters_.unsteady_refused;
     return false;
   }
+  // Three beacons fit their pose exactly, and the motion refutes a pose resting on a reflection
+  // only when the reflection jumps: one that moves with the scene (a point on a wall) keeps a
+  // wrong three-beacon pose consistent frame set after frame set (seen: a seeded chain's
+  // survivor 147 mm and 10 deg off, on one beacon and two such reflections, while the true
+  // pose had dropped out of the chain). A steady blob it leaves unexplained (a fourth beacon,
+  // or such a reflection) is the sign: wait for the pose that explains it.
   if (r->matches.num_beacons == 3 && LeavesSteadyBlob(r->matches)) {
     ++counters_.steady_unexplained;
     return false;
@@ -937,7 +937,7 @@ TrackStatus Tracker::TrackOnce(const BlobObs* blobs, int num_blobs, std::uint64_
   r->lis_status = LisStatus::kBadInput;
   r->acquisition_poses = 0;
   r->source = TrackSource::kNone;
-  keep_acquired_blobs_ = false;
+  acquired_matches_.num_matches = 0;  // (Acquire sets them for this frame set's Unambiguous)
   if (rig_ == nullptr || !o.IsValid() || num_blobs < 0 || num_blobs > limits::kMaxObservations ||
       (num_blobs > 0 && blobs == nullptr))
     return Lost(TrackReason::kBadInput, r);

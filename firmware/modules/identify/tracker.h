@@ -205,10 +205,10 @@ struct TrackOptions {
   // followed poses) searches only the poses that name each continuing blob its beacon
   // (LisPrior::anchors; Tracker::AnchorContinuingBlobs).
   bool anchor_blob_tracks = true;
-  // A lost-in-space fix standing on its own (no prior, no chain) must fit the noise: the
-  // chi-square of its residuals (over the expected residual variance: centroid noise and the
-  // map's error) within this one-sided normal quantile (3.72: p = 1e-4) for its degrees of
-  // freedom (Tracker::ResidualsFitTheNoise). 0: not tested.
+  // A lost-in-space fix standing on its own (no prior, no chain) and an acquired pose must fit
+  // the noise: the chi-square of its residuals (over the expected residual variance: centroid
+  // noise and the map's error) within this one-sided normal quantile (3.72: p = 1e-4) for its
+  // degrees of freedom (Tracker::ResidualsFitTheNoise). 0: not tested.
   double residual_test_sigmas = 3.72;
   int lis_fix_min_beacons = 4;       // a lost-in-space fix on its own needs this many beacons
                                      // (three fit exactly, so a reflection among them shows not)
@@ -295,7 +295,7 @@ struct TrackCounters {
   std::uint32_t continuity_refuted = 0;   // a followed pose that names a continuing blob another beacon
   std::uint32_t anchored_searches = 0;    // lost-in-space searches near a pose with continuing blobs anchored
   std::uint32_t unsteady_refused = 0;     // an acquired three-beacon pose on a blob that is not steady
-  std::uint32_t residual_refused = 0;     // a lost-in-space fix whose residuals exceed the noise
+  std::uint32_t residual_refused = 0;     // a stand-alone LIS fix or acquired pose: residuals beyond the noise
   SolveCounters solve;
 };
 static_assert(std::tuple_size_v<decltype(TrackCounters::by_status)> == static_cast<std::size_t>(TrackStatus::kCount),
@@ -438,12 +438,12 @@ class Tracker {
   // The track: tracking may predict from the motion model's last pose (has_pose_); the motion
   // model alone may still seed re-acquisition (MotionModel::known) up to max_seed_s.
   bool has_pose_ = false;
-  bool last_fix_ = false;  // the last accepted pose was a fix (PredictionGatePx)
+  bool last_fix_ = false;  // the last accepted pose was a fix on >= 4 beacons (PredictionGatePx)
   MotionModel motion_;
   Acquisition acquisition_;  // poses followed while lost-in-space is ambiguous
-  // This frame set's acquired pose (its matches): a beacon with two blobs in Unambiguous's gate
-  // takes the pose's blob when that is steady and the other new (ContinueTracks).
-  bool keep_acquired_blobs_ = false;
+  // This frame set's acquired pose (its matches; none otherwise): a beacon with two blobs in
+  // Unambiguous's gate takes the pose's blob when that is steady and the other new
+  // (ContinueTracks).
   MatchSet acquired_matches_;
   // The previous frame set's blobs (ExplainsPrevious); -1: none.
   int prev_num_blobs_ = -1;
