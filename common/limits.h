@@ -73,6 +73,9 @@ inline constexpr std::int64_t kMaxTriggerPulseNs = 100000000;  // 100 ms exposur
 // Outputs (firmware/modules/publish): --output destinations of mfns-navd at once (e.g. the
 // MFNS datagrams to the ground and MAVLink to the autopilot).
 inline constexpr int kMaxOutputs = 4;
+// Blobs carried by one blobs datagram (firmware/modules/publish/pose_message.h): the matched
+// ones first; 128 x 12 bytes keeps it near one Ethernet frame.
+inline constexpr int kMaxBlobsInMessage = 128;
 
 // Iterative solvers: every loop has one of these as its bound.
 inline constexpr int kMaxUnprojectIterations = 20;

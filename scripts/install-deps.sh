@@ -12,7 +12,8 @@ HOST_PKGS=(
   g++-aarch64-linux-gnu qemu-user
   clang libclang-rt-14-dev  # the fuzz preset: libFuzzer, ASan, UBSan (tests/fuzz)
   openssh-server openssh-client dpkg-dev file
-  chromium  # headless check of report.html (host/calib/app/rig_command_test)
+  chromium  # headless checks of report.html (host/calib/app/rig_command_test) and mfns-view's page (host/view)
+  nlohmann-json3-dev libcpp-httplib-dev  # mfns-view: the page's JSON and its HTTP server (host/view)
   qemu-system-arm kmod cpio  # scripts/test-board.sh: the emulated arm64 board, depmod, the initramfs
 )
 ARM64_PKGS=(libgpiod-dev:arm64 libgpiod2:arm64 libbenchmark-dev:arm64)  # benchmark: aarch64 benchmarks (scripts/bench.sh)

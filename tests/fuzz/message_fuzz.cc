@@ -1,7 +1,8 @@
-// libFuzzer target for the pose and health datagram decoders (firmware/modules/publish/
+// libFuzzer target for the pose, health and blobs datagram decoders (firmware/modules/publish/
 // pose_message.h), which receivers (ground tools, tests, a flight controller bridge) run on
 // whatever arrives on a UDP port: a typed status for any bytes; a datagram that decodes kOk
 // encodes again without fault.
+#include <algorithm>
 #include <array>
 #include <cstddef>
 #include <cstdint>
@@ -23,6 +24,13 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   if (DecodeHealth(in, &health) == MessageStatus::kOk) {
     std::array<std::uint8_t, kHealthMessageBytes> out{};
     EncodeHealth(health, out);
+  }
+  BlobsRecord blobs;
+  if (DecodeBlobs(in, &blobs) == MessageStatus::kOk) {
+    // What decodes encodes to the same bytes (the layout has no slack).
+    std::array<std::uint8_t, kMaxBlobsMessageBytes> out{};
+    const std::size_t n = EncodeBlobs(blobs, out);
+    if (n != size || !std::equal(out.begin(), out.begin() + static_cast<std::ptrdiff_t>(n), data)) __builtin_trap();
   }
   return 0;
 }

@@ -170,6 +170,34 @@ void NavLoop::Publish(const NavOutput& nav, std::uint64_t t_capture_ns, PoseReco
   if (out != nullptr) *out = r;
 }
 
+// The frame set's blobs with the beacons the published pose matched them to (viewers: the
+// BlobsMessage): matched blobs first, then the others, as many as the message carries.
+void NavLoop::PublishBlobs(const NavOutput& nav, int num_obs, std::uint64_t t_capture_ns) {
+  BlobsRecord& r = blobs_record_;
+  r.sequence = blobs_sequence_++;
+  r.frame_set = static_cast<std::uint32_t>(counters_.frame_sets);
+  r.t_capture_ns = t_capture_ns;
+  r.num_cameras = static_cast<std::uint8_t>(rig_->num_cameras);
+  r.num_blobs = 0;
+  const int n = std::clamp(num_obs, 0, limits::kMaxObservations);
+  std::fill(beacon_of_blob_.begin(), beacon_of_blob_.begin() + n, std::int16_t{-1});
+  const int num_matches = nav.status == NavStatus::kLost ? 0 : std::min(nav.num_matches, limits::kMaxMatches);
+  for (int m = 0; m < num_matches; ++m) {
+    const Match& match = nav.matches[static_cast<std::size_t>(m)];
+    if (match.blob >= 0 && match.blob < n) beacon_of_blob_[static_cast<std::size_t>(match.blob)] = static_cast<std::int16_t>(match.beacon);
+  }
+  for (const bool matched : {true, false})
+    for (int i = 0; i < n && r.num_blobs < limits::kMaxBlobsInMessage; ++i) {
+      if ((beacon_of_blob_[static_cast<std::size_t>(i)] >= 0) != matched) continue;
+      const BlobObs& o = obs_[static_cast<std::size_t>(i)];
+      r.blobs[static_cast<std::size_t>(r.num_blobs++)] =
+          BlobEntry{static_cast<std::uint8_t>(o.camera), beacon_of_blob_[static_cast<std::size_t>(i)],
+                    static_cast<float>(o.uv_px.x()), static_cast<float>(o.uv_px.y())};
+    }
+  r.truncated = r.num_blobs < n;
+  outputs_->Blobs(r);
+}
+
 HealthRecord NavLoop::Health() const {
   HealthRecord h;
   h.sequence = health_sequence_;
@@ -344,6 +372,7 @@ StepStatus NavLoop::Step(PoseRecord* out) {
     nav_.beacons_per_camera.fill(0);
   }
   Publish(nav_, t_capture_ns, out);
+  if (outputs_ != nullptr && outputs_->wants_health()) PublishBlobs(nav_, any ? num_obs_ : 0, t_capture_ns);
   switch (nav_.status) {
     case NavStatus::kFix: ++counters_.fixes; break;
     case NavStatus::kDegraded: ++counters_.degraded; break;

@@ -105,6 +105,7 @@ class NavLoop {
   void CheckJump(std::uint64_t driver_t_ns);
   std::uint64_t FramesLost() const;
   void Publish(const NavOutput& nav, std::uint64_t t_capture_ns, PoseRecord* out);
+  void PublishBlobs(const NavOutput& nav, int num_obs, std::uint64_t t_capture_ns);
 
   const Rig* rig_;
   FrameSource* source_;
@@ -128,7 +129,9 @@ class NavLoop {
   bool fault_since_good_stamp_ = false;
   std::uint64_t lost_at_good_stamp_ = 0;     // FramesLost() at the last good driver stamp
   std::uint64_t clock_offset_ns_ = 0;        // added to driver stamps: periods the clock lost
-  std::uint32_t pose_sequence_ = 0, health_sequence_ = 0;
+  std::uint32_t pose_sequence_ = 0, health_sequence_ = 0, blobs_sequence_ = 0;
+  BlobsRecord blobs_record_;                                         // PublishBlobs' message
+  std::array<std::int16_t, limits::kMaxObservations> beacon_of_blob_{};  // PublishBlobs' scratch
 };
 
 

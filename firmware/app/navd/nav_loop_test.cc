@@ -14,6 +14,7 @@
 #include <string>
 #include <vector>
 
+#include "common/camera/camera.h"
 #include "common/rig/paper_rig.h"
 #include "common/rotation/rotation.h"
 #include "common/testing/loopback_udp.h"
@@ -225,6 +226,29 @@ int LoopbackReceiver(const char* scheme, std::string* url) {
   return rx;
 }
 
+// A frame set's blobs datagram against its pose: lost, no blob is matched; posed, at least as
+// many as the pose's beacons, each where the pose projects its beacon (1 px). Returns 1.
+int CheckBlobsMatchThePose(const Rig& rig, const PoseRecord& pose, const BlobsRecord& blobs) {
+  int matched = 0;
+  const Eigen::Matrix3d C_w_b = pose.q_w_b.toRotationMatrix();
+  for (int i = 0; i < blobs.num_blobs; ++i) {
+    const BlobEntry& b = blobs.blobs[static_cast<std::size_t>(i)];
+    if (b.beacon < 0) continue;
+    ++matched;
+    if (pose.status == NavStatus::kLost) continue;
+    const RigCamera& cam = rig.cameras[b.camera];
+    const Eigen::Vector3d p_k =
+        cam.C_k_b * (C_w_b.transpose() * (rig.beacons_w[static_cast<std::size_t>(b.beacon)] - pose.r_w_wb) - cam.r_b_bk);
+    Eigen::Vector2d uv;
+    EXPECT_EQ(Project(cam.intrinsics, p_k, &uv), ProjectStatus::kOk);
+    EXPECT_LT((uv - Eigen::Vector2d(b.u_px, b.v_px)).norm(), 1.0) << "frame set " << pose.frame_set << " beacon " << b.beacon;
+  }
+  if (pose.status == NavStatus::kLost) EXPECT_EQ(matched, 0);
+  else EXPECT_GE(matched, pose.num_beacons);
+  EXPECT_EQ(blobs.t_capture_ns, pose.t_capture_ns);
+  return 1;
+}
+
 // Issue 14 item 6: no heap after start also with every output on: the trigger pulsing a line
 // (the fake gpiod seam, its call record reserved beforehand), UDP pose and health datagrams to
 // a local socket, and the poses log. Each output is checked to have worked every frame set.
@@ -258,9 +282,10 @@ TEST(NavLoop, NoAllocationAfterStartWithTriggerUdpMavlinkAndLog) {
   ASSERT_TRUE(loop->Configure(Config(), nullptr));
 
   const std::uint64_t before = testing::AllocationCount();
-  std::array<std::uint8_t, 512> datagram{};
-  long received = 0, heartbeats = 0, odometry = 0, posed = 0;
+  std::array<std::uint8_t, kMaxBlobsMessageBytes> datagram{};
+  long received = 0, heartbeats = 0, odometry = 0, posed = 0, blob_messages = 0, blobs_checked = 0;
   PoseRecord rec;
+  BlobsRecord blobs;
   for (long n = 0; n < sets; ++n) {
     sweep.Render(n);
     for (int k = 0; k < rig.num_cameras; ++k)
@@ -268,7 +293,13 @@ TEST(NavLoop, NoAllocationAfterStartWithTriggerUdpMavlinkAndLog) {
                                             static_cast<std::uint32_t>(n))));
     ASSERT_EQ(loop->Step(&rec), StepStatus::kOk);
     posed += rec.status != NavStatus::kLost;
-    while (::recv(rx, datagram.data(), datagram.size(), MSG_DONTWAIT) > 0) ++received;  // (keeps the queue short)
+    for (ssize_t got; (got = ::recv(rx, datagram.data(), datagram.size(), MSG_DONTWAIT)) > 0;) {  // (keeps the queue short)
+      ++received;
+      const std::span<const std::uint8_t> d(datagram.data(), static_cast<std::size_t>(got));
+      if (DecodeBlobs(d, &blobs) != MessageStatus::kOk) continue;
+      ++blob_messages;
+      if (blobs.frame_set == rec.frame_set) blobs_checked += CheckBlobsMatchThePose(rig, rec, blobs);
+    }
     while (::recv(mav_rx, datagram.data(), datagram.size(), MSG_DONTWAIT) > 10) {
       const auto id = static_cast<std::uint32_t>(datagram[7] | datagram[8] << 8 | datagram[9] << 16);
       heartbeats += id == mavlink::kHeartbeatId;
@@ -280,8 +311,11 @@ TEST(NavLoop, NoAllocationAfterStartWithTriggerUdpMavlinkAndLog) {
   ::close(mav_rx);
   EXPECT_EQ(trigger.counters().pulses, static_cast<std::uint64_t>(sets));
   EXPECT_EQ(outputs.counters(0).send_errors, 0u);
-  EXPECT_EQ(outputs.counters(0).sent, static_cast<std::uint64_t>(sets + sets / Config().health_every));
+  // A pose and a blobs datagram per frame set, and the health ones.
+  EXPECT_EQ(outputs.counters(0).sent, static_cast<std::uint64_t>(2 * sets + sets / Config().health_every));
   EXPECT_GE(received, sets / 2) << "datagrams reached the socket";
+  EXPECT_GE(blob_messages, sets / 4) << "blobs datagrams decoded";
+  EXPECT_GE(blobs_checked, sets / 8) << "blobs datagrams checked against their frame set's pose";
   // MAVLink: an ODOMETRY per frame set with a pose, a HEARTBEAT per second of sample time.
   const double seconds = static_cast<double>(sets - 1) * static_cast<double>(kFrameNs) * 1e-9;
   EXPECT_EQ(outputs.counters(1).send_errors, 0u);

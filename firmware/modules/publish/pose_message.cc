@@ -1,5 +1,8 @@
 #include "firmware/modules/publish/pose_message.h"
 
+#include <algorithm>
+#include <cmath>
+
 #include "common/blob/param_blob.h"
 #include "common/wire/byte_io.h"
 
@@ -7,7 +10,7 @@ namespace mfns::fw {
 namespace {
 
 constexpr std::array<std::uint8_t, 4> kMagic = {'M', 'F', 'N', 'P'};
-constexpr std::uint8_t kTypePose = 1, kTypeHealth = 2;
+constexpr std::uint8_t kTypePose = 1, kTypeHealth = 2, kTypeBlobs = 3;
 constexpr std::size_t kCameraHealthBytes = 28, kCameraHealthV1Bytes = 20;
 static_assert(48 + 3 * 8 + 4 * 8 + 3 * 4 + 4 + 21 * 4 + 4 == kPoseMessageBytes, "pose layout");
 static_assert(56 + limits::kMaxCameras * kCameraHealthBytes + 3 * 4 + 4 == kHealthMessageBytes, "health layout");
@@ -80,6 +83,7 @@ const char* ToString(MessageStatus s) {
     case MessageStatus::kBadType: return "wrong message type";
     case MessageStatus::kBadSize: return "wrong size";
     case MessageStatus::kBadCrc: return "CRC mismatch";
+    case MessageStatus::kBadField: return "a field out of range";
   }
   return "unknown";
 }
@@ -199,6 +203,65 @@ MessageStatus DecodeHealth(std::span<const std::uint8_t> in, HealthRecord* r) {
     r->log_errors = rd.U32();
     r->trigger_errors = rd.U32();
   }
+  return MessageStatus::kOk;
+}
+
+}  // namespace mfns::fw
+
+namespace mfns::fw {
+
+std::size_t EncodeBlobs(const BlobsRecord& r, std::span<std::uint8_t, kMaxBlobsMessageBytes> out) {
+  const int n = std::clamp(r.num_blobs, 0, limits::kMaxBlobsInMessage);
+  const std::size_t size = kBlobsMessageHeaderBytes + kBlobsMessageEntryBytes * static_cast<std::size_t>(n) + 4;
+  const std::span<std::uint8_t> msg = std::span<std::uint8_t>(out).first(size);
+  wire::ByteWriter w(msg);
+  Header(w, kBlobsMessageVersion, kTypeBlobs, size);
+  w.U32(r.sequence);
+  w.U32(r.frame_set);
+  w.U64(r.t_capture_ns);
+  w.U16(static_cast<std::uint16_t>(n));
+  w.U8(r.num_cameras);
+  w.U8(r.truncated ? 1 : 0);
+  for (int i = 0; i < n; ++i) {
+    const BlobEntry& b = r.blobs[static_cast<std::size_t>(i)];
+    w.U8(b.camera);
+    w.U8(0);
+    w.U16(static_cast<std::uint16_t>(b.beacon));
+    w.F32(b.u_px);
+    w.F32(b.v_px);
+  }
+  Seal(msg);
+  return size;
+}
+
+MessageStatus DecodeBlobs(std::span<const std::uint8_t> in, BlobsRecord* r) {
+  // The size follows from the count: read it (when there is one) before the header check.
+  const std::size_t n = in.size() >= kBlobsMessageHeaderBytes ? wire::LoadLe(in, 24, 2) : 0;
+  if (n > static_cast<std::size_t>(limits::kMaxBlobsInMessage)) return MessageStatus::kBadSize;
+  const MessageStatus s =
+      Check(in, kBlobsMessageVersion, kTypeBlobs, kBlobsMessageHeaderBytes + kBlobsMessageEntryBytes * n + 4);
+  if (s != MessageStatus::kOk) return s;
+  BlobsRecord out;
+  wire::ByteReader rd(in.subspan(8));
+  out.sequence = rd.U32();
+  out.frame_set = rd.U32();
+  out.t_capture_ns = rd.U64();
+  out.num_blobs = rd.U16();
+  out.num_cameras = rd.U8();
+  const std::uint8_t flags = rd.U8();
+  out.truncated = (flags & 1U) != 0;
+  if (out.num_cameras > limits::kMaxCameras || (flags & ~1U) != 0) return MessageStatus::kBadField;
+  for (int i = 0; i < out.num_blobs; ++i) {
+    BlobEntry& b = out.blobs[static_cast<std::size_t>(i)];
+    b.camera = rd.U8();
+    rd.U8();
+    b.beacon = static_cast<std::int16_t>(rd.U16());
+    b.u_px = rd.F32();
+    b.v_px = rd.F32();
+    if (b.camera >= out.num_cameras || b.beacon < -1 || !std::isfinite(b.u_px) || !std::isfinite(b.v_px))
+      return MessageStatus::kBadField;
+  }
+  *r = out;
   return MessageStatus::kOk;
 }
 

@@ -31,6 +31,16 @@
 //   (HealthMessage v1, 140 bytes: the same up to byte 56, then 4 x 20 bytes per camera without
 //   bad_frames and detect_errors, and the CRC at 136; still decoded, the new fields zero.)
 //   All counters count since start and saturate at 2^32 - 1.
+//
+//   BlobsMessage v1 (type 3, 32 + 12 n bytes, n <= limits::kMaxBlobsInMessage; for viewers:
+//   mfns-view draws each camera's blobs and what they were matched to)
+//   0   magic, version = 1, type = 3, u16 size (as above)
+//   8   u32 sequence   12 u32 frame_set (as the pose message's)   16 u64 t_capture_ns
+//   24  u16 n   26 u8 num_cameras   27 u8 flags (bit 0: the frame set had more blobs than n)
+//   28  n x 12 bytes: u8 camera, u8 zero, i16 beacon (index into the map; -1: not matched),
+//       f32 u_px, f32 v_px (distorted image centroid)
+//   28 + 12 n  u32 CRC-32 of the bytes before it
+//   The matched blobs come first, then the others, in the frame set's blob order.
 #pragma once
 
 #include <Eigen/Core>
@@ -68,6 +78,11 @@ const char* ToString(NavReason r);
 inline constexpr std::size_t kPoseMessageBytes = 208;
 inline constexpr std::size_t kHealthMessageBytes = 184;
 inline constexpr std::size_t kHealthMessageV1Bytes = 140;
+inline constexpr std::size_t kBlobsMessageHeaderBytes = 28;
+inline constexpr std::size_t kBlobsMessageEntryBytes = 12;
+inline constexpr std::size_t kMaxBlobsMessageBytes =
+    kBlobsMessageHeaderBytes + kBlobsMessageEntryBytes * limits::kMaxBlobsInMessage + 4;
+inline constexpr std::uint8_t kBlobsMessageVersion = 1;
 inline constexpr std::uint8_t kPoseMessageVersion = 1;
 inline constexpr std::uint8_t kHealthMessageVersion = 2;
 
@@ -119,16 +134,43 @@ struct HealthRecord {
   std::uint32_t trigger_errors = 0;  // trigger pulses that failed
 };
 
-enum class MessageStatus : unsigned char { kOk = 0, kTruncated, kBadMagic, kBadVersion, kBadType, kBadSize, kBadCrc };
+// One blob of a frame set as the blobs message carries it.
+struct BlobEntry {
+  std::uint8_t camera = 0;
+  std::int16_t beacon = -1;  // -1: matched to no beacon
+  float u_px = 0.0f, v_px = 0.0f;
+};
+
+// One frame set's blobs and their identities (BlobsMessage).
+struct BlobsRecord {
+  std::uint32_t sequence = 0;
+  std::uint32_t frame_set = 0;
+  std::uint64_t t_capture_ns = 0;
+  std::uint8_t num_cameras = 0;
+  bool truncated = false;  // the frame set had more blobs than the message carries
+  int num_blobs = 0;       // 0..limits::kMaxBlobsInMessage
+  std::array<BlobEntry, limits::kMaxBlobsInMessage> blobs{};
+};
+
+enum class MessageStatus : unsigned char {
+  kOk = 0, kTruncated, kBadMagic, kBadVersion, kBadType, kBadSize, kBadCrc,
+  kBadField,  // a field out of its range (a blob's camera, beacon or centroid)
+};
 const char* ToString(MessageStatus s);
 
 // Encoders write exactly the message size into out (which must be at least that long).
 void EncodePose(const PoseRecord& r, std::span<std::uint8_t, kPoseMessageBytes> out);
 void EncodeHealth(const HealthRecord& r, std::span<std::uint8_t, kHealthMessageBytes> out);
 
+// Writes the blobs message of r (num_blobs clamped to 0..kMaxBlobsInMessage) into out;
+// returns its size.
+std::size_t EncodeBlobs(const BlobsRecord& r, std::span<std::uint8_t, kMaxBlobsMessageBytes> out);
 // Decoders for receivers and tests: check magic, version, type, size and CRC. DecodeHealth
 // also takes a v1 message (the fields v1 lacks are zero).
 MessageStatus DecodePose(std::span<const std::uint8_t> in, PoseRecord* r);
 MessageStatus DecodeHealth(std::span<const std::uint8_t> in, HealthRecord* r);
+// Also checks every blob: camera < num_cameras <= kMaxCameras, beacon >= -1, finite centroid
+// (else kBadField).
+MessageStatus DecodeBlobs(std::span<const std::uint8_t> in, BlobsRecord* r);
 
 }  // namespace mfns::fw

@@ -7,6 +7,7 @@
 #include <unistd.h>
 
 #include <cstdlib>
+#include <limits>
 #include <filesystem>
 #include <fstream>
 #include <random>
@@ -188,6 +189,75 @@ TEST(HealthMessage, DecodesVersion1) {
   EXPECT_EQ(back.clock_faults, 0u);
   v1[50] ^= 1;
   EXPECT_EQ(DecodeHealth(v1, &back), MessageStatus::kBadCrc);
+}
+
+BlobsRecord SampleBlobs(int n) {
+  BlobsRecord b;
+  b.sequence = 9;
+  b.frame_set = 1234;
+  b.t_capture_ns = 987654321012ULL;
+  b.num_cameras = 3;
+  b.truncated = n == limits::kMaxBlobsInMessage;
+  b.num_blobs = n;
+  for (int i = 0; i < n; ++i)
+    b.blobs[static_cast<std::size_t>(i)] = BlobEntry{static_cast<std::uint8_t>(i % 3), static_cast<std::int16_t>(i % 5 == 0 ? -1 : 200 + i),
+                                                     0.5f + static_cast<float>(i), 1023.25f - static_cast<float>(i)};
+  return b;
+}
+
+TEST(BlobsMessage, RoundTripAndLayout) {
+  for (const int n : {0, 1, 7, limits::kMaxBlobsInMessage}) {
+    const BlobsRecord in = SampleBlobs(n);
+    std::array<std::uint8_t, kMaxBlobsMessageBytes> bytes{};
+    const std::size_t size = EncodeBlobs(in, bytes);
+    ASSERT_EQ(size, 32u + 12u * static_cast<std::size_t>(n));
+    EXPECT_EQ(bytes[5], 3);
+    EXPECT_EQ(bytes[6] | bytes[7] << 8, static_cast<int>(size));
+    BlobsRecord out;
+    ASSERT_EQ(DecodeBlobs(std::span<const std::uint8_t>(bytes.data(), size), &out), MessageStatus::kOk) << n;
+    EXPECT_EQ(out.frame_set, in.frame_set);
+    EXPECT_EQ(out.t_capture_ns, in.t_capture_ns);
+    EXPECT_EQ(out.truncated, in.truncated);
+    ASSERT_EQ(out.num_blobs, n);
+    for (int i = 0; i < n; ++i) {
+      const BlobEntry &a = in.blobs[static_cast<std::size_t>(i)], &b = out.blobs[static_cast<std::size_t>(i)];
+      EXPECT_EQ(a.camera, b.camera);
+      EXPECT_EQ(a.beacon, b.beacon);
+      EXPECT_EQ(a.u_px, b.u_px);
+      EXPECT_EQ(a.v_px, b.v_px);
+    }
+  }
+}
+
+TEST(BlobsMessage, RejectsEveryCorruptionAndFieldsOutOfRange) {
+  std::array<std::uint8_t, kMaxBlobsMessageBytes> bytes{};
+  const std::size_t size = EncodeBlobs(SampleBlobs(5), bytes);
+  BlobsRecord r;
+  for (std::size_t n = 0; n < size; ++n)
+    EXPECT_NE(DecodeBlobs(std::span<const std::uint8_t>(bytes.data(), n), &r), MessageStatus::kOk) << n;
+  EXPECT_EQ(DecodeBlobs(std::span<const std::uint8_t>(bytes.data(), size + 1), &r), MessageStatus::kBadSize);
+  for (std::size_t i = 0; i < size; ++i)
+    for (int bit = 0; bit < 8; ++bit) {
+      auto bad = bytes;
+      bad[i] ^= static_cast<std::uint8_t>(1u << bit);
+      EXPECT_NE(DecodeBlobs(std::span<const std::uint8_t>(bad.data(), size), &r), MessageStatus::kOk) << i << ":" << bit;
+    }
+  // Fields out of range, with a valid CRC: a camera beyond num_cameras, a beacon below -1, a
+  // centroid that is not finite; a count above the limit.
+  for (int c = 0; c < 3; ++c) {
+    BlobsRecord b = SampleBlobs(2);
+    if (c == 0) b.blobs[1].camera = 3;
+    if (c == 1) b.blobs[1].beacon = -2;
+    if (c == 2) b.blobs[0].u_px = std::numeric_limits<float>::infinity();
+    const std::size_t n = EncodeBlobs(b, bytes);
+    EXPECT_EQ(DecodeBlobs(std::span<const std::uint8_t>(bytes.data(), n), &r), MessageStatus::kBadField) << c;
+  }
+  const std::size_t n = EncodeBlobs(SampleBlobs(1), bytes);
+  bytes[24] = 129;  // n = 129 > kMaxBlobsInMessage, before any size arithmetic
+  EXPECT_EQ(DecodeBlobs(std::span<const std::uint8_t>(bytes.data(), n), &r), MessageStatus::kBadSize);
+  std::array<std::uint8_t, kPoseMessageBytes> pose{};
+  EncodePose(PoseRecord{}, pose);
+  EXPECT_EQ(DecodeBlobs(pose, &r), MessageStatus::kBadType);
 }
 
 TEST(UdpPublisher, DeliversDatagramsOnLoopback) {

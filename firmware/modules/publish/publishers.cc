@@ -151,6 +151,16 @@ void Outputs::Health(const HealthRecord& h) {
   }
 }
 
+void Outputs::Blobs(const BlobsRecord& r) {
+  std::size_t size = 0;
+  for (int i = 0; i < count_; ++i) {
+    Slot& slot = slots_[static_cast<std::size_t>(i)];
+    if (slot.protocol != OutputProtocol::kMfns) continue;
+    if (size == 0) size = EncodeBlobs(r, blobs_bytes_);
+    slot.udp.Send(std::span<const std::uint8_t>(blobs_bytes_.data(), size));
+  }
+}
+
 bool Outputs::wants_health() const {
   for (int i = 0; i < count_; ++i)
     if (slots_[static_cast<std::size_t>(i)].protocol == OutputProtocol::kMfns) return true;

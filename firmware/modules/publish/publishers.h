@@ -77,6 +77,8 @@ class Outputs {
   PublishStatus Add(const char* url, const MavlinkConfig& mavlink = {});
   void Pose(const PoseRecord& r);
   void Health(const HealthRecord& h);
+  // The frame set's blobs and identities (BlobsMessage) to every MFNS output (viewers).
+  void Blobs(const BlobsRecord& r);
   bool wants_health() const;  // an MFNS output is open
   int count() const { return count_; }
   OutputProtocol protocol(int i) const { return slots_[static_cast<std::size_t>(i)].protocol; }
@@ -93,6 +95,7 @@ class Outputs {
   int count_ = 0;
   std::array<std::uint8_t, kPoseMessageBytes> pose_bytes_{};
   std::array<std::uint8_t, kHealthMessageBytes> health_bytes_{};
+  std::array<std::uint8_t, kMaxBlobsMessageBytes> blobs_bytes_{};
 };
 
 // The poses CSV (DESIGN.md): frame,t_ns,status,x_mm,y_mm,z_mm,roll_deg,pitch_deg,yaw_deg,
