@@ -3,9 +3,10 @@
 # arm64 kernel on QEMU's emulated `virt` board (Cortex-A72, TCG, no network) with an initramfs
 # made here from Debian arm64 packages: busybox-static, the vivid test driver and the modules it
 # needs, the arm64 libraries mfns-navd links, and the project's arm64 .deb, installed in the
-# guest with dpkg (busybox's applet). The checks (scripts/board/checks.sh) run on the board and
-# report over the serial console; this script prints one "board: N passed, M failed" line and
-# exits non-zero on any failure or a timeout.
+# guest with dpkg (busybox's applet), and the arm64 gtest executables whose FIFO and flock cases
+# hang under qemu-user (excluded from the aarch64 test preset). The checks
+# (scripts/board/checks.sh) run on the board and report over the serial console; this script
+# prints one "board: N passed, M failed" line and exits non-zero on any failure or a timeout.
 #
 # Usage: scripts/test-board.sh            (after scripts/install-deps.sh)
 #        scripts/test-board.sh --icount   instead of the checks: instructions per frame set of a
@@ -23,6 +24,7 @@
 #   MFNS_BOARD_HOST_BIN where the host's mfns-calib and mfns-sim are (default build/host/bin,
 #                       built with the host preset when missing)
 #   MFNS_BOARD_EXTRA    a folder copied to /board/extra in the guest; its run.sh runs before navd
+#   MFNS_BOARD_GTEST_TIMEOUT seconds each test executable may run on the board (default 60)
 #   MFNS_BOARD_KERNEL   kernel package (default: what linux-image-arm64:arm64 depends on)
 # Downloads are cached in build/board-cache/; the initramfs and logs go to build/board/.
 set -euo pipefail
@@ -36,6 +38,12 @@ loop_frames=${MFNS_BOARD_LOOP_FRAMES:-10}   # frame sets navd runs on the looped
 render_frames=40
 disconnect_frames=${MFNS_BOARD_DISCONNECT_FRAMES:-40}
 smp=${MFNS_BOARD_SMP:-2}
+# The test executables holding the cases the aarch64 preset excludes (its filter
+# "AFifo|ConcurrentInstall": threads blocked around FIFOs and flock under qemu-user); on the
+# board's kernel they run natively, each with this filter and a timeout of its own.
+gtest_bins=(param_loader_test param_store_test paramctl_test replay_source_test)
+gtest_filter='*AFifo*:*ConcurrentInstall*'
+gtest_timeout=${MFNS_BOARD_GTEST_TIMEOUT:-60}
 trigger_line=0   # PL061 line 3 is the virt board's power button (gpio-keys); 0 is free
 width=1280 height=1024  # config/paper-rig.yaml's cameras
 # vivid: three instances, each a video capture node /dev/video0..2 (the rig's cameras in order)
@@ -47,14 +55,14 @@ icount=0
 [ "${1:-}" = --icount ] && icount=1
 
 die() { echo "test-board: $*" >&2; echo "board: 0 passed, 1 failed"; exit 1; }
-for tool in qemu-system-aarch64 apt-get dpkg-deb depmod cpio gzip aarch64-linux-gnu-readelf aarch64-linux-gnu-gcc cmake; do
+for tool in qemu-system-aarch64 apt-get dpkg-deb depmod cpio gzip aarch64-linux-gnu-readelf aarch64-linux-gnu-gcc aarch64-linux-gnu-strip cmake; do
   command -v "$tool" >/dev/null || die "$tool not found (run scripts/install-deps.sh)"
 done
 
 # --- 1. The flyer's software: the arm64 .deb and a parameter blob of the paper rig.
-echo "test-board: building mfns-navd, mfns-paramctl (aarch64) and the .deb" >&2
+echo "test-board: building mfns-navd, mfns-paramctl, ${gtest_bins[*]} (aarch64) and the .deb" >&2
 [ -f build/aarch64/CMakeCache.txt ] || cmake --preset aarch64 >/dev/null
-cmake --build --preset aarch64 -j "$(nproc)" --target mfns-navd mfns-paramctl >/dev/null
+cmake --build --preset aarch64 -j "$(nproc)" --target mfns-navd mfns-paramctl "${gtest_bins[@]}" >/dev/null
 rm -rf "$work"
 mkdir -p "$work/pkg" "$cache"
 (cd build/aarch64 && cpack --config CPackConfig.cmake -B "$work/pkg" >/dev/null)
@@ -147,12 +155,14 @@ dpkg-deb -x "$bbdeb" "$work/bb"
 cp "$work/bb/bin/busybox" "$rootfs/bin/busybox"
 rm -rf "$work/bb"
 cp -a "$kdir/lib/modules" "$rootfs/lib/"
-# The arm64 shared libraries mfns-navd and mfns-paramctl need (NEEDED, recursively), from
-# Debian's arm64 packages installed on this machine (libc6, libstdc++6, libgcc-s1, libgpiod2).
+# The arm64 shared libraries mfns-navd, mfns-paramctl and the test executables need (NEEDED,
+# recursively), from Debian's arm64 packages installed on this machine (libc6, libstdc++6,
+# libgcc-s1, libgpiod2).
 libdirs=(/lib/aarch64-linux-gnu /usr/lib/aarch64-linux-gnu)
 mkdir -p "$rootfs/lib/aarch64-linux-gnu"
 declare -A seen=()
 queue=("$root/build/aarch64/bin/mfns-navd" "$root/build/aarch64/bin/mfns-paramctl")
+for t in "${gtest_bins[@]}"; do queue+=("$root/build/aarch64/tests/$t"); done
 owners=()
 while [ ${#queue[@]} -gt 0 ]; do
   f=${queue[0]}
@@ -183,6 +193,12 @@ done
 cp "$deb" "$rootfs/board/mfns.deb"
 cp "$work/params.bin" "$rootfs/board/params.bin"
 cp scripts/board/checks.sh "$rootfs/board/checks.sh"
+# The test executables without their symbols: 3.2-3.7 MB each with -g1, 0.5-0.6 MB stripped
+# (the initramfs grows by about 1 MB); gtest's failure messages still name file and line.
+mkdir -p "$rootfs/board/tests"
+for t in "${gtest_bins[@]}"; do
+  aarch64-linux-gnu-strip -o "$rootfs/board/tests/$t" "build/aarch64/tests/$t"
+done
 cp "$work/loop.bin" "$rootfs/board/loop.bin"
 cp -r "$work/loop/frames" "$rootfs/board/loop"
 if [ "$icount" -eq 1 ]; then  # the rendered frame sets 0..$loop_frame, replayed on the board
@@ -216,6 +232,9 @@ REPLAY_POSE=$(awk -F, 'NR == 1 { for (i = 1; i <= NF; ++i) col[$i] = i; next } N
   print $col["x_mm"] "," $col["y_mm"] "," $col["z_mm"] "," $col["roll_deg"] "," $col["pitch_deg"] "," $col["yaw_deg"] }' "$work/sim/truth.csv")
 LOOP_CAMERAS="$(sed -n 's/^  - name: *//p' "$work/sim/rig.yaml" | tr '\n' ' ')"
 NAVD_EXTRA="${MFNS_BOARD_NAVD_ARGS:-}"
+GTEST_BINS="${gtest_bins[*]}"
+GTEST_FILTER='$gtest_filter'
+GTEST_TIMEOUT=$gtest_timeout
 EOF
 (cd "$rootfs" && find . | LC_ALL=C sort | cpio -o -H newc --quiet -R 0:0 | gzip -1 >"$work/initramfs.gz")
 rm -rf "$rootfs"

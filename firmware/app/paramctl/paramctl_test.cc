@@ -16,6 +16,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
+#include <cstdlib>
 #include <cstring>
 #include <filesystem>
 #include <sstream>
@@ -385,10 +386,18 @@ std::vector<std::string> Split(const std::string& s, char sep) {
 }
 
 // Runs the mfns-paramctl binary (through the cross emulator when there is one) with stdin,
-// at most 60 s. Returns exit code, stdout, stderr.
+// at most 60 s. Returns exit code, stdout, stderr. MFNS_PARAMCTL_BINARY, when set, is run
+// instead, as it is: on the emulated ARM64 board (scripts/test-board.sh) this test runs
+// natively, where neither the build tree nor qemu-aarch64 exists.
 Result RunBinary(const std::vector<std::string>& args, const std::vector<std::uint8_t>& stdin_bytes) {
-  std::vector<std::string> cmd = Split(MFNS_TEST_EMULATOR, '|');
-  cmd.push_back(MFNS_PARAMCTL_PATH);
+  std::vector<std::string> cmd;
+  const char* binary = std::getenv("MFNS_PARAMCTL_BINARY");
+  if (binary != nullptr && binary[0] != '\0') {
+    cmd.push_back(binary);
+  } else {
+    cmd = Split(MFNS_TEST_EMULATOR, '|');
+    cmd.push_back(MFNS_PARAMCTL_PATH);
+  }
   cmd.insert(cmd.end(), args.begin(), args.end());
   int in[2], out[2], err[2];
   Result r;
