@@ -11,6 +11,7 @@
 
 #include "host/rigio/rig_yaml.h"
 #include "host/util/user_error.h"
+#include "host/view/frame_blobs.h"
 #include "host/view/playback.h"
 #include "host/view/view_cli.h"
 #include "host/view/view_server.h"
@@ -21,14 +22,20 @@ namespace {
 
 namespace fs = std::filesystem;
 
-// Plays the poses into the state at their sample rate times `speed`, then marks it finished.
-void Play(const std::vector<ViewPose>& poses, double speed, ViewState* state, const std::atomic<bool>* stop) {
+// Plays the poses into the state at their sample rate times `speed` (with each frame set's
+// blobs when the frames directory is given), then marks it finished.
+void Play(const std::vector<ViewPose>& poses, double speed, FrameBlobs* frames, ViewState* state,
+          const std::atomic<bool>* stop) {
   for (std::size_t i = 0; i < poses.size() && !*stop; ++i) {
     std::this_thread::sleep_for(std::chrono::duration<double>(PlaybackDelayS(poses, i, speed)));
+    if (frames != nullptr) state->SetBlobs(frames->Detect(poses[i]));
     state->AddPose(poses[i]);
   }
   state->SetFinished();
-  std::cerr << "mfns-view: played " << poses.size() << " frame sets\n";
+  std::cerr << "mfns-view: played " << poses.size() << " frame sets";
+  if (frames != nullptr && frames->unreadable_frames() > 0)
+    std::cerr << " (" << frames->unreadable_frames() << " frames missing or unreadable)";
+  std::cerr << "\n";
 }
 
 int Serve(const ViewCommandLine& cl) {
@@ -56,7 +63,9 @@ int Serve(const ViewCommandLine& cl) {
   if (listener) listener->Start();
   std::atomic<bool> stop{false};
   std::thread player;
-  if (!poses.empty()) player = std::thread([&] { Play(poses, cl.speed, &state, &stop); });
+  std::unique_ptr<FrameBlobs> frames;
+  if (!cl.frames.empty()) frames = std::make_unique<FrameBlobs>(rig, cl.frames);
+  if (!poses.empty()) player = std::thread([&] { Play(poses, cl.speed, frames.get(), &state, &stop); });
   int sig = 0;
   sigwait(&signals, &sig);
   stop = true;

@@ -132,6 +132,7 @@ class ViewChromiumTest : public ::testing::Test {
   }
   static void ExpectTheLastRowShown(const std::string& dom, const fs::path& poses_csv);
   static void ExpectTheFlyerDrawn(int port);
+  static void ExpectTheBlobsShown(const std::string& dom, const fs::path& poses_csv);
   static fs::path* dir_;
 };
 
@@ -158,6 +159,24 @@ void ViewChromiumTest::ExpectTheLastRowShown(const std::string& dom, const fs::p
   }
   EXPECT_GT(lost, 0);  // the sweep's gap: the page counted what the log holds
   EXPECT_EQ(Field(dom, "counts"), std::to_string(fix) + " / " + std::to_string(degraded) + " / " + std::to_string(lost));
+}
+
+// Each camera's image shows the last frame set's blobs, at least as many matched as the pose
+// used beacons.
+void ViewChromiumTest::ExpectTheBlobsShown(const std::string& dom, const fs::path& poses_csv) {
+  const CsvTable rows = CsvTable::Read(poses_csv);
+  const int used = static_cast<int>(rows.Number(rows.size() - 1, rows.Column("n_beacons")));
+  int matched = 0, blobs = 0;
+  for (int k = 0; k < 3; ++k) {
+    std::smatch m;
+    const std::regex re("id=\"image-" + std::to_string(k) + "\"[^>]*data-blobs=\"([0-9]+)\" data-matched=\"([0-9]+)\"");
+    ASSERT_TRUE(std::regex_search(dom, m, re)) << "no image of camera " << k;
+    blobs += std::stoi(m[1].str());
+    matched += std::stoi(m[2].str());
+  }
+  EXPECT_GE(matched, used);
+  EXPECT_GT(matched, 0);
+  EXPECT_GE(blobs, matched);
 }
 
 // A screenshot: the flyer's red marker is drawn in each of the three panels (about 110 px each).
@@ -200,21 +219,7 @@ TEST_F(ViewChromiumTest, ThePageShowsNavdsPosesLive) {
   ExpectTheLastRowShown(dom, d / "live.csv");
   EXPECT_NE(dom.find("<td class=\"l\">frame sets</td>"), std::string::npos) << "no health shown";
   EXPECT_NE(Field(dom, "sigma_mm"), "-");  // the datagram carries the covariance
-  // Each camera's image shows navd's blobs of the last frame set, at least as many matched as
-  // the pose used beacons (the blobs datagram), none matched when lost.
-  const CsvTable rows_again = CsvTable::Read(d / "live.csv");
-  const int used = static_cast<int>(rows_again.Number(rows_again.size() - 1, rows_again.Column("n_beacons")));
-  int matched = 0, blobs = 0;
-  for (int k = 0; k < 3; ++k) {
-    std::smatch m;
-    const std::regex re("id=\"image-" + std::to_string(k) + "\"[^>]*data-blobs=\"([0-9]+)\" data-matched=\"([0-9]+)\"");
-    ASSERT_TRUE(std::regex_search(dom, m, re)) << "no image of camera " << k;
-    blobs += std::stoi(m[1].str());
-    matched += std::stoi(m[2].str());
-  }
-  EXPECT_GE(matched, used);
-  EXPECT_GT(matched, 0);
-  EXPECT_GE(blobs, matched);
+  ExpectTheBlobsShown(dom, d / "live.csv");
   ExpectTheFlyerDrawn(http);
   EXPECT_EQ(view.Stop(), 0);  // SIGTERM: a clean exit
 }
@@ -238,6 +243,7 @@ TEST_F(ViewChromiumTest, ThePageShowsAPlayedBackRun) {
   ExpectTheLastRowShown(dom, d / "played.csv");
   EXPECT_EQ(Field(dom, "finished"), "(playback ended)");
   EXPECT_EQ(Field(dom, "sigma_mm"), "-");  // the CSV has no covariance
+  ExpectTheBlobsShown(dom, d / "played.csv");  // detected in the frames, matched by the pose
   ExpectTheFlyerDrawn(http);
   EXPECT_EQ(view.Stop(), 0);
 }
