@@ -61,30 +61,31 @@ void WriteFileAtomic(const std::filesystem::path& path, std::string_view text) {
 }
 
 std::string ReadFile(const std::filesystem::path& path, std::size_t max_bytes) {
+  const std::string name = OneLine(path.string());  // one-line errors even for a path with a newline
   // O_NONBLOCK: opening a FIFO named like the file must not hang; fstat then says what it is.
   const int fd = ::open(path.c_str(), O_RDONLY | O_NONBLOCK | O_CLOEXEC);
   if (fd < 0) {
-    if (errno == ENOENT || errno == ENOTDIR) throw UserError(path.string() + ": no such file");
-    throw UserError(path.string() + ": cannot open: " + Errno());
+    if (errno == ENOENT || errno == ENOTDIR) throw UserError(name + ": no such file");
+    throw UserError(name + ": cannot open: " + Errno());
   }
   struct FdCloser {
     int fd;
     ~FdCloser() { ::close(fd); }
   } closer{fd};
   struct stat st {};
-  if (::fstat(fd, &st) != 0) throw UserError(path.string() + ": cannot read: " + Errno());
-  if (S_ISDIR(st.st_mode)) throw UserError(path.string() + ": is a directory, expected a file");
-  if (!S_ISREG(st.st_mode)) throw UserError(path.string() + ": not a regular file (a FIFO, socket or device)");
+  if (::fstat(fd, &st) != 0) throw UserError(name + ": cannot read: " + Errno());
+  if (S_ISDIR(st.st_mode)) throw UserError(name + ": is a directory, expected a file");
+  if (!S_ISREG(st.st_mode)) throw UserError(name + ": not a regular file (a FIFO, socket or device)");
   const auto size = static_cast<std::uintmax_t>(st.st_size);
   if (size > max_bytes)
-    throw UserError(path.string() + ": too large (" + std::to_string(size) + " bytes, limit " +
+    throw UserError(name + ": too large (" + std::to_string(size) + " bytes, limit " +
                     std::to_string(max_bytes) + ")");
   std::string data(static_cast<std::size_t>(size), '\0');
   std::size_t done = 0;
   while (done < data.size()) {
     const ssize_t n = ::read(fd, data.data() + done, data.size() - done);
     if (n < 0 && errno == EINTR) continue;
-    if (n < 0) throw UserError(path.string() + ": cannot read: " + Errno());
+    if (n < 0) throw UserError(name + ": cannot read: " + Errno());
     if (n == 0) break;  // the file shrank meanwhile
     done += static_cast<std::size_t>(n);
   }

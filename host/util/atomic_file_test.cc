@@ -69,6 +69,9 @@ TEST(AtomicFile, ReadSaysWhatIsWrongWithThePath) {
   WriteFileAtomic(dir / "blob", std::string(16385, 'a'));
   EXPECT_EQ(what(dir / "blob", 16384), (dir / "blob").string() + ": too large (16385 bytes, limit 16384)");
   EXPECT_EQ(ReadFile(dir / "blob", 16385).size(), 16385u);
+  // A path holding a newline is named in one line (it was quoted raw: host_cli_fuzz's
+  // --scenario, 2026-12-04).
+  EXPECT_EQ(what(dir / "no\nfile", 100), (dir / "no").string() + "\\nfile: no such file");
   std::filesystem::remove_all(dir);
 }
 

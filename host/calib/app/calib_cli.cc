@@ -2,6 +2,7 @@
 
 #include <charconv>
 
+#include "host/calib/core/dataset.h"
 #include "host/util/cli_parse.h"
 #include "host/util/user_error.h"
 
@@ -66,6 +67,22 @@ std::uint64_t ParseGenerationOption(const std::string& text) {
   if (text.empty() || text.find_first_not_of("0123456789") != std::string::npos || r.ec != std::errc() || r.ptr != end)
     throw UserError("--generation: expected a whole number 0..18446744073709551615, got \"" + OneLine(text) + "\"");
   return value;
+}
+
+RigMethod ValidateRigCommand(const RigCommandOptions& o) {
+  if (o.out_dir.empty()) throw UserError("--out DIR is required");
+  if (!(o.huber_px >= 0)) throw UserError("--huber-px must not be negative");
+  if (!(o.angle_sigma_arcsec > 0)) throw UserError("--angle-sigma-arcsec must be positive");
+  if (o.jobs < 1 || o.jobs > 64) throw UserError("--jobs must be 1..64");
+  if (!o.mount_mm.empty() && o.mount_mm.size() != 3) throw UserError("--mount-mm: expected 3 numbers X Y Z");
+  return ParseRigMethod(o.method);
+}
+
+CalibrationTarget ValidateIntrinsicsCommand(const IntrinsicsCommandOptions& o) {
+  if (o.out_dir.empty()) throw UserError("--out DIR is required");
+  if (o.target.empty()) throw UserError("--target is required");
+  if (o.images.empty()) throw UserError("no images given");
+  return ParseTargetSpec(o.target);
 }
 
 void ParseCalibCommandLine(CLI::App& app, int argc, char** argv, CalibCommandLine* cl) {

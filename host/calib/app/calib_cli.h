@@ -10,6 +10,9 @@
 #include <string>
 #include <vector>
 
+#include "host/calib/app/rig_method.h"
+#include "host/core/target.h"
+
 namespace mfns::host {
 
 struct RigCommandOptions {
@@ -68,5 +71,12 @@ struct CalibCommandLine {
 // runs nothing. Throws what app.parse throws (CLI::ParseError, --help included: app.exit(e)
 // prints it), and UserError for a value CLI11 takes that the tool does not (--generation).
 void ParseCalibCommandLine(CLI::App& app, int argc, char** argv, CalibCommandLine* cl);
+
+// The checks each command makes on its options before it reads or writes anything (issue 14; the
+// commands call them first, host_cli_fuzz after each parse): UserError, one line naming the option.
+// `rig`: --out, --huber-px, --angle-sigma-arcsec, --jobs, --mount-mm and --method (returned).
+RigMethod ValidateRigCommand(const RigCommandOptions& o);
+// `intrinsics`: --out, --target (returned, parsed) and the images.
+CalibrationTarget ValidateIntrinsicsCommand(const IntrinsicsCommandOptions& o);
 
 }  // namespace mfns::host

@@ -173,12 +173,8 @@ std::string FormatCornersCsv(const CalibInput& in) {
 }
 
 RigCalibration RunRigCommand(const RigCommandOptions& o, std::ostream& log) {
-  if (o.out_dir.empty()) throw UserError("--out DIR is required");
-  if (!(o.huber_px >= 0)) throw UserError("--huber-px must not be negative");
-  if (!(o.angle_sigma_arcsec > 0)) throw UserError("--angle-sigma-arcsec must be positive");
-  if (o.jobs < 1 || o.jobs > 64) throw UserError("--jobs must be 1..64");
   RigOptions ro;
-  ro.method = ParseRigMethod(o.method);
+  ro.method = ValidateRigCommand(o);
   ro.fix_k3 = !o.free_k3;
   ro.huber_px = o.huber_px;
   ro.reference_camera = o.reference_camera;
@@ -200,7 +196,6 @@ RigCalibration RunRigCommand(const RigCommandOptions& o, std::ostream& log) {
   log << "turntable angle prior: " << angle_arcsec << " arcsec 1-sigma\n";
   std::string mount_note;
   if (!o.mount_mm.empty()) {
-    if (o.mount_mm.size() != 3) throw UserError("--mount-mm: expected 3 numbers X Y Z");
     in.r_p_pb = Eigen::Vector3d(o.mount_mm[0], o.mount_mm[1], o.mount_mm[2]) * 1e-3;
     mount_note = "mount r_p_pb from --mount-mm";
   } else if (ds.truth.has_mount) {
@@ -234,10 +229,7 @@ RigCalibration RunRigCommand(const RigCommandOptions& o, std::ostream& log) {
 }
 
 ZhangResult RunIntrinsicsCommand(const IntrinsicsCommandOptions& o, std::ostream& log) {
-  if (o.out_dir.empty()) throw UserError("--out DIR is required");
-  if (o.target.empty()) throw UserError("--target is required");
-  if (o.images.empty()) throw UserError("no images given");
-  const CalibrationTarget target = ParseTargetSpec(o.target);
+  const CalibrationTarget target = ValidateIntrinsicsCommand(o);
   const std::vector<Eigen::Vector3d> pts = TargetPoints(target);
   DetectOptions det;
   det.sb_accuracy = !o.fast_detect;

@@ -73,22 +73,6 @@ double MinorSpread(const std::vector<Eigen::Vector3d>& target_points, const std:
 
 }  // namespace
 
-const char* ToString(RigMethod m) {
-  switch (m) {
-    case RigMethod::kMl: return "ml";
-    case RigMethod::kPaper: return "paper";
-    case RigMethod::kOpenCvHandEye: return "opencv-handeye";
-  }
-  return "?";
-}
-
-RigMethod ParseRigMethod(const std::string& s) {
-  if (s == "ml") return RigMethod::kMl;
-  if (s == "paper") return RigMethod::kPaper;
-  if (s == "opencv-handeye") return RigMethod::kOpenCvHandEye;
-  throw UserError("--method \"" + s + "\": expected ml, paper or opencv-handeye");
-}
-
 CalibInput DetectDataset(const CalibDataset& ds, const DetectOptions& detect, int jobs, std::ostream* progress) {
   CalibInput in;
   in.target_points = TargetPoints(ds.target);

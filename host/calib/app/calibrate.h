@@ -6,6 +6,7 @@
 #include <string>
 #include <vector>
 
+#include "host/calib/app/rig_method.h"
 #include "host/calib/core/calib_types.h"
 #include "host/calib/core/dataset.h"
 #include "host/calib/core/kinematics.h"
@@ -13,10 +14,6 @@
 #include "host/calib/zhang/zhang.h"
 
 namespace mfns::host {
-
-enum class RigMethod : unsigned char { kMl, kPaper, kOpenCvHandEye };
-const char* ToString(RigMethod m);
-RigMethod ParseRigMethod(const std::string& s);  // "ml", "paper", "opencv-handeye"; UserError otherwise
 
 struct RigOptions {
   RigMethod method = RigMethod::kMl;

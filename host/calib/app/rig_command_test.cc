@@ -132,6 +132,38 @@ TEST(CalibCommandLine, ParsesWithoutRunningAndErrorsStayOneLine) {
   }
 }
 
+// The checks rig and intrinsics make before reading anything (ValidateRigCommand,
+// ValidateIntrinsicsCommand): one line naming the option, nothing created. A --method holding a
+// newline made a two-line error before (host_cli_fuzz's run-time checks, issue 14).
+TEST(CalibCommandLine, RunTimeChecksNameTheOptionInOneLine) {
+  const auto error = [](const auto& validate) -> std::string {
+    try {
+      validate();
+    } catch (const UserError& e) {
+      return e.what();
+    }
+    return "no error";
+  };
+  RigCommandOptions r;
+  r.dataset = "no-dataset";
+  r.out_dir = (fs::temp_directory_path() / ("mfns_calib_validate_" + std::to_string(::getpid()))).string();
+  EXPECT_EQ(ValidateRigCommand(r), RigMethod::kMl);
+  EXPECT_FALSE(fs::exists(r.out_dir));
+  r.method = "m\nl";
+  EXPECT_EQ(error([&] { ValidateRigCommand(r); }), "--method \"m\\nl\": expected ml, paper or opencv-handeye");
+  r.method = "paper";
+  r.mount_mm = {1.0, 2.0};
+  EXPECT_EQ(error([&] { ValidateRigCommand(r); }), "--mount-mm: expected 3 numbers X Y Z");
+  IntrinsicsCommandOptions i;
+  i.out_dir = r.out_dir;
+  i.images = {"a.pgm"};
+  i.target = "checkerboard:9x6:20";
+  EXPECT_EQ(ValidateIntrinsicsCommand(i).corners().size(), 54u);
+  i.images.clear();
+  EXPECT_EQ(error([&] { ValidateIntrinsicsCommand(i); }), "no images given");
+  EXPECT_FALSE(fs::exists(r.out_dir));
+}
+
 // A small dataset (640x512 cameras, 5 turntable + 4 free images per camera), made once.
 class RigCommandTest : public ::testing::Test {
  protected:

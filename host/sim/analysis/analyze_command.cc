@@ -135,7 +135,7 @@ AnalysisSetup SetupFromOptions(const AnalyzeOptions& o) {
   } else if (o.error_draw == "sphere") {
     s.draw = ErrorDraw::kSphere;
   } else {
-    throw UserError("--error-draw: '" + o.error_draw + "' is not one of gaussian, sphere");
+    throw UserError("--error-draw: '" + OneLine(o.error_draw) + "' is not one of gaussian, sphere");
   }
   try {
     ValidateSetup(s);

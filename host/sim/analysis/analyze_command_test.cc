@@ -122,5 +122,20 @@ TEST_F(AnalyzeCommand, BadOptionsAreUserErrors) {
   EXPECT_THROW(Parse("--out " + (dir_ / "file").string() + " --trials 10 --points 2"), UserError);
 }
 
+// SetupFromOptions (what host_cli_fuzz runs after each parse) names the option in one line: an
+// --error-draw holding a newline made a two-line error before.
+TEST(AnalyzeSetup, ErrorsAreOneLineNamingTheOption) {
+  AnalyzeOptions o;
+  o.out_dir = "unused";
+  o.error_draw = "sph\nere";
+  try {
+    SetupFromOptions(o);
+    ADD_FAILURE() << "accepted";
+  } catch (const UserError& e) {
+    EXPECT_STREQ(e.what(), "--error-draw: 'sph\\nere' is not one of gaussian, sphere");
+  }
+  EXPECT_FALSE(fs::exists("unused"));
+}
+
 }  // namespace
 }  // namespace mfns::host

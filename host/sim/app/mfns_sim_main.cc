@@ -13,10 +13,10 @@
 
 #include <cstdio>
 #include <iostream>
-#include <yaml-cpp/yaml.h>
 
 #include "host/report/compare.h"
 #include "host/report/report_command.h"
+#include "host/sim/app/load_scenario.h"
 #include "host/sim/app/sim_cli.h"
 #include "host/sim/analysis/analyze_command.h"
 #include "host/sim/calibdata/calib_dataset.h"
@@ -28,37 +28,6 @@
 
 namespace mfns::host {
 namespace {
-
-// The effective scenario and its YAML text (with the overrides applied).
-Scenario LoadScenario(const ScenarioArgs& a, std::string* text) {
-  if (a.preset.empty() == a.file.empty()) throw UserError("give exactly one of --preset or --scenario");
-  const std::string source = a.preset.empty() ? a.file : "preset " + a.preset;
-  std::string yaml = a.preset.empty() ? ReadFile(a.file, 1u << 20) : PresetYaml(a.preset);
-  const std::filesystem::path base = a.preset.empty() ? std::filesystem::path(a.file).parent_path() : ".";
-  if (a.frames > 0 || a.seed >= 0 || a.map_seed >= 0) {
-    YAML::Node root;
-    try {
-      root = YAML::Load(yaml);
-    } catch (const YAML::Exception& e) {
-      throw UserError(source + ":" + std::to_string(e.mark.line + 1) + ": not valid YAML: " + e.msg);
-    }
-    if (a.frames > 0) root["frames"] = a.frames;
-    if (a.seed >= 0) root["seed"] = a.seed;
-    // A generated map follows --seed too (a new seed, a new station), unless --map-seed pins it.
-    const YAML::Node& const_root = root;  // const lookups insert nothing
-    const bool generated = const_root["beacons"].IsDefined() && const_root["beacons"].IsMap();
-    if (generated && a.seed >= 0 && const_root["beacons"]["seed"].IsDefined()) root["beacons"]["seed"] = a.seed;
-    if (a.map_seed >= 0) {
-      if (!generated) throw UserError("--map-seed: the scenario has no generated beacons (beacons: {layout: ...})");
-      root["beacons"]["seed"] = a.map_seed;
-    }
-    YAML::Emitter out;
-    out << root;
-    yaml = std::string("# ") + source + " with command-line overrides\n" + out.c_str() + "\n";
-  }
-  *text = yaml;
-  return ParseScenarioYaml(yaml, source, base);
-}
 
 void PrintSummary(const RenderSummary& s) {
   std::printf("frame sets %d: >= 3 beacons visible in %d (%.1f%%), none in %d (%.1f%%), mean %.2f beacons\n", s.frames,

@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "host/sim/app/load_scenario.h"
 #include "host/util/cli_parse.h"
 
 namespace mfns::host {
@@ -56,6 +57,37 @@ TEST(SimCommandLine, NavMatrixDefaultsAndOneLineErrors) {
   }
   // --facing and --seeds are checked when the command runs (a UserError naming the flag), not here.
   EXPECT_EQ(Parse({"mfns-sim", "navmatrix", "--facing", "maybe"}).navmatrix.facing, "maybe");
+}
+
+// render's, crb's and calib-dataset's scenario (LoadScenario, what host_cli_fuzz runs after each
+// parse): the overrides applied, errors one line naming the option or file. A --scenario path or
+// --preset holding a newline made a two-line error before (ReadFile and PresetYaml quoted it raw).
+TEST(SimCommandLine, ScenarioLoadsWithOverridesAndOneLineErrors) {
+  const auto error = [](const ScenarioArgs& a) -> std::string {
+    std::string text;
+    try {
+      LoadScenario(a, &text);
+    } catch (const UserError& e) {
+      return e.what();
+    }
+    return "no error";
+  };
+  std::string text;
+  const SimCommandLine cl = Parse({"mfns-sim", "crb", "--preset", "station-box", "--out", "unused.csv", "--frames",
+                                   "7", "--seed", "3"});
+  const Scenario s = LoadScenario(cl.scenario, &text);
+  EXPECT_EQ(s.frames, 7);
+  EXPECT_EQ(s.seed, 3u);
+  EXPECT_EQ(text.rfind("# preset station-box with command-line overrides\n", 0), 0u);
+  EXPECT_FALSE(fs::exists("unused.csv"));
+  ScenarioArgs a;
+  a.file = "no/such\nfile.yaml";
+  EXPECT_EQ(error(a), "no/such\\nfile.yaml: no such file");
+  a.preset = "station-box";
+  EXPECT_EQ(error(a), "give exactly one of --preset or --scenario");
+  a.file.clear();
+  a.preset = "station\nbox";
+  EXPECT_EQ(error(a).rfind("unknown preset 'station\\nbox' (known: ", 0), 0u) << error(a);
 }
 
 }  // namespace

@@ -25,8 +25,6 @@ namespace {
 
 constexpr int kReflectionsPerCamera = 5;  // the issue's "5 reflections per camera"
 
-int SpanOf(double seconds, double rate_hz) { return static_cast<int>(std::lround(seconds * rate_hz)); }
-
 // The frames of a run: per frame set, one image per camera.
 using FrameImages = std::vector<std::array<cv::Mat, limits::kMaxCameras>>;
 
@@ -268,43 +266,6 @@ std::string FaultSpec::Describe(const std::string& camera_name) const {
     case FaultKind::kWrongRigReload: return "another rig's blob (generation 2) offered as a reload before frame set " + std::to_string(first);
   }
   return "?";
-}
-
-std::vector<FaultSpec> IssueFaults(const FaultRunOptions& o) {
-  const int a = o.fault_at;
-  const int two_s = SpanOf(2.0, LoadPreset(o.preset).frame_rate_hz);
-  return {{"stall", FaultKind::kStall, 1, a, a + 19, 0.0},
-          {"unplug", FaultKind::kUnplug, 1, a, o.frames - 1, 0.0},
-          {"zero-frames", FaultKind::kZeroFrames, 0, a, a + 2, 0.0},
-          {"white-frames", FaultKind::kWhiteFrames, 0, a, a + 2, 0.0},
-          {"truncated-frames", FaultKind::kTruncatedFrames, 0, a, a + 2, 0.0},
-          {"reflections", FaultKind::kReflections, 0, a, a + two_s - 1, 0.0},
-          {"occlusion", FaultKind::kOcclusion, 2, a, a + two_s - 1, 0.0},
-          {"glare", FaultKind::kGlare, 2, a, a + two_s - 1, 0.0},
-          {"time-repeat", FaultKind::kTimeRepeat, 0, a, a, 0.0},
-          {"time-backward", FaultKind::kTimeBackward, 0, a, a, 1.0},
-          {"time-forward", FaultKind::kTimeForward, 0, a, a, 1.0},
-          {"wrong-rig-reload", FaultKind::kWrongRigReload, 0, a, a, 0.0}};
-}
-
-Scenario FaultBaseScenario(const FaultRunOptions& o) {
-  if (o.image_divisor < 1) throw UserError("--divisor: must be >= 1");
-  if (o.frames < 2 || o.fault_at < 1 || o.fault_at >= o.frames) throw UserError("--fault-at: must be within 1..frames-1");
-  Scenario s = LoadPreset(o.preset);
-  s.seed = o.seed;
-  s.frames = o.frames;
-  const double d = o.image_divisor;
-  for (int k = 0; k < s.rig.num_cameras; ++k) {
-    CameraIntrinsics& c = s.rig.cameras[static_cast<std::size_t>(k)].intrinsics;
-    c.width = static_cast<int>(c.width / d);
-    c.height = static_cast<int>(c.height / d);
-    c.alpha_x /= d;
-    c.alpha_y /= d;
-    c.skew /= d;
-    c.u0 = (c.u0 + 0.5) / d - 0.5;
-    c.v0 = (c.v0 + 0.5) / d - 0.5;
-  }
-  return s;
 }
 
 std::int64_t FaultResult::Moved(const std::string& name) const {

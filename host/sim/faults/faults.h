@@ -73,7 +73,10 @@ struct FaultRunOptions {
 // wrong-rig reload.
 std::vector<FaultSpec> IssueFaults(const FaultRunOptions& o);
 
-// The scenario of a run: the preset with its cameras shrunk by image_divisor.
+// The scenario of a run: the preset with its cameras shrunk by image_divisor. UserError naming
+// the option for a bad one, and for a run whose images would not fit in memory (RenderAll holds
+// every frame set's: --frames x the cameras' pixels at most 2000 megapixels) or cameras under
+// 16 px a side.
 Scenario FaultBaseScenario(const FaultRunOptions& o);
 
 // One published frame set, scored.
@@ -146,6 +149,10 @@ struct FaultsCommandOptions {
 };
 // Adds the `faults` subcommand and its options (values into *o) to app; runs nothing.
 CLI::App* AddFaultsOptions(CLI::App& app, FaultsCommandOptions* o);
+// The faults a command runs: every option checked (--frames, --fault-at, --divisor, --preset
+// through FaultBaseScenario; --only's names), reading and writing nothing. UserError naming the
+// option otherwise (faults_setup.cc).
+std::vector<FaultSpec> SelectFaults(const FaultsCommandOptions& a);
 // Runs the campaign, writes the table and figures (faults_command.cc). Throws UserError, and
 // CLI::RuntimeError(1) for --check with a wrong fix.
 void RunFaultsCommand(const FaultsCommandOptions& a);

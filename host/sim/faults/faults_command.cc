@@ -1,6 +1,5 @@
 // `mfns-sim faults`: the fault scenarios of issue 14 (faults.h) from the command line.
 #include <CLI/CLI.hpp>
-#include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
@@ -11,28 +10,13 @@
 #include "host/util/atomic_file.h"
 
 namespace mfns::host {
-namespace {
-
-std::vector<FaultSpec> Selected(const FaultsCommandOptions& a) {
-  std::vector<FaultSpec> all = IssueFaults(a.run), chosen;
-  for (const FaultSpec& f : all)
-    if (a.only.empty() || std::find(a.only.begin(), a.only.end(), f.name) != a.only.end()) chosen.push_back(f);
-  for (const std::string& name : a.only) {
-    bool known = false;
-    for (const FaultSpec& f : all) known = known || f.name == name;
-    if (!known) throw UserError("--only: no fault named '" + name + "'");
-  }
-  return chosen;
-}
-
-}  // namespace
 
 void RunFaultsCommand(const FaultsCommandOptions& a) {
   namespace fs = std::filesystem;
-  const std::vector<FaultSpec> faults = Selected(a);
+  const std::vector<FaultSpec> faults = SelectFaults(a);
   std::error_code ec;
   fs::create_directories(a.out, ec);
-  if (ec) throw UserError("--out " + a.out + ": " + ec.message());
+  if (ec) throw UserError("--out " + OneLine(a.out) + ": " + ec.message());
   const auto start = std::chrono::steady_clock::now();
   const FaultCampaign c = RunFaultCampaign(a.run, faults, a.cold, [](const std::string& line) {
     std::fprintf(stderr, "faults: %s\n", line.c_str());

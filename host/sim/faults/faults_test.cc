@@ -183,5 +183,39 @@ TEST(Faults, TheCommandWritesTheTableAndOneFigurePerFault) {
   fs::remove_all(dir);
 }
 
+// The options are checked before anything is rendered (SelectFaults, what host_cli_fuzz runs after
+// each parse), each error one line naming its option. Before, --frames had no bound (a million
+// frame sets were rendered into memory first), --divisor 4096 made cameras of 0 px, and --only
+// quoted a name's newline raw.
+TEST(Faults, OptionsAreCheckedBeforeAnythingRenders) {
+  const auto error = [](const FaultsCommandOptions& a) -> std::string {
+    try {
+      SelectFaults(a);
+    } catch (const UserError& e) {
+      return e.what();
+    }
+    return "no error";
+  };
+  FaultsCommandOptions a;
+  a.only = {"stall", "glare"};
+  ASSERT_EQ(SelectFaults(a).size(), 2u);
+  EXPECT_EQ(SelectFaults(a)[0].name, "stall");  // in the order
+  a.run.frames = 8138;  // 2000 megapixels at --divisor 4
+  EXPECT_EQ(error(a), "no error");
+  a.run.frames = 8139;
+  EXPECT_EQ(error(a).rfind("--frames: 8139 frame sets at --divisor 4 are 2000 megapixels", 0), 0u) << error(a);
+  a.run.frames = 1'000'001;
+  EXPECT_EQ(error(a), "--frames: must be 2..1000000");
+  a.run = FaultRunOptions{};
+  a.run.image_divisor = 4096;
+  EXPECT_EQ(error(a).rfind("--divisor: 4096 leaves camera ", 0), 0u) << error(a);
+  a.run = FaultRunOptions{};
+  a.run.preset = "moon-base";
+  EXPECT_EQ(error(a).rfind("--preset: unknown preset 'moon-base'", 0), 0u) << error(a);
+  a.run = FaultRunOptions{};
+  a.only = {"sta\nll"};
+  EXPECT_EQ(error(a), "--only: no fault named 'sta\\nll'");
+}
+
 }  // namespace
 }  // namespace mfns::host

@@ -12,6 +12,7 @@
 #include <map>
 #include <memory>
 #include <mutex>
+#include <sstream>
 #include <thread>
 #include <tuple>
 
@@ -49,10 +50,21 @@ std::string Trim(const std::string& s) {
   return b == std::string::npos ? std::string() : s.substr(b, e - b + 1);
 }
 
+// A seed, preset or count given twice would run (and count) the same runs twice.
+template <typename T>
+void RefuseRepeats(std::vector<T> values, const char* option) {
+  std::sort(values.begin(), values.end());
+  const auto twice = std::adjacent_find(values.begin(), values.end());
+  if (twice == values.end()) return;
+  std::ostringstream value;
+  value << *twice;
+  throw UserError(std::string(option) + ": '" + OneLine(value.str()) + "' given twice");
+}
+
 std::uint64_t ParseSeed(const std::string& text, const std::string& whole) {
   const std::string t = Trim(text);
   if (t.empty() || t.find_first_not_of("0123456789") != std::string::npos || t.size() > 18)
-    throw UserError("--seeds: expected seeds like 1-5 or 1,3,8, got '" + whole + "'");
+    throw UserError("--seeds: expected seeds like 1-5 or 1,3,8, got '" + OneLine(whole) + "'");
   return std::stoull(t);
 }
 
@@ -83,10 +95,14 @@ std::vector<std::uint64_t> ParseSeeds(const std::string& text) {
       seeds.push_back(ParseSeed(item, text));
     } else {
       const std::uint64_t a = ParseSeed(item.substr(0, dash), text), b = ParseSeed(item.substr(dash + 1), text);
-      if (b < a || b - a >= 10000)
-        throw UserError("--seeds: range '" + Trim(item) + "' must go up, 10000 seeds at most");
+      if (b < a || b - a >= kMaxSeeds)
+        throw UserError("--seeds: range '" + OneLine(Trim(item)) + "' must go up, " + std::to_string(kMaxSeeds) +
+                        " seeds at most");
       for (std::uint64_t s = a; s <= b; ++s) seeds.push_back(s);
     }
+    // In total too, not only per range: "1-9999,10000-19999,..." grew without bound.
+    if (seeds.size() > kMaxSeeds)
+      throw UserError("--seeds: more than " + std::to_string(kMaxSeeds) + " seeds in '" + OneLine(text) + "'");
     start = comma + 1;
   }
   return seeds;
@@ -102,6 +118,9 @@ std::vector<RunSpec> ExpandMatrix(const MatrixSpec& m) {
   for (const int c : m.counts)
     if (c < 10 || c > limits::kMaxBeacons)
       throw UserError("--counts: " + std::to_string(c) + " is outside 10.." + std::to_string(limits::kMaxBeacons));
+  RefuseRepeats(m.presets, "--presets");
+  RefuseRepeats(m.counts, "--counts");
+  RefuseRepeats(m.seeds, "--seeds");
   std::vector<RunSpec> runs;
   for (const std::string& preset : m.presets) {
     const YAML::Node root = PresetNode(preset);
@@ -113,6 +132,10 @@ std::vector<RunSpec> ExpandMatrix(const MatrixSpec& m) {
     std::vector<bool> facings{true, false};
     if (!s.rig.has_facing || m.facing == FacingMode::kYes) facings = {true};
     if (s.rig.has_facing && m.facing == FacingMode::kNo) facings = {false};
+    const std::size_t preset_runs = counts.size() * facings.size() * m.seeds.size();
+    if (runs.size() + preset_runs > kMaxRuns)
+      throw UserError("--presets x --counts x --seeds: more than " + std::to_string(kMaxRuns) + " runs");
+    runs.reserve(runs.size() + preset_runs);
     for (const int count : counts)
       for (const bool facing : facings)
         for (const std::uint64_t seed : m.seeds)

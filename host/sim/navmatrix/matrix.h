@@ -4,6 +4,7 @@
 // command-line face (RunNavMatrixCommand).
 #pragma once
 
+#include <cstddef>
 #include <cstdint>
 #include <iosfwd>
 #include <string>
@@ -15,6 +16,11 @@
 namespace mfns::host {
 
 enum class FacingMode { kBoth, kYes, kNo };
+
+// Bounds refused before anything runs (issue 14): every seed of --seeds and every run of the
+// matrix is held in memory first, and 100 000 runs of 600 frame sets are days of CPU already.
+inline constexpr std::size_t kMaxSeeds = 10000;
+inline constexpr std::size_t kMaxRuns = 100000;
 
 struct MatrixSpec {
   std::vector<std::string> presets{"free-flight", "station-cylinder", "station-box"};
@@ -48,10 +54,11 @@ Scenario MatrixScenario(const RunSpec& r);
 
 // Every run of the spec, row by row (preset, count, facing), seeds innermost. A preset without
 // generated beacons gives one count (its own map), and one facing row when its map has no facing
-// data. Throws UserError naming the flag (--presets, --counts, --frames, --spurious).
+// data. Throws UserError naming the flag (--presets, --counts, --frames, --spurious; a preset,
+// count or seed given twice; more than kMaxRuns runs).
 std::vector<RunSpec> ExpandMatrix(const MatrixSpec& m);
 
-// "1-5", "1,3,8", "2": the seeds; UserError naming --seeds otherwise.
+// "1-5", "1,3,8", "2": the seeds (kMaxSeeds at most); UserError naming --seeds otherwise.
 std::vector<std::uint64_t> ParseSeeds(const std::string& text);
 
 // Runs every spec on `jobs` threads (each with its own navigator), results in spec order. One
@@ -110,5 +117,10 @@ std::vector<std::string> RequirementFailures(const std::vector<MatrixRow>& rows,
 // stdout (and writes it to --out), progress on stderr; with --check it throws
 // CLI::RuntimeError(1) (exit 1) when a requirement fails. Option errors are UserErrors naming the flag.
 void RunNavMatrixCommand(const NavMatrixArgs& a);
+
+// The spec the command's arguments describe: --seeds (ParseSeeds), --facing and --jobs checked;
+// ExpandMatrix checks the rest. Runs nothing; UserError naming the flag (what host_cli_fuzz runs
+// after each parse, with ExpandMatrix).
+MatrixSpec MatrixSpecFromArgs(const NavMatrixArgs& a);
 
 }  // namespace mfns::host

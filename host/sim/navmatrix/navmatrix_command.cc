@@ -16,12 +16,12 @@ FacingMode ParseFacing(const std::string& text) {
   if (text == "both") return FacingMode::kBoth;
   if (text == "yes") return FacingMode::kYes;
   if (text == "no") return FacingMode::kNo;
-  throw UserError("--facing: expected both, yes or no, got '" + text + "'");
+  throw UserError("--facing: expected both, yes or no, got '" + OneLine(text) + "'");
 }
 
 }  // namespace
 
-void RunNavMatrixCommand(const NavMatrixArgs& a) {
+MatrixSpec MatrixSpecFromArgs(const NavMatrixArgs& a) {
   MatrixSpec spec;
   spec.presets = a.presets;
   spec.counts = a.counts;
@@ -31,6 +31,11 @@ void RunNavMatrixCommand(const NavMatrixArgs& a) {
   spec.static_reflections = a.static_reflections;
   spec.facing = ParseFacing(a.facing);
   if (a.jobs < 0) throw UserError("--jobs: must be >= 0 (0: all cores)");
+  return spec;
+}
+
+void RunNavMatrixCommand(const NavMatrixArgs& a) {
+  const MatrixSpec spec = MatrixSpecFromArgs(a);
   const int jobs = a.jobs > 0 ? a.jobs : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
   const std::vector<RunSpec> runs = ExpandMatrix(spec);
   const NavMatrixOptions options;

@@ -236,6 +236,45 @@ TEST(NavMatrixSpec, ErrorsNameTheFlag) {
   EXPECT_EQ(ParseSeeds("1-3,9"), (std::vector<std::uint64_t>{1, 2, 3, 9}));
 }
 
+// The bounds checked before anything runs (issue 14, host_cli_fuzz's run-time checks): --seeds
+// was bounded per range only ("0-9999,10000-19999,..." grew without end), a preset, count or
+// seed given twice ran twice, nothing bounded the matrix's runs, and --facing quoted a newline raw.
+TEST(NavMatrixSpec, SeedsAndRunsAreBoundedBeforeAnythingRuns) {
+  const auto seeds_error = [](const std::string& text) -> std::string {
+    try {
+      ParseSeeds(text);
+    } catch (const UserError& e) {
+      return e.what();
+    }
+    return "no error";
+  };
+  EXPECT_EQ(ParseSeeds("1-10000").size(), 10000u);
+  EXPECT_EQ(seeds_error("1-10000,20000-20001"), "--seeds: more than 10000 seeds in '1-10000,20000-20001'");
+  EXPECT_EQ(seeds_error("1,\n2"), "--seeds: expected seeds like 1-5 or 1,3,8, got '1,\\n2'");
+  MatrixSpec m;
+  m.presets = {"station-box", "station-box"};
+  EXPECT_EQ(ErrorOf(m), "--presets: 'station-box' given twice");
+  m = MatrixSpec{};
+  m.counts = {64, 64};
+  EXPECT_EQ(ErrorOf(m), "--counts: '64' given twice");
+  m = MatrixSpec{};
+  m.seeds = ParseSeeds("1-3,2");
+  EXPECT_EQ(ErrorOf(m), "--seeds: '2' given twice");
+  m = MatrixSpec{};
+  m.seeds = ParseSeeds("1-10000");  // 3 presets x 3 counts x 2 facings x 10 000 seeds
+  EXPECT_EQ(ErrorOf(m), "--presets x --counts x --seeds: more than 100000 runs");
+  NavMatrixArgs a;
+  a.facing = "y\nes";
+  try {
+    MatrixSpecFromArgs(a);
+    ADD_FAILURE() << "accepted";
+  } catch (const UserError& e) {
+    EXPECT_STREQ(e.what(), "--facing: expected both, yes or no, got 'y\\nes'");
+  }
+  a.facing = "no";
+  EXPECT_EQ(MatrixSpecFromArgs(a).facing, FacingMode::kNo);
+}
+
 TEST(NavMatrixSpec, RowsAggregateSeedsAndRequirementsNameTheFailingRow) {
   const RunSpec a{.preset = "station-box", .count = 64, .seed = 1, .map_beacons = 64};
   RunSpec b = a;

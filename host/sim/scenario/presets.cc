@@ -253,7 +253,7 @@ std::string PresetYaml(const std::string& name) {
   if (it == Presets().end()) {
     std::string known;
     for (const auto& n : PresetNames()) known += (known.empty() ? "" : ", ") + n;
-    throw UserError("unknown preset '" + name + "' (known: " + known + ")");
+    throw UserError("unknown preset '" + OneLine(name) + "' (known: " + known + ")");
   }
   return it->second;
 }
