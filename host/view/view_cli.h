@@ -5,9 +5,16 @@
 #include <CLI/CLI.hpp>
 #include <string>
 
-#include "host/view/view_server.h"
 
 namespace mfns::host {
+
+struct HostPort {
+  std::string host;  // an IPv4 literal or a name ("localhost")
+  int port = 0;      // 0: any free port (the bound one is reported)
+};
+
+// "[scheme]HOST:PORT" of option `option` (named in the UserError). PORT 0..65535.
+HostPort ParseHostPort(const std::string& text, const std::string& option, const std::string& scheme);
 
 struct ViewCommandLine {
   std::string rig_path;      // --rig (else FRAMES/rig.yaml)
@@ -20,6 +27,7 @@ struct ViewCommandLine {
 };
 
 // Parses argv into *cl (CLI11 ParseError for --help and bad options; UserError for bad values).
-void ParseViewCommandLine(CLI::App& app, int argc, const char* const* argv, ViewCommandLine* cl);
+// Its ParseError messages are one line whatever the arguments hold (ParseOneLine).
+void ParseViewCommandLine(CLI::App& app, int argc, char** argv, ViewCommandLine* cl);
 
 }  // namespace mfns::host

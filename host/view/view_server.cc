@@ -16,20 +16,6 @@
 
 namespace mfns::host {
 
-HostPort ParseHostPort(const std::string& text, const std::string& option, const std::string& scheme) {
-  const std::string expected = option + ": expected " + scheme + "HOST:PORT, got '" + OneLine(text) + "'";
-  if (text.compare(0, scheme.size(), scheme) != 0) throw UserError(expected);
-  const std::string rest = text.substr(scheme.size());
-  const std::size_t colon = rest.rfind(':');
-  if (colon == std::string::npos || colon == 0 || colon + 1 == rest.size()) throw UserError(expected);
-  HostPort hp{rest.substr(0, colon), 0};
-  const std::string port = rest.substr(colon + 1);
-  if (port.size() > 5 || port.find_first_not_of("0123456789") != std::string::npos) throw UserError(expected);
-  hp.port = std::stoi(port);
-  if (hp.port > 65535) throw UserError(option + ": port " + port + " is above 65535");
-  return hp;
-}
-
 void DispatchDatagram(std::span<const std::uint8_t> d, ViewState* state) {
   // The type byte (offset 5) picks the decoder; each checks magic, version, size and CRC.
   const std::uint8_t type = d.size() > 5 ? d[5] : 0;

@@ -9,6 +9,7 @@
 #include <string>
 #include <thread>
 
+#include "host/view/view_cli.h"
 #include "host/view/view_state.h"
 
 namespace httplib {
@@ -16,14 +17,6 @@ class Server;
 }
 
 namespace mfns::host {
-
-struct HostPort {
-  std::string host;  // an IPv4 literal or a name ("localhost")
-  int port = 0;      // 0: any free port (the bound one is reported)
-};
-
-// "[scheme]HOST:PORT" of option `option` (named in the UserError). PORT 0..65535.
-HostPort ParseHostPort(const std::string& text, const std::string& option, const std::string& scheme);
 
 // One datagram: a pose (type 1), health (type 2) or blobs (type 3) message of pose_message.h
 // goes to the state; anything else is counted as bad with its reason.

@@ -9,7 +9,9 @@
 
 #include "common/rig/paper_rig.h"
 #include "firmware/modules/publish/publishers.h"
+#include "host/util/cli_parse.h"
 #include "host/util/user_error.h"
+#include "host/view/view_cli.h"
 
 namespace mfns::host {
 namespace {
@@ -30,11 +32,36 @@ TEST(ViewServer, HostPortParsing) {
   EXPECT_EQ(a.host, "127.0.0.1");
   EXPECT_EQ(a.port, 5600);
   EXPECT_EQ(ParseHostPort("localhost:0", "--http", "").port, 0);
-  for (const char* bad : {"127.0.0.1:5600", "udp://:5600", "udp://host:", "udp://host:-1", "udp://host:99999999",
+  for (const char* bad : {"127.0.0.1:5600", "udp://:5600", "udp://a b:1", "udp://[::1]:5600", "udp://host:", "udp://host:-1", "udp://host:99999999",
                           "udp://host:65536", "udp://host:12a", "udp://host"}) {
     const std::string e = ParseError(bad, "udp://");
     EXPECT_EQ(e.rfind("--listen: ", 0), 0u) << bad << ": " << e;
   }
+}
+
+// Found by host_cli_fuzz: an argument holding a newline made CLI11's message two lines.
+TEST(ViewServer, CommandLineErrorsAreOneLine) {
+  for (const std::vector<std::string>& words : std::vector<std::vector<std::string>>{
+           {"mfns-view", "--rig", "r.yaml", "--http\n7.0.0.1:8080"},
+           {"mfns-view", "--rig", "r.yaml", "--speed", "fast\nest"},
+           {"mfns-view", "--rig", "r.yaml", "--listen", "udp://a\nb:1"},
+           {"mfns-view", "--rig", "r.yaml", "--speed", "0"},
+           {"mfns-view", "--play", "p.csv"}}) {
+    std::string what;
+    try {
+      ParseWords(ParseViewCommandLine, words);
+    } catch (const CLI::ParseError& e) {
+      what = e.what();
+    } catch (const UserError& e) {
+      what = e.what();
+    }
+    EXPECT_FALSE(what.empty()) << words.back();
+    EXPECT_EQ(what.find('\n'), std::string::npos) << what;
+  }
+  const ViewCommandLine cl = ParseWords(ParseViewCommandLine, {"mfns-view", "--rig", "r.yaml"});
+  EXPECT_EQ(cl.listen_at.host, "0.0.0.0");  // live by default, where navd's docs send
+  EXPECT_EQ(cl.listen_at.port, 5600);
+  EXPECT_EQ(cl.http_at.port, 8080);
 }
 
 template <typename Done>

@@ -1,6 +1,7 @@
-// libFuzzer target for the host tools' command lines (issue 14): mfns-calib, mfns-sim and
-// mfns-flash (CLI11) and mfns-paramctl (getopt_long), through the parse-only entry points each
-// tool runs before anything else (calib_cli.h, sim_cli.h, flash_cli.h, paramctl.h), with the
+// libFuzzer target for the host tools' command lines (issue 14): mfns-calib, mfns-sim,
+// mfns-flash and mfns-view (CLI11) and mfns-paramctl (getopt_long), through the parse-only entry
+// points each tool runs before anything else (calib_cli.h, sim_cli.h, flash_cli.h, view_cli.h:
+// --listen and --http addresses, --speed; paramctl.h), with the
 // option definitions the tools use, and then, on a parsed command line, through the checks the
 // command makes when it runs, before its work: mfns-calib rig's and intrinsics' options
 // (ValidateRigCommand: --method, ...; ValidateIntrinsicsCommand: --target), mfns-sim's scenario
@@ -10,9 +11,9 @@
 // faults' (SelectFaults: --only, --frames, --divisor, --preset). Nothing renders, calibrates or
 // writes; the only files read are the scratch directory's scenario files (below).
 //
-// The first input byte selects the tool (its value mod 4: '0' calib, '1' sim, '2' flash, '3'
-// paramctl in the seeds); the rest is cut at NUL bytes into at most 32 arguments. One target
-// for the four, not four targets: the parsers take the same input (words) under the same
+// The first input byte selects the tool ((its value + 2) mod 5: '0' calib, '1' sim, '2' flash,
+// '3' paramctl, '4' view in the seeds); the rest is cut at NUL bytes into at most 32 arguments.
+// One target for the five, not five targets: the parsers take the same input (words) under the same
 // contract, so one corpus carries what libFuzzer finds for one tool (--out, --store, ssh://
 // targets, numbers at a range's edge) over to the others, and the fuzz preset keeps one build
 // and one ctest slot for them (its ~4 min run).
@@ -38,6 +39,7 @@
 #include "firmware/app/paramctl/paramctl.h"
 #include "host/calib/app/calib_cli.h"
 #include "host/flash/flash_cli.h"
+#include "host/view/view_cli.h"
 #include "host/sim/analysis/analyze_command.h"
 #include "host/sim/app/load_scenario.h"
 #include "host/sim/app/sim_cli.h"
@@ -150,7 +152,9 @@ void FuzzParamctl(Argv& line) {
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   constexpr std::size_t kMaxArgs = 32;
   if (size == 0) return 0;
-  const int tool = data[0] % 4;
+  // The first byte picks the tool: '0' calib, '1' sim, '2' flash, '3' paramctl, '4' view (mod 5;
+  // the seeds' first bytes are these digits).
+  const int tool = (data[0] + 2) % 5;
   using namespace mfns::host;  // NOLINT(build/namespaces)
   switch (tool) {
     case 0: {
@@ -168,9 +172,14 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
       FuzzCli11<FlashCommandLine>(line, ParseFlashCommandLine, nullptr, [](const FlashCommandLine&) {});
       break;
     }
-    default: {
+    case 3: {
       Argv line(mfns::fuzz::SplitWords("mfns-paramctl", data + 1, size - 1, kMaxArgs));
       FuzzParamctl(line);
+      break;
+    }
+    default: {
+      Argv line(mfns::fuzz::SplitWords("mfns-view", data + 1, size - 1, kMaxArgs));
+      FuzzCli11<ViewCommandLine>(line, ParseViewCommandLine, nullptr, [](const ViewCommandLine&) {});
     }
   }
   return 0;
