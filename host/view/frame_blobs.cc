@@ -61,16 +61,10 @@ fw::BlobsRecord FrameBlobs::Detect(const ViewPose& pose) {
   r.frame_set = pose.frame_set;
   r.t_capture_ns = pose.t_ns;
   r.num_cameras = static_cast<std::uint8_t>(rig_.num_cameras);
-  for (const bool matched : {true, false})
-    for (int i = 0; i < static_cast<int>(obs.size()) && r.num_blobs < limits::kMaxBlobsInMessage; ++i) {
-      const int beacon = set.BeaconOfBlob(i);
-      if ((beacon >= 0) != matched) continue;
-      const fw::BlobObs& o = obs[static_cast<std::size_t>(i)];
-      r.blobs[static_cast<std::size_t>(r.num_blobs++)] =
-          fw::BlobEntry{static_cast<std::uint8_t>(o.camera), static_cast<std::int16_t>(beacon),
-                        static_cast<float>(o.uv_px.x()), static_cast<float>(o.uv_px.y())};
-    }
-  r.truncated = r.num_blobs < static_cast<int>(obs.size());
+  std::vector<std::int16_t> beacon_of_blob(obs.size());
+  for (std::size_t i = 0; i < obs.size(); ++i)
+    beacon_of_blob[i] = static_cast<std::int16_t>(set.BeaconOfBlob(static_cast<int>(i)));
+  fw::FillBlobs(obs.data(), static_cast<int>(obs.size()), beacon_of_blob.data(), &r);
   return r;
 }
 

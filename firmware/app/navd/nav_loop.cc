@@ -178,7 +178,6 @@ void NavLoop::PublishBlobs(const NavOutput& nav, int num_obs, std::uint64_t t_ca
   r.frame_set = static_cast<std::uint32_t>(counters_.frame_sets);
   r.t_capture_ns = t_capture_ns;
   r.num_cameras = static_cast<std::uint8_t>(rig_->num_cameras);
-  r.num_blobs = 0;
   const int n = std::clamp(num_obs, 0, limits::kMaxObservations);
   std::fill(beacon_of_blob_.begin(), beacon_of_blob_.begin() + n, std::int16_t{-1});
   const int num_matches = nav.status == NavStatus::kLost ? 0 : std::min(nav.num_matches, limits::kMaxMatches);
@@ -186,16 +185,20 @@ void NavLoop::PublishBlobs(const NavOutput& nav, int num_obs, std::uint64_t t_ca
     const Match& match = nav.matches[static_cast<std::size_t>(m)];
     if (match.blob >= 0 && match.blob < n) beacon_of_blob_[static_cast<std::size_t>(match.blob)] = static_cast<std::int16_t>(match.beacon);
   }
-  for (const bool matched : {true, false})
-    for (int i = 0; i < n && r.num_blobs < limits::kMaxBlobsInMessage; ++i) {
-      if ((beacon_of_blob_[static_cast<std::size_t>(i)] >= 0) != matched) continue;
-      const BlobObs& o = obs_[static_cast<std::size_t>(i)];
-      r.blobs[static_cast<std::size_t>(r.num_blobs++)] =
-          BlobEntry{static_cast<std::uint8_t>(o.camera), beacon_of_blob_[static_cast<std::size_t>(i)],
-                    static_cast<float>(o.uv_px.x()), static_cast<float>(o.uv_px.y())};
-    }
-  r.truncated = r.num_blobs < n;
+  FillBlobs(obs_.data(), n, beacon_of_blob_.data(), &r);
   outputs_->Blobs(r);
+}
+
+void FillBlobs(const BlobObs* obs, int num_obs, const std::int16_t* beacon_of_blob, BlobsRecord* r) {
+  r->num_blobs = 0;
+  for (const bool matched : {true, false})
+    for (int i = 0; i < num_obs && r->num_blobs < limits::kMaxBlobsInMessage; ++i) {
+      if ((beacon_of_blob[i] >= 0) != matched) continue;
+      const BlobObs& o = obs[i];
+      r->blobs[static_cast<std::size_t>(r->num_blobs++)] = BlobEntry{
+          static_cast<std::uint8_t>(o.camera), beacon_of_blob[i], static_cast<float>(o.uv_px.x()), static_cast<float>(o.uv_px.y())};
+    }
+  r->truncated = r->num_blobs < num_obs;
 }
 
 HealthRecord NavLoop::Health() const {

@@ -77,6 +77,12 @@ struct LoopCounters {
   std::array<std::uint64_t, static_cast<std::size_t>(NavReason::kCount)> by_reason{};
 };
 
+// Fills r's blobs from a frame set's observations and the beacon of each (beacon_of_blob[i],
+// -1: none): the matched ones first, then the others, each group in list order, as many as the
+// message carries; sets r->truncated and r->num_blobs (the header fields are the caller's).
+// NavLoop's blobs datagram, and mfns-view's playback (host/view/frame_blobs.h), build it so.
+void FillBlobs(const BlobObs* obs, int num_obs, const std::int16_t* beacon_of_blob, BlobsRecord* r);
+
 class NavLoop {
  public:
   // rig must outlive the loop. source is driven by the loop; trigger, outputs (every --output:
