@@ -1,0 +1,76 @@
+// The beacon-map self-survey of `mfns-calib survey` (issue 16): every frame set of a recording
+// identified and posed by the flyer's own pipeline, then all poses and beacon positions refined
+// together (bundle adjustment), with the surveyed map as the prior that also fixes the gauge.
+//
+// Frames: poses are body poses in the world frame (common/rig/rig.h BodyPose); beacons in the
+// world frame. Units: m, rad, px (centroids are distorted image coordinates, as detected).
+// Host only: allocates, throws UserError (host/util) on bad input.
+#pragma once
+
+#include <Eigen/Core>
+#include <cstdint>
+#include <iosfwd>
+#include <vector>
+
+#include "common/rig/rig.h"
+
+namespace mfns::host {
+
+// One identified blob: camera `camera` saw beacon `beacon` at centroid uv_px.
+struct SurveyObservation {
+  int camera = -1;
+  int beacon = -1;
+  Eigen::Vector2d uv_px = Eigen::Vector2d::Zero();
+};
+
+// One frame set the flyer's pipeline posed (a fix): its pose (the start of the adjustment) and
+// the identities its solve used.
+struct SurveyFrameSet {
+  std::uint64_t t_ns = 0;
+  BodyPose pose;
+  std::vector<SurveyObservation> observations;
+};
+
+struct SurveyOptions {
+  double start_sigma_px = 0.15;  // centroid 1-sigma before it is re-estimated from the residuals
+  int reweight_passes = 3;       // solve, re-estimate the centroid sigma, solve again
+  int relinearise_passes = 4;    // pose deltas folded into their reference pose between solves
+  double huber_sigmas = 3.0;     // robust loss: Huber at this many centroid sigmas
+  int max_iterations = 50;       // per Ceres solve
+  // A beacon whose refined position lies farther from its surveyed one than the two estimates'
+  // uncertainty allows (Mahalanobis distance above this, 5 sigma) is reported "moved?".
+  double moved_sigmas = 5.0;
+  int threads = 1;
+  bool IsValid(const char** why = nullptr) const;
+};
+
+// One beacon after the adjustment. Unseen beacons keep their surveyed position and sigma.
+struct SurveyBeacon {
+  Eigen::Vector3d surveyed_w = Eigen::Vector3d::Zero();  // the prior (the rig file's map), m
+  Eigen::Vector3d refined_w = Eigen::Vector3d::Zero();   // m
+  Eigen::Matrix3d covariance = Eigen::Matrix3d::Zero();  // of refined_w, m^2
+  int observations = 0;   // blobs identified as this beacon
+  int frame_sets = 0;     // frame sets that saw it
+  double rms_px = 0.0;    // residual RMS of its observations after the adjustment
+  double shift_sigmas = 0.0;  // Mahalanobis distance of refined from surveyed (moved test)
+  bool moved = false;     // shift_sigmas > SurveyOptions::moved_sigmas
+  Eigen::Vector3d Sigma() const { return covariance.diagonal().cwiseSqrt(); }
+};
+
+struct SurveyResult {
+  std::vector<SurveyBeacon> beacons;  // one per rig beacon, in rig order
+  std::vector<BodyPose> poses;        // the refined pose of each frame set given
+  double sigma_px = 0.0;              // centroid sigma estimated from the residuals
+  double rms_px = 0.0;                // residual RMS over every observation
+  int observations = 0;
+  int outliers = 0;                   // observations beyond the Huber threshold at the end
+};
+
+// Refines every pose and every observed beacon. rig: cameras (held fixed) and the surveyed map
+// with beacon_sigma (> 0: the prior's 1-sigma per coordinate). Throws UserError when the rig
+// has no beacon sigma, an observation names a camera or beacon the rig does not have, or the
+// solver fails. progress (optional): one line per solve.
+SurveyResult AdjustMap(const Rig& rig, const std::vector<SurveyFrameSet>& sets, const SurveyOptions& options,
+                       std::ostream* progress = nullptr);
+
+}  // namespace mfns::host
