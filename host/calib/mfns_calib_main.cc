@@ -4,6 +4,7 @@
 //   mfns-calib paper-rig --out FILE                         write the published rig (Tables 2-4)
 //   mfns-calib rig DATASET_DIR --out DIR [--method ml|paper|opencv-handeye]   (app/calib_commands.h)
 //   mfns-calib intrinsics --target checkerboard:COLSxROWS:SQUARE_MM IMAGE... --out DIR
+//   mfns-calib survey --rig RIG.yaml --out DIR RECORDING...   refined beacon map (survey/survey_command.h)
 // Exit 0 on success, 1 on a user error with a one-line reason on stderr.
 #include <CLI/CLI.hpp>
 
@@ -17,6 +18,7 @@
 #include "common/rig/paper_rig.h"
 #include "common/rotation/rotation.h"
 #include "host/calib/app/calib_commands.h"
+#include "host/calib/survey/survey_command.h"
 #include "host/rigio/rig_yaml.h"
 #include "host/util/atomic_file.h"
 
@@ -80,6 +82,7 @@ int Run(int argc, char** argv) {
   if (cl.command == "paper-rig") WriteRigYaml(cl.out_path, PaperRig());
   if (cl.command == "rig") RunRigCommand(cl.rig, std::cerr);
   if (cl.command == "intrinsics") RunIntrinsicsCommand(cl.intrinsics, std::cerr);
+  if (cl.command == "survey") RunSurveyCommand(cl.survey, std::cerr);
   return 0;
 }
 

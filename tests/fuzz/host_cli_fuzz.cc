@@ -116,6 +116,7 @@ void CheckScenario(mfns::host::ScenarioArgs a) {
 void CheckCalib(const mfns::host::CalibCommandLine& cl) {
   if (cl.command == "rig") mfns::host::ValidateRigCommand(cl.rig);
   if (cl.command == "intrinsics") mfns::host::ValidateIntrinsicsCommand(cl.intrinsics);
+  if (cl.command == "survey") mfns::host::ValidateSurveyCommand(cl.survey);
 }
 
 void CheckSim(const mfns::host::SimCommandLine& cl) {

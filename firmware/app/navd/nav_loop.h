@@ -101,6 +101,12 @@ class NavLoop {
   const LoopCounters& counters() const { return counters_; }
   const CameraSupervision& supervision(int k) const { return supervision_[static_cast<std::size_t>(k)]; }
   const Navigator& navigator() const { return navigator_; }
+  // The last frame set's observations (the blobs given to the navigator: its matches index
+  // them) and the navigator's outcome (kLost when no camera delivered): for host tools that
+  // need the identities with their centroids (mfns-calib survey).
+  const BlobObs* observations() const { return obs_.data(); }
+  int num_observations() const { return num_obs_; }
+  const NavOutput& last_output() const { return nav_; }
   HealthRecord Health() const;
 
  private:

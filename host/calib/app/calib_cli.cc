@@ -1,6 +1,7 @@
 #include "host/calib/app/calib_cli.h"
 
 #include <charconv>
+#include <cmath>
 
 #include "host/calib/core/dataset.h"
 #include "host/util/cli_parse.h"
@@ -58,7 +59,46 @@ void AddIntrinsicsCommand(CLI::App& app, IntrinsicsCommandOptions* o) {
                 "keeps SB's corners");
 }
 
+CLI::App* AddSurveyCommand(CLI::App& app, SurveyCommandOptions* o, std::string* generation) {
+  CLI::App* cmd = app.add_subcommand(
+      "survey", "Refine the beacon map from recordings: every frame set posed by mfns-navd's pipeline, then all "
+                "poses and beacons adjusted together with the surveyed map as prior");
+  cmd->add_option("--rig", o->rig_path, "Rig file (YAML) with the cameras and the surveyed map (beacon_sigma_mm)")
+      ->required();
+  cmd->add_option("--out", o->out_dir, "Output directory (created if missing)")->required();
+  cmd->add_option("recordings", o->recordings, "Frames directories (DIR/frames/<camera>/<frame:06d>.pgm)")->required();
+  cmd->add_option("--initial-pose", o->initial_pose, "X,Y,Z,ROLL,PITCH,YAW (mm, deg): a known start pose")
+      ->delimiter(',')
+      ->expected(6);
+  cmd->add_option("--initial-sigma", o->initial_sigma, "MM,DEG: the start pose's 1-sigma (default 10,1)")
+      ->delimiter(',')
+      ->expected(2);
+  cmd->add_option("--sigma-px", o->sigma_px, "The navigator's centroid 1-sigma (px), as mfns-navd's")
+      ->capture_default_str();
+  cmd->add_option("--rig-id", o->rig_id, "Rig id of the outputs (default: the input rig's)");
+  cmd->add_option("--generation", *generation, "calibration.bin's generation (default: UTC seconds now)");
+  cmd->add_option("--jobs", o->jobs, "Threads of the adjustment")->capture_default_str();
+  return cmd;
+}
+
 }  // namespace
+
+void ValidateSurveyCommand(const SurveyCommandOptions& o) {
+  if (o.out_dir.empty()) throw UserError("--out DIR is required");
+  if (o.rig_path.empty()) throw UserError("--rig RIG.yaml is required");
+  if (o.recordings.empty()) throw UserError("no recording given");
+  if (!o.initial_pose.empty()) {
+    if (o.initial_pose.size() != 6) throw UserError("--initial-pose: expected X,Y,Z,ROLL,PITCH,YAW");
+    for (double v : o.initial_pose)
+      if (!std::isfinite(v)) throw UserError("--initial-pose: every value must be a finite number");
+  }
+  if (!o.initial_sigma.empty() &&
+      (o.initial_sigma.size() != 2 || !(o.initial_sigma[0] > 0 && o.initial_sigma[1] > 0) ||
+       !std::isfinite(o.initial_sigma[0]) || !std::isfinite(o.initial_sigma[1])))
+    throw UserError("--initial-sigma: expected two positive numbers MM,DEG");
+  if (!(o.sigma_px > 0) || !std::isfinite(o.sigma_px)) throw UserError("--sigma-px must be a positive number");
+  if (o.jobs < 1 || o.jobs > 64) throw UserError("--jobs must be 1..64");
+}
 
 std::uint64_t ParseGenerationOption(const std::string& text) {
   std::uint64_t value = 0;
@@ -107,6 +147,8 @@ void ParseCalibCommandLine(CLI::App& app, int argc, char** argv, CalibCommandLin
   std::string rig_generation;
   CLI::App* rig = AddRigCommand(app, &cl->rig, &rig_generation);
   AddIntrinsicsCommand(app, &cl->intrinsics);
+  std::string survey_generation;
+  CLI::App* survey = AddSurveyCommand(app, &cl->survey, &survey_generation);
 
   ParseOneLine(app, argc, argv);
   cl->command = app.get_subcommands().front()->get_name();
@@ -115,6 +157,8 @@ void ParseCalibCommandLine(CLI::App& app, int argc, char** argv, CalibCommandLin
   cl->rig.generation_set = rig->count("--generation") > 0;
   if (cl->rig.generation_set) cl->rig.generation = ParseGenerationOption(rig_generation);
   cl->rig.angle_sigma_set = rig->count("--angle-sigma-arcsec") > 0;
+  cl->survey.generation_set = survey->count("--generation") > 0;
+  if (cl->survey.generation_set) cl->survey.generation = ParseGenerationOption(survey_generation);
 }
 
 }  // namespace mfns::host

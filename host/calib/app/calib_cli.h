@@ -50,6 +50,20 @@ struct IntrinsicsCommandOptions {
   bool refine_corners = false;
 };
 
+// `mfns-calib survey --rig RIG.yaml --out DIR RECORDING...` (host/calib/survey/survey_command.h).
+struct SurveyCommandOptions {
+  std::string rig_path;
+  std::string out_dir;
+  std::vector<std::string> recordings;
+  std::vector<double> initial_pose;   // X,Y,Z mm, ROLL,PITCH,YAW deg (as mfns-navd's --initial-pose)
+  std::vector<double> initial_sigma;  // MM,DEG (default 10 mm, 1 deg, as mfns-navd's)
+  double sigma_px = 0.15;             // navd's --sigma-px: the navigator's centroid noise
+  std::string rig_id;                 // default: the input rig's id
+  std::uint64_t generation = 0;       // calibration.bin's; default UTC seconds now
+  bool generation_set = false;
+  int jobs = 2;
+};
+
 // A --generation value: a whole number 0..2^64-1 in decimal digits; anything else ("-1", "1e3",
 // "x", 2^64) is a UserError naming the option (CLI11 wrapped "-1" to 2^64-1, refusing every
 // later flash as "not newer").
@@ -57,7 +71,7 @@ std::uint64_t ParseGenerationOption(const std::string& text);
 
 // mfns-calib's command line: the subcommand given and the options of each.
 struct CalibCommandLine {
-  std::string command;  // blob, inspect, paper-rig, rig or intrinsics
+  std::string command;  // blob, inspect, paper-rig, rig, intrinsics or survey
   std::string rig_path;   // blob RIG
   std::string out_path;   // blob --out, paper-rig --out
   std::string blob_path;  // inspect BLOB
@@ -65,6 +79,7 @@ struct CalibCommandLine {
   bool generation_set = false;   // else the tool takes UTC seconds now
   RigCommandOptions rig;
   IntrinsicsCommandOptions intrinsics;
+  SurveyCommandOptions survey;
 };
 
 // Defines mfns-calib's subcommands and options on `app` (a fresh one) and parses argv into *cl;
@@ -78,5 +93,8 @@ void ParseCalibCommandLine(CLI::App& app, int argc, char** argv, CalibCommandLin
 RigMethod ValidateRigCommand(const RigCommandOptions& o);
 // `intrinsics`: --out, --target (returned, parsed) and the images.
 CalibrationTarget ValidateIntrinsicsCommand(const IntrinsicsCommandOptions& o);
+// `survey`: --out, --rig, the recordings, --initial-pose (6 finite numbers), --initial-sigma (2
+// positive), --sigma-px, --jobs.
+void ValidateSurveyCommand(const SurveyCommandOptions& o);
 
 }  // namespace mfns::host

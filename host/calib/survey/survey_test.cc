@@ -74,7 +74,7 @@ Score ScoreMap(const Case& c, const SurveyResult& r, int min_sets) {
   return s;
 }
 
-TEST(SurveyTest, RefinedMapsBeatTheSurveyThreeTimesWithHonestSigma) {
+TEST(SurveyTest, RefinedMapsBeatTheSurveyWithHonestSigma) {
   struct Draw {
     const char* preset;
     std::uint64_t seed;

@@ -1,0 +1,179 @@
+#include "host/calib/survey/survey_command.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <memory>
+#include <ostream>
+#include <string>
+
+#include "common/blob/param_blob.h"
+#include "common/rotation/rotation.h"
+#include "firmware/app/navd/nav_loop.h"
+#include "firmware/drivers/replay/replay_source.h"
+#include "host/rigio/rig_yaml.h"
+#include "host/util/atomic_file.h"
+#include "host/util/user_error.h"
+
+namespace mfns::host {
+namespace {
+
+// The fix's identities with their centroids, from the loop's last frame set.
+SurveyFrameSet FixOf(const fw::NavLoop& loop, const fw::PoseRecord& rec) {
+  SurveyFrameSet s;
+  s.t_ns = rec.t_capture_ns;
+  const fw::NavOutput& nav = loop.last_output();
+  s.pose = nav.pose;
+  const fw::BlobObs* obs = loop.observations();
+  for (int i = 0; i < nav.num_matches; ++i) {
+    const fw::Match& m = nav.matches[static_cast<std::size_t>(i)];
+    if (m.blob < 0 || m.blob >= loop.num_observations()) continue;  // (cannot happen: the navigator's own)
+    s.observations.push_back({m.camera, m.beacon, obs[m.blob].uv_px});
+  }
+  return s;
+}
+
+std::uint64_t NowSeconds() {
+  return static_cast<std::uint64_t>(
+      std::chrono::duration_cast<std::chrono::seconds>(std::chrono::system_clock::now().time_since_epoch()).count());
+}
+
+RecordingOptions RecordingOptionsOf(const SurveyCommandOptions& o) {
+  RecordingOptions r;
+  r.sigma_px = o.sigma_px;
+  if (o.initial_pose.size() == 6) {
+    r.has_initial_pose = true;
+    r.initial_pose.r_w_wb = Eigen::Vector3d(o.initial_pose[0], o.initial_pose[1], o.initial_pose[2]) * 1e-3;
+    // As mfns-navd's --initial-pose: the poses CSV's angles are the Euler angles of C_b_w.
+    r.initial_pose.C_w_b =
+        EulerToMatrix(EulerAngles{DegToRad(o.initial_pose[3]), DegToRad(o.initial_pose[4]), DegToRad(o.initial_pose[5])})
+            .transpose();
+  }
+  if (o.initial_sigma.size() == 2) {
+    r.initial_sigma_m = o.initial_sigma[0] * 1e-3;
+    r.initial_sigma_rad = DegToRad(o.initial_sigma[1]);
+  }
+  return r;
+}
+
+// The input rig with the refined map: one beacon_sigma, the largest per-axis 1-sigma of any
+// beacon (the rig file holds one number).
+Rig RefinedRig(const Rig& in, const SurveyResult& r, const std::string& rig_id) {
+  Rig out = in;
+  double sigma = 0.0;
+  for (std::size_t b = 0; b < r.beacons.size(); ++b) {
+    out.beacons_w[b] = r.beacons[b].refined_w;
+    sigma = std::max(sigma, r.beacons[b].Sigma().maxCoeff());
+  }
+  out.beacon_sigma = sigma;
+  if (!rig_id.empty()) {
+    if (rig_id.size() > limits::kMaxRigIdChars) throw UserError("--rig-id: longer than " + std::to_string(limits::kMaxRigIdChars) + " characters");
+    out.rig_id.fill('\0');
+    std::copy(rig_id.begin(), rig_id.end(), out.rig_id.begin());
+  }
+  const RigStatus s = ValidateRig(out);
+  if (s != RigStatus::kOk) throw UserError(std::string("survey: the refined rig is not valid: ") + ToString(s));
+  return out;
+}
+
+std::vector<std::uint8_t> BlobOf(const Rig& rig, std::uint64_t generation) {
+  std::vector<std::uint8_t> bytes(limits::kMaxBlobBytes);
+  std::size_t written = 0;
+  const BlobStatus s = EncodeParamBlob(rig, generation, bytes, &written);
+  if (s != BlobStatus::kOk) throw UserError(std::string("survey: cannot encode the refined rig: ") + ToString(s));
+  bytes.resize(written);
+  return bytes;
+}
+
+}  // namespace
+
+std::vector<SurveyFrameSet> PoseRecording(const Rig& rig, const std::filesystem::path& dir, const RecordingOptions& o,
+                                          RecordingSummary* summary) {
+  const std::string dir_s = dir.string();
+  fw::ReplaySource source(fw::ReplayConfigFromRig(rig, dir_s.c_str()));
+  const fw::SourceStatus ss = source.Start();
+  if (ss != fw::SourceStatus::kOk)
+    throw UserError(dir_s + ": cannot replay: " + fw::ToString(ss) +
+                    (source.problem()[0] != '\0' ? std::string(" (") + source.problem() + ")" : std::string()));
+  auto loop = std::make_unique<fw::NavLoop>(rig, &source, nullptr, nullptr, nullptr);
+  fw::NavLoopConfig config;
+  config.sigma_px = o.sigma_px;
+  config.has_initial_pose = o.has_initial_pose;
+  config.initial_pose = o.initial_pose;
+  config.initial_sigma_m = o.initial_sigma_m;
+  config.initial_sigma_rad = o.initial_sigma_rad;
+  const char* why = nullptr;
+  if (!loop->Configure(config, &why)) throw UserError(dir_s + ": mfns-navd's loop refuses the rig: " + (why ? why : "?"));
+  std::vector<SurveyFrameSet> sets;
+  RecordingSummary sum;
+  fw::PoseRecord rec;
+  while (loop->Step(&rec) == fw::StepStatus::kOk) {
+    ++sum.frame_sets;
+    if (rec.status != fw::NavStatus::kFix) continue;
+    ++sum.fixes;
+    sets.push_back(FixOf(*loop, rec));
+  }
+  if (summary != nullptr) *summary = sum;
+  return sets;
+}
+
+std::string FormatSurveyCsv(const SurveyResult& r, double moved_sigmas) {
+  std::string out =
+      "beacon,surveyed_x_mm,surveyed_y_mm,surveyed_z_mm,refined_x_mm,refined_y_mm,refined_z_mm,sigma_x_mm,sigma_y_mm,"
+      "sigma_z_mm,shift_mm,shift_sigmas,observations,frame_sets,rms_px,moved,seen\n";
+  char line[512];
+  for (std::size_t b = 0; b < r.beacons.size(); ++b) {
+    const SurveyBeacon& s = r.beacons[b];
+    const Eigen::Vector3d p = s.surveyed_w * 1e3, q = s.refined_w * 1e3, sg = s.Sigma() * 1e3;
+    std::snprintf(line, sizeof line, "%zu,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%.2f,%d,%d,%.4f,%d,%d\n", b,
+                  p.x(), p.y(), p.z(), q.x(), q.y(), q.z(), sg.x(), sg.y(), sg.z(), (q - p).norm(), s.shift_sigmas,
+                  s.observations, s.frame_sets, s.rms_px, s.shift_sigmas > moved_sigmas ? 1 : 0,
+                  s.observations > 0 ? 1 : 0);
+    out += line;
+  }
+  return out;
+}
+
+SurveyResult RunSurveyCommand(const SurveyCommandOptions& o, std::ostream& log) {
+  ValidateSurveyCommand(o);
+  const Rig rig = ReadRigYaml(o.rig_path);
+  if (!(rig.beacon_sigma > 0.0))
+    throw UserError(o.rig_path + ": beacon_sigma_mm: the surveyed map's 1-sigma is needed (the survey's prior)");
+  const RecordingOptions ro = RecordingOptionsOf(o);
+  std::vector<SurveyFrameSet> sets;
+  for (const std::string& dir : o.recordings) {
+    RecordingSummary sum;
+    std::vector<SurveyFrameSet> s = PoseRecording(rig, dir, ro, &sum);
+    log << "survey: " << dir << ": " << sum.frame_sets << " frame sets, " << sum.fixes << " fixes" << std::endl;
+    sets.insert(sets.end(), std::make_move_iterator(s.begin()), std::make_move_iterator(s.end()));
+  }
+  if (sets.empty()) throw UserError("survey: no frame set of the recordings was posed as fix: nothing to refine from");
+  SurveyOptions so;
+  so.start_sigma_px = o.sigma_px;
+  so.threads = o.jobs;
+  const SurveyResult r = AdjustMap(rig, sets, so, &log);
+  const Rig out = RefinedRig(rig, r, o.rig_id);
+  // Everything is encoded before anything is written: a failure leaves DIR as it was.
+  const std::string rig_text = FormatRigYaml(out);
+  const std::vector<std::uint8_t> blob = BlobOf(out, o.generation_set ? o.generation : NowSeconds());
+  const std::string csv = FormatSurveyCsv(r, so.moved_sigmas);
+  const std::filesystem::path dir(o.out_dir);
+  std::error_code ec;
+  std::filesystem::create_directories(dir, ec);
+  if (ec) throw UserError(o.out_dir + ": cannot create: " + ec.message());
+  WriteFileAtomic(dir / "survey.csv", csv);
+  WriteFileAtomic(dir / "calibration.bin", blob);
+  WriteFileAtomic(dir / "rig.yaml", rig_text);
+  int seen = 0, moved = 0;
+  for (const SurveyBeacon& b : r.beacons) {
+    seen += b.observations > 0 ? 1 : 0;
+    moved += b.moved ? 1 : 0;
+  }
+  log << "survey: " << sets.size() << " frame sets, " << r.observations << " observations, " << seen << " of "
+      << r.beacons.size() << " beacons seen, centroid sigma " << r.sigma_px << " px, residual RMS " << r.rms_px
+      << " px, " << r.outliers << " outliers, " << moved << " beacons moved?; wrote " << o.out_dir
+      << "/{rig.yaml,calibration.bin,survey.csv}" << std::endl;
+  return r;
+}
+
+}  // namespace mfns::host

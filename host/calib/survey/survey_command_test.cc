@@ -1,0 +1,144 @@
+// mfns-calib survey end to end: rendered frames of a flight with a surveyed map (0.4 mm errors)
+// through mfns-navd's loop and the adjustment, the outputs against the simulator's truth.
+#include "host/calib/survey/survey_command.h"
+
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cmath>
+#include <fstream>
+#include <sstream>
+
+#include "common/blob/param_blob.h"
+#include "host/rigio/rig_yaml.h"
+#include "host/sim/frames/render_run.h"
+#include "host/sim/scenario/scenario.h"
+#include "host/util/user_error.h"
+
+namespace mfns::host {
+namespace {
+
+namespace fs = std::filesystem;
+
+std::string ReadText(const fs::path& p) {
+  std::ifstream f(p, std::ios::binary);
+  return std::string(std::istreambuf_iterator<char>(f), {});
+}
+
+class SurveyCommandTest : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    dir_ = fs::temp_directory_path() / ("mfns_survey_command_test_" + std::to_string(::getpid()));
+    fs::remove_all(dir_);
+    // A free flight (160 frame sets) through the free-flight module, map surveyed with 0.4 mm.
+    const std::string text = PresetYaml("free-flight");
+    Scenario s = ParseScenarioYaml(text, "free-flight", ".");
+    s.frames = 160;
+    s.seed = 3;
+    s.errors.beacon_map = true;
+    s.errors.beacon_sigma = 0.4e-3;
+    RenderOptions ro;
+    ro.out_dir = dir_ / "flight";
+    ro.threads = 2;
+    ro.progress = false;
+    RenderScenario(s, text, ro);
+    truth_ = s.rig;
+  }
+  static void TearDownTestSuite() { fs::remove_all(dir_); }
+
+  SurveyCommandOptions Options(const std::string& out) const {
+    SurveyCommandOptions o;
+    o.rig_path = (dir_ / "flight" / "believed-rig.yaml").string();
+    o.out_dir = (dir_ / out).string();
+    o.recordings = {(dir_ / "flight").string()};
+    o.generation = 42;
+    o.generation_set = true;
+    return o;
+  }
+
+  static fs::path dir_;
+  static Rig truth_;
+};
+fs::path SurveyCommandTest::dir_;
+Rig SurveyCommandTest::truth_;
+
+TEST_F(SurveyCommandTest, RefinesTheMapFromRenderedFramesAndWritesEveryOutput) {
+  std::ostringstream log;
+  const SurveyResult r = RunSurveyCommand(Options("out"), log);
+  EXPECT_NE(log.str().find("160 frame sets"), std::string::npos) << log.str();
+  const Rig believed = ReadRigYaml(dir_ / "flight" / "believed-rig.yaml");
+  const Rig refined = ReadRigYaml(dir_ / "out" / "rig.yaml");
+  ASSERT_EQ(refined.num_beacons, believed.num_beacons);
+  double se = 0, re = 0;
+  int n = 0, within = 0;
+  for (int b = 0; b < refined.num_beacons; ++b) {
+    const auto sb = static_cast<std::size_t>(b);
+    if (r.beacons[sb].frame_sets < 20) {
+      // Unseen (or seldom seen) beacons: a seldom seen one is refined too, an unseen one kept.
+      if (r.beacons[sb].observations == 0) {
+        EXPECT_LT((refined.beacons_w[sb] - believed.beacons_w[sb]).norm(), 2e-6);
+      }
+      continue;
+    }
+    const Eigen::Vector3d e = r.beacons[sb].refined_w - truth_.beacons_w[sb];
+    se += (believed.beacons_w[sb] - truth_.beacons_w[sb]).squaredNorm();
+    re += e.squaredNorm();
+    for (int k = 0; k < 3; ++k) within += std::abs(e(k)) <= 3 * r.beacons[sb].Sigma()(k) ? 1 : 0;
+    n += 3;
+    // The rig file holds the refined map (to its 1 um text) and one sigma bounding every beacon's.
+    EXPECT_LT((refined.beacons_w[sb] - r.beacons[sb].refined_w).norm(), 2e-6);
+    EXPECT_GE(refined.beacon_sigma, r.beacons[sb].Sigma().maxCoeff() - 1e-9);
+  }
+  ASSERT_GE(n, 45);
+  EXPECT_LT(std::sqrt(re / n), 0.7 * std::sqrt(se / n)) << std::sqrt(re / n) << " vs " << std::sqrt(se / n);
+  EXPECT_GE(within, 0.95 * n);
+  // The blob decodes to the same rig, generation as given.
+  const std::string blob = ReadText(dir_ / "out" / "calibration.bin");
+  Rig from_blob;
+  BlobInfo info;
+  ASSERT_EQ(DecodeParamBlob(std::span<const std::uint8_t>(reinterpret_cast<const std::uint8_t*>(blob.data()), blob.size()),
+                            nullptr, &from_blob, &info),
+            BlobStatus::kOk);
+  EXPECT_EQ(info.generation, 42u);
+  EXPECT_EQ(from_blob.num_beacons, refined.num_beacons);
+  // survey.csv: a header and one row per beacon.
+  const std::string csv = ReadText(dir_ / "out" / "survey.csv");
+  EXPECT_EQ(std::count(csv.begin(), csv.end(), '\n'), refined.num_beacons + 1);
+}
+
+TEST_F(SurveyCommandTest, BadInputLosesNothingAndNamesTheProblem) {
+  // Earlier outputs in DIR stay as they were when a run fails.
+  fs::create_directories(dir_ / "kept");
+  std::ofstream(dir_ / "kept" / "rig.yaml") << "earlier";
+  std::ostringstream log;
+  SurveyCommandOptions o = Options("kept");
+  o.recordings = {(dir_ / "no-such-recording").string()};
+  try {
+    RunSurveyCommand(o, log);
+    FAIL();
+  } catch (const UserError& e) {
+    EXPECT_NE(std::string(e.what()).find("no-such-recording"), std::string::npos) << e.what();
+  }
+  // A rig without the survey's sigma.
+  const fs::path no_sigma = dir_ / "no-sigma.yaml";
+  Rig r = ReadRigYaml(dir_ / "flight" / "believed-rig.yaml");
+  r.beacon_sigma = 0.0;
+  WriteRigYaml(no_sigma, r);
+  o = Options("kept");
+  o.rig_path = no_sigma.string();
+  try {
+    RunSurveyCommand(o, log);
+    FAIL();
+  } catch (const UserError& e) {
+    EXPECT_NE(std::string(e.what()).find("no-sigma.yaml: beacon_sigma_mm"), std::string::npos) << e.what();
+  }
+  o = Options("kept");
+  o.initial_pose = {0, 0, 0, 0, 0};
+  EXPECT_THROW(RunSurveyCommand(o, log), UserError);
+  EXPECT_EQ(ReadText(dir_ / "kept" / "rig.yaml"), "earlier");
+  EXPECT_FALSE(fs::exists(dir_ / "kept" / "calibration.bin"));
+}
+
+}  // namespace
+}  // namespace mfns::host
