@@ -82,7 +82,10 @@ int Run(int argc, char** argv) {
   if (cl.command == "paper-rig") WriteRigYaml(cl.out_path, PaperRig());
   if (cl.command == "rig") RunRigCommand(cl.rig, std::cerr);
   if (cl.command == "intrinsics") RunIntrinsicsCommand(cl.intrinsics, std::cerr);
-  if (cl.command == "survey") RunSurveyCommand(cl.survey, std::cerr);
+  if (cl.command == "survey") {
+    for (int i = 0; i < argc; ++i) cl.survey.command_line += (i == 0 ? "" : " ") + std::string(argv[i]);
+    RunSurveyCommand(cl.survey, std::cerr);
+  }
   return 0;
 }
 

@@ -62,6 +62,7 @@ struct SurveyCommandOptions {
   std::uint64_t generation = 0;       // calibration.bin's; default UTC seconds now
   bool generation_set = false;
   int jobs = 2;
+  std::string command_line;  // for report.html (the tool sets it)
 };
 
 // A --generation value: a whole number 0..2^64-1 in decimal digits; anything else ("-1", "1e3",

@@ -188,6 +188,8 @@ SurveyResult Summarise(const Rig& rig, const std::vector<SurveyFrameSet>& sets, 
   res.beacons.resize(static_cast<std::size_t>(rig.num_beacons));
   std::vector<double> sum_sq(res.beacons.size(), 0.0);
   std::vector<std::uint64_t> last_set(res.beacons.size(), ~std::uint64_t{0});
+  res.camera_rms_px.assign(static_cast<std::size_t>(rig.num_cameras), 0.0);
+  res.camera_observations.assign(static_cast<std::size_t>(rig.num_cameras), 0);
   const std::vector<Eigen::Vector2d> r = ImageResiduals(rig, sets, s);
   double total = 0.0;
   std::size_t k = 0;
@@ -197,12 +199,16 @@ SurveyResult Summarise(const Rig& rig, const std::vector<SurveyFrameSet>& sets, 
       const double e2 = r[k++].squaredNorm();
       sum_sq[b] += e2;
       total += e2;
+      res.camera_rms_px[static_cast<std::size_t>(ob.camera)] += e2;
+      ++res.camera_observations[static_cast<std::size_t>(ob.camera)];
       res.outliers += std::sqrt(e2) > o.huber_sigmas * sigma_px * std::sqrt(2.0) ? 1 : 0;
       ++res.beacons[b].observations;
       if (last_set[b] != i) ++res.beacons[b].frame_sets;
       last_set[b] = i;
     }
   res.observations = static_cast<int>(k);
+  for (std::size_t c = 0; c < res.camera_rms_px.size(); ++c)
+    if (res.camera_observations[c] > 0) res.camera_rms_px[c] = std::sqrt(res.camera_rms_px[c] / res.camera_observations[c]);
   res.rms_px = k > 0 ? std::sqrt(total / static_cast<double>(k)) : 0.0;
   for (std::size_t b = 0; b < res.beacons.size(); ++b) {
     SurveyBeacon& sb = res.beacons[b];

@@ -64,6 +64,8 @@ struct SurveyResult {
   double rms_px = 0.0;                // residual RMS over every observation
   int observations = 0;
   int outliers = 0;                   // observations beyond the Huber threshold at the end
+  std::vector<double> camera_rms_px;  // per rig camera: residual RMS of its observations (0: none)
+  std::vector<int> camera_observations;
 };
 
 // Refines every pose and every observed beacon. rig: cameras (held fixed) and the surveyed map

@@ -1,5 +1,7 @@
 #include "host/calib/survey/survey_command.h"
 
+#include "host/calib/survey/survey_report.h"
+
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
@@ -141,10 +143,14 @@ SurveyResult RunSurveyCommand(const SurveyCommandOptions& o, std::ostream& log) 
     throw UserError(o.rig_path + ": beacon_sigma_mm: the surveyed map's 1-sigma is needed (the survey's prior)");
   const RecordingOptions ro = RecordingOptionsOf(o);
   std::vector<SurveyFrameSet> sets;
+  SurveyReportContext ctx;
+  ctx.rig_path = o.rig_path;
   for (const std::string& dir : o.recordings) {
     RecordingSummary sum;
     std::vector<SurveyFrameSet> s = PoseRecording(rig, dir, ro, &sum);
-    log << "survey: " << dir << ": " << sum.frame_sets << " frame sets, " << sum.fixes << " fixes" << std::endl;
+    ctx.recordings.push_back(dir + ": " + std::to_string(sum.frame_sets) + " frame sets, " + std::to_string(sum.fixes) +
+                             " fixes");
+    log << "survey: " << ctx.recordings.back() << std::endl;
     sets.insert(sets.end(), std::make_move_iterator(s.begin()), std::make_move_iterator(s.end()));
   }
   if (sets.empty()) throw UserError("survey: no frame set of the recordings was posed as fix: nothing to refine from");
@@ -157,11 +163,15 @@ SurveyResult RunSurveyCommand(const SurveyCommandOptions& o, std::ostream& log) 
   const std::string rig_text = FormatRigYaml(out);
   const std::vector<std::uint8_t> blob = BlobOf(out, o.generation_set ? o.generation : NowSeconds());
   const std::string csv = FormatSurveyCsv(r, so.moved_sigmas);
+  ctx.moved_sigmas = so.moved_sigmas;
+  ctx.command_line = o.command_line;
+  const std::string html = SurveyReportHtml(rig, r, ctx);
   const std::filesystem::path dir(o.out_dir);
   std::error_code ec;
   std::filesystem::create_directories(dir, ec);
   if (ec) throw UserError(o.out_dir + ": cannot create: " + ec.message());
   WriteFileAtomic(dir / "survey.csv", csv);
+  WriteFileAtomic(dir / "report.html", html);
   WriteFileAtomic(dir / "calibration.bin", blob);
   WriteFileAtomic(dir / "rig.yaml", rig_text);
   int seen = 0, moved = 0;
@@ -172,7 +182,7 @@ SurveyResult RunSurveyCommand(const SurveyCommandOptions& o, std::ostream& log) 
   log << "survey: " << sets.size() << " frame sets, " << r.observations << " observations, " << seen << " of "
       << r.beacons.size() << " beacons seen, centroid sigma " << r.sigma_px << " px, residual RMS " << r.rms_px
       << " px, " << r.outliers << " outliers, " << moved << " beacons moved?; wrote " << o.out_dir
-      << "/{rig.yaml,calibration.bin,survey.csv}" << std::endl;
+      << "/{rig.yaml,calibration.bin,survey.csv,report.html}" << std::endl;
   return r;
 }
 

@@ -8,6 +8,8 @@
 //   survey.csv        per beacon: index, surveyed and refined position (mm), 1-sigma (mm),
 //                     shift (mm and survey sigmas), observations, frame sets, residual RMS (px),
 //                     moved (1: inconsistent with the survey by more than 5 sigma), seen
+//   report.html       the same per beacon, a chart of the corrections, residuals per camera,
+//                     beacons never seen and "moved?" (survey_report.h)
 // Progress on stderr. Throws UserError (one line naming the file or option).
 #pragma once
 

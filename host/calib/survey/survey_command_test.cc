@@ -102,6 +102,19 @@ TEST_F(SurveyCommandTest, RefinesTheMapFromRenderedFramesAndWritesEveryOutput) {
             BlobStatus::kOk);
   EXPECT_EQ(info.generation, 42u);
   EXPECT_EQ(from_blob.num_beacons, refined.num_beacons);
+  // report.html: every beacon in its table, the unseen ones listed.
+  const std::string html = ReadText(dir_ / "out" / "report.html");
+  EXPECT_NE(html.find("<table id=\"beacons\">"), std::string::npos);
+  EXPECT_EQ(static_cast<int>(std::count(html.begin(), html.end(), '\n')) > refined.num_beacons, true);
+  int unseen = 0;
+  for (const SurveyBeacon& b : r.beacons) unseen += b.observations == 0 ? 1 : 0;
+  const std::size_t list = html.find("<ul id=\"unseen\">");
+  ASSERT_NE(list, std::string::npos);
+  const std::string items = html.substr(list, html.find("</ul>", list) - list);
+  int listed = 0;
+  for (std::size_t at = items.find("<li>beacon "); at != std::string::npos; at = items.find("<li>beacon ", at + 1)) ++listed;
+  EXPECT_EQ(listed, unseen);
+  EXPECT_NE(html.find("<svg"), std::string::npos);
   // survey.csv: a header and one row per beacon.
   const std::string csv = ReadText(dir_ / "out" / "survey.csv");
   EXPECT_EQ(std::count(csv.begin(), csv.end(), '\n'), refined.num_beacons + 1);
