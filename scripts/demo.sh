@@ -22,6 +22,13 @@
 #                            and the acquisition over ~20 frame sets instead
 #   7. the paper's pipeline  mfns-sim solve-given: Newton on the true correspondences, CPC rig
 #   8. tables + report       mfns-sim report (stdout, OUT/report.html)
+#   9. second recording      mfns-sim render: the same station (true and surveyed map), another
+#                            noise seed and a sweep starting half a step later (issue 16)
+#  10. map survey            mfns-calib survey on the FIRST recording (the flyer's own poses and
+#                            identities, then the map refined); its blob flashed (a newer generation)
+#  11. the maps compared     mfns-navd on the SECOND recording with the surveyed map and with the
+#                            refined one; Table 5 for both (OUT/report-survey.html): the map is
+#                            never judged on the frames it was fitted to
 #
 # Outputs in OUT (default out/demo); each stage's output in OUT/logs/<stage>.log. Progress on
 # stderr, the tables on stdout. Exit 1 with a one-line message when a stage fails.
@@ -46,7 +53,7 @@ while [ $# -gt 0 ]; do
     --fast-detect) calib_opts=(--fast-detect); shift ;;
     --cold-start) start_pose=(); shift ;;
     --bin) bin=$2; shift 2 ;;
-    -h|--help) sed -n '2,27p' "$0"; exit 0 ;;
+    -h|--help) sed -n '2,34p' "$0"; exit 0 ;;
     -*) echo "demo: unknown option $1 (see --help)" >&2; exit 1 ;;
     *) out=$1; shift ;;
   esac
@@ -80,15 +87,15 @@ run() {
 calib="$out/calib-dataset"
 sweep="$out/sweep"
 
-say "1/8 calibration dataset: paper-calibration, seed $seed -> $calib"
+say "1/11 calibration dataset: paper-calibration, seed $seed -> $calib"
 rm -rf "$calib"
 run calib-dataset "$bin/mfns-sim" calib-dataset --preset paper-calibration --seed "$seed" --threads "$threads" --out "$calib"
 
-say "2/8 calibration: mfns-calib rig --method ml and --method paper"
+say "2/11 calibration: mfns-calib rig --method ml and --method paper"
 run calib-ml "$bin/mfns-calib" rig "$calib" --out "$out/calib-ml" --method ml --jobs "$threads" ${calib_opts[@]+"${calib_opts[@]}"}
 run calib-paper "$bin/mfns-calib" rig "$calib" --out "$out/calib-paper" --method paper --jobs "$threads" ${calib_opts[@]+"${calib_opts[@]}"}
 
-say "3/8 turntable sweep: paper-turntable, $frames frame sets, beacon survey error 0.4 mm -> $sweep"
+say "3/11 turntable sweep: paper-turntable, $frames frame sets, beacon survey error 0.4 mm -> $sweep"
 "$bin/mfns-sim" preset paper-turntable |
   sed -e 's/^  beacon_map: {enabled: false/  beacon_map: {enabled: true/' > "$out/sweep-scenario.yaml"
 grep -q '^  beacon_map: {enabled: true, sigma_mm: 0.4}' "$out/sweep-scenario.yaml" ||
@@ -97,25 +104,25 @@ rm -rf "$sweep"
 run render "$bin/mfns-sim" render --scenario "$out/sweep-scenario.yaml" --frames "$frames" --seed "$seed" \
   --threads "$threads" --out "$sweep"
 
-say "4/8 the flyer's parameters: ml cameras + surveyed beacon map -> $out/flyer-rig.yaml, blob"
+say "4/11 the flyer's parameters: ml cameras + surveyed beacon map -> $out/flyer-rig.yaml, blob"
 run merge-ml "$bin/mfns-sim" merge-rig --cameras "$out/calib-ml/rig.yaml" --beacons "$sweep/believed-rig.yaml" \
   --out "$out/flyer-rig.yaml"
 run blob "$bin/mfns-calib" blob "$out/flyer-rig.yaml" --out "$out/flyer.bin"
 
-say "5/8 flash into the flyer store $out/flyer/store"
+say "5/11 flash into the flyer store $out/flyer/store"
 mkdir -p "$out/flyer"
 run flash "$bin/mfns-flash" "$out/flyer.bin" "$out/flyer/store" --no-signal
 
-say "6/8 navigate: mfns-navd replays $frames frame sets with the store's parameters"
+say "6/11 navigate: mfns-navd replays $frames frame sets with the store's parameters"
 run navd "$bin/mfns-navd" --params "$out/flyer/store" --source "replay:$sweep" --log "$out/navd-poses.csv" \
   --pid-file '' --quiet "${start_pose[@]}"
 
-say "7/8 the paper's pipeline: CPC rig, Newton on the true correspondences"
+say "7/11 the paper's pipeline: CPC rig, Newton on the true correspondences"
 run merge-paper "$bin/mfns-sim" merge-rig --cameras "$out/calib-paper/rig.yaml" --beacons "$sweep/believed-rig.yaml" \
   --out "$out/paper-flyer-rig.yaml"
 run solve-given "$bin/mfns-sim" solve-given "$sweep" --rig "$out/paper-flyer-rig.yaml" --out "$out/given-poses.csv"
 
-say "8/8 tables and report"
+say "8/11 tables and report"
 if ! "$bin/mfns-sim" report --sim "$sweep" --poses "ours=$out/navd-poses.csv" \
     --poses "CPC+Newton=$out/given-poses.csv" --truth-rig "$calib/truth-rig.yaml" \
     --calib "ml=$out/calib-ml/rig.yaml" --calib "paper=$out/calib-paper/rig.yaml" \
@@ -123,4 +130,32 @@ if ! "$bin/mfns-sim" report --sim "$sweep" --poses "ours=$out/navd-poses.csv" \
   echo "demo: stage 'report' failed: $(tail -n 1 "$out/logs/report.log")" >&2
   exit 1
 fi
-say "done: report $out/report.html, logs in $out/logs"
+sweep2="$out/sweep2"
+say "9/11 second recording: the same station, noise seed $((seed + 1000)), the sweep half a step later -> $sweep2"
+sed -e 's/^  main_start_deg: 0$/  main_start_deg: 0.5/' "$out/sweep-scenario.yaml" > "$out/sweep2-scenario.yaml"
+grep -q '^  main_start_deg: 0.5$' "$out/sweep2-scenario.yaml" ||
+  { echo "demo: could not shift the second sweep's start in the paper-turntable preset" >&2; exit 1; }
+rm -rf "$sweep2"
+run render2 "$bin/mfns-sim" render --scenario "$out/sweep2-scenario.yaml" --frames "$frames" --seed "$((seed + 1000))" \
+  --threads "$threads" --out "$sweep2"
+
+say "10/11 map survey: mfns-calib survey on the first recording -> $out/survey, flashed"
+generation=$("$bin/mfns-calib" inspect "$out/flyer.bin" | sed -n 's/.*generation \([0-9]*\),.*/\1/p')
+[ -n "$generation" ] || { echo "demo: no generation in 'mfns-calib inspect $out/flyer.bin'" >&2; exit 1; }
+run survey "$bin/mfns-calib" survey --rig "$out/flyer-rig.yaml" --out "$out/survey" "$sweep" \
+  --generation "$((generation + 1))" --jobs "$threads" "${start_pose[@]}"
+run flash-survey "$bin/mfns-flash" "$out/survey/calibration.bin" "$out/flyer/store" --no-signal
+
+say "11/11 the maps compared on the second recording: surveyed (flyer.bin) and refined (the store)"
+run navd-surveyed "$bin/mfns-navd" --params "$out/flyer.bin" --source "replay:$sweep2" \
+  --log "$out/navd2-surveyed-map.csv" --pid-file '' --quiet "${start_pose[@]}"
+run navd-refined "$bin/mfns-navd" --params "$out/flyer/store" --source "replay:$sweep2" \
+  --log "$out/navd2-refined-map.csv" --pid-file '' --quiet "${start_pose[@]}"
+echo
+echo "Second recording, the map surveyed (0.4 mm) and refined by mfns-calib survey from the first:"
+if ! "$bin/mfns-sim" report --sim "$sweep2" --poses "surveyed map=$out/navd2-surveyed-map.csv" \
+    --poses "refined map=$out/navd2-refined-map.csv" --html "$out/report-survey.html" 2> "$out/logs/report-survey.log"; then
+  echo "demo: stage 'report-survey' failed: $(tail -n 1 "$out/logs/report-survey.log")" >&2
+  exit 1
+fi
+say "done: report $out/report.html and $out/report-survey.html, logs in $out/logs"

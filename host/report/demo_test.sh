@@ -23,4 +23,11 @@ html="$work/demo/report.html"
 for id in pose-error-position pose-error-attitude beacons-per-camera residuals; do
   grep -q "<svg [^>]*id=\"$id\"" "$html" || fail "report.html has no plot $id"
 done
+# Issue 16's stages: the second recording navigated with the surveyed and the refined map.
+grep -q '^Second recording, the map surveyed' "$work/stdout.txt" || fail "no survey comparison on stdout"
+grep -Eq '^  x_mm .*\| +-?[0-9.]+ +[0-9.]+ +[0-9.]+ \| +-?[0-9.]+ +[0-9.]+ +[0-9.]+$' <(sed -n '/^Second recording/,$p' "$work/stdout.txt") ||
+  fail "the survey's Table 5 has no x_mm row for both maps"
+for f in survey/rig.yaml survey/calibration.bin survey/survey.csv survey/report.html report-survey.html; do
+  [ -s "$work/demo/$f" ] || fail "no $work/demo/$f"
+done
 echo "demo_test: tables and report present"

@@ -142,8 +142,10 @@ std::vector<Eigen::Vector2d> ImageResiduals(const Rig& rig, const std::vector<Su
 }
 
 // The centroid sigma from the inlier residuals (within huber_sigmas of the current sigma) over
-// their degrees of freedom (2 per observation, less 6 per pose and 3 per beacon seen).
-double EstimateSigmaPx(const std::vector<Eigen::Vector2d>& r, double sigma_px, int dof_taken, const SurveyOptions& o) {
+// their degrees of freedom (2 per observation, less 6 per pose and 3 per beacon seen); false
+// (nothing set) with too few observations to tell the noise from the fit.
+bool EstimateSigmaPx(const std::vector<Eigen::Vector2d>& r, double sigma_px, int dof_taken, const SurveyOptions& o,
+                     double* estimate) {
   double sum = 0.0;
   int n = 0;
   for (const Eigen::Vector2d& e : r)
@@ -152,8 +154,9 @@ double EstimateSigmaPx(const std::vector<Eigen::Vector2d>& r, double sigma_px, i
       ++n;
     }
   const int dof = 2 * n - dof_taken;
-  if (dof <= 0) throw UserError("survey: too few observations for the poses and beacons to refine");
-  return std::sqrt(sum / dof);
+  if (dof <= 0) return false;
+  *estimate = std::sqrt(sum / dof);
+  return true;
 }
 
 void Solve(const Rig& rig, const std::vector<SurveyFrameSet>& sets, const SurveyOptions& o, double sigma_px, State* s,
@@ -249,9 +252,17 @@ SurveyResult AdjustMap(const Rig& rig, const std::vector<SurveyFrameSet>& sets, 
   const int seen = static_cast<int>(std::count(s.seen.begin(), s.seen.end(), true));
   const int dof_taken = 6 * static_cast<int>(sets.size()) + 3 * seen;
   double sigma_px = o.start_sigma_px;
+  bool estimated = true;
   for (int pass = 0; pass < o.reweight_passes; ++pass) {
     Solve(rig, sets, o, sigma_px, &s, progress, "pass " + std::to_string(pass + 1) + "/" + std::to_string(o.reweight_passes));
-    const double next = EstimateSigmaPx(ImageResiduals(rig, sets, s), sigma_px, dof_taken, o);
+    double next = sigma_px;
+    if (!EstimateSigmaPx(ImageResiduals(rig, sets, s), sigma_px, dof_taken, o, &next)) {
+      // The given sigma stands (SurveyResult::sigma_estimated false).
+      if (progress != nullptr)
+        *progress << "survey: too few observations to estimate the centroid sigma: " << sigma_px << " px kept" << std::endl;
+      estimated = false;
+      break;
+    }
     if (progress != nullptr) *progress << "survey: centroid sigma " << sigma_px << " -> " << next << " px" << std::endl;
     const bool settled = std::abs(next - sigma_px) <= 0.02 * sigma_px;
     sigma_px = next;
@@ -271,7 +282,9 @@ SurveyResult AdjustMap(const Rig& rig, const std::vector<SurveyFrameSet>& sets, 
                                                                  s.beacon[static_cast<std::size_t>(b)].data());
   if (!blocks.empty() && !cov.Compute(blocks, &problem))
     throw UserError("survey: the beacons' covariance cannot be computed (a beacon seen from too few poses?)");
-  return Summarise(rig, sets, o, s, cov, sigma_px);
+  SurveyResult res = Summarise(rig, sets, o, s, cov, sigma_px);
+  res.sigma_estimated = estimated;
+  return res;
 }
 
 }  // namespace mfns::host

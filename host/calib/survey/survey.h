@@ -61,6 +61,7 @@ struct SurveyResult {
   std::vector<SurveyBeacon> beacons;  // one per rig beacon, in rig order
   std::vector<BodyPose> poses;        // the refined pose of each frame set given
   double sigma_px = 0.0;              // centroid sigma estimated from the residuals
+  bool sigma_estimated = true;        // false: too few observations, start_sigma_px kept
   double rms_px = 0.0;                // residual RMS over every observation
   int observations = 0;
   int outliers = 0;                   // observations beyond the Huber threshold at the end

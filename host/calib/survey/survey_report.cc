@@ -86,7 +86,8 @@ std::string SurveyReportHtml(const Rig& rig, const SurveyResult& r, const Survey
   for (const std::string& line : ctx.recordings) row("recording", XmlEscape(line));
   row("frame sets adjusted", std::to_string(r.poses.size()));
   row("observations", std::to_string(r.observations) + " (" + std::to_string(r.outliers) + " beyond the robust loss's threshold)");
-  row("centroid sigma (from the residuals)", Fixed(r.sigma_px, 4) + " px; residual RMS " + Fixed(r.rms_px, 4) + " px");
+  row(r.sigma_estimated ? "centroid sigma (from the residuals)" : "centroid sigma (given: too few observations to estimate it)",
+      Fixed(r.sigma_px, 4) + " px; residual RMS " + Fixed(r.rms_px, 4) + " px");
   h << "</table>\n";
   BeaconTable(r, ctx.moved_sigmas, h);
   CorrectionChart(r, h);

@@ -137,6 +137,20 @@ TEST(SurveyTest, ABeaconMovedAfterTheSurveyIsFlagged) {
   EXPECT_EQ(others, 0);
 }
 
+TEST(SurveyTest, TooFewObservationsKeepTheGivenSigma) {
+  // Three beacons per frame set fit each pose exactly: no redundancy to estimate the noise from.
+  Case c = MakeCase("free-flight", 1, 40);
+  for (SurveyFrameSet& f : c.sets) f.observations.resize(3);
+  c.sets.resize(4);
+  SurveyOptions o;
+  o.start_sigma_px = 0.2;
+  const SurveyResult r = AdjustMap(c.surveyed, c.sets, o);
+  EXPECT_FALSE(r.sigma_estimated);
+  EXPECT_EQ(r.sigma_px, 0.2);
+  const Case full = MakeCase("free-flight", 1, 40);
+  EXPECT_TRUE(AdjustMap(full.surveyed, full.sets, o).sigma_estimated);
+}
+
 TEST(SurveyTest, BadInputIsRefusedNamingIt) {
   Case c = MakeCase("free-flight", 1, 20);
   Rig no_sigma = c.surveyed;
