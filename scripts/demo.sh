@@ -84,6 +84,18 @@ run() {
   fi
 }
 
+# render_sweep STAGE SED GREP SCENARIO SEED DIR: OUT/paper-turntable.yaml edited by SED (checked
+# by GREP: the preset's text may change) into SCENARIO, rendered into DIR (replaced).
+render_sweep() {
+  local stage=$1 edit=$2 check=$3 scenario=$4 render_seed=$5 dir=$6
+  sed -e "$edit" "$out/paper-turntable.yaml" > "$scenario"
+  grep -q "$check" "$scenario" ||
+    { echo "demo: the paper-turntable preset has no line matching '$check' after '$edit'" >&2; exit 1; }
+  rm -rf "$dir"
+  run "$stage" "$bin/mfns-sim" render --scenario "$scenario" --frames "$frames" --seed "$render_seed" \
+    --threads "$threads" --out "$dir"
+}
+
 calib="$out/calib-dataset"
 sweep="$out/sweep"
 
@@ -96,13 +108,9 @@ run calib-ml "$bin/mfns-calib" rig "$calib" --out "$out/calib-ml" --method ml --
 run calib-paper "$bin/mfns-calib" rig "$calib" --out "$out/calib-paper" --method paper --jobs "$threads" ${calib_opts[@]+"${calib_opts[@]}"}
 
 say "3/11 turntable sweep: paper-turntable, $frames frame sets, beacon survey error 0.4 mm -> $sweep"
-"$bin/mfns-sim" preset paper-turntable |
-  sed -e 's/^  beacon_map: {enabled: false/  beacon_map: {enabled: true/' > "$out/sweep-scenario.yaml"
-grep -q '^  beacon_map: {enabled: true, sigma_mm: 0.4}' "$out/sweep-scenario.yaml" ||
-  { echo "demo: could not switch on the beacon survey error in the paper-turntable preset" >&2; exit 1; }
-rm -rf "$sweep"
-run render "$bin/mfns-sim" render --scenario "$out/sweep-scenario.yaml" --frames "$frames" --seed "$seed" \
-  --threads "$threads" --out "$sweep"
+"$bin/mfns-sim" preset paper-turntable > "$out/paper-turntable.yaml"
+render_sweep render 's/^  beacon_map: {enabled: false/  beacon_map: {enabled: true/' \
+  '^  beacon_map: {enabled: true, sigma_mm: 0.4}' "$out/sweep-scenario.yaml" "$seed" "$sweep"
 
 say "4/11 the flyer's parameters: ml cameras + surveyed beacon map -> $out/flyer-rig.yaml, blob"
 run merge-ml "$bin/mfns-sim" merge-rig --cameras "$out/calib-ml/rig.yaml" --beacons "$sweep/believed-rig.yaml" \
@@ -132,12 +140,9 @@ if ! "$bin/mfns-sim" report --sim "$sweep" --poses "ours=$out/navd-poses.csv" \
 fi
 sweep2="$out/sweep2"
 say "9/11 second recording: the same station, noise seed $((seed + 1000)), the sweep half a step later -> $sweep2"
-sed -e 's/^  main_start_deg: 0$/  main_start_deg: 0.5/' "$out/sweep-scenario.yaml" > "$out/sweep2-scenario.yaml"
-grep -q '^  main_start_deg: 0.5$' "$out/sweep2-scenario.yaml" ||
-  { echo "demo: could not shift the second sweep's start in the paper-turntable preset" >&2; exit 1; }
-rm -rf "$sweep2"
-run render2 "$bin/mfns-sim" render --scenario "$out/sweep2-scenario.yaml" --frames "$frames" --seed "$((seed + 1000))" \
-  --threads "$threads" --out "$sweep2"
+cp "$out/sweep-scenario.yaml" "$out/paper-turntable.yaml"
+render_sweep render2 's/^  main_start_deg: 0$/  main_start_deg: 0.5/' '^  main_start_deg: 0.5$' \
+  "$out/sweep2-scenario.yaml" "$((seed + 1000))" "$sweep2"
 
 say "10/11 map survey: mfns-calib survey on the first recording -> $out/survey, flashed"
 generation=$("$bin/mfns-calib" inspect "$out/flyer.bin" | sed -n 's/.*generation \([0-9]*\),.*/\1/p')

@@ -132,13 +132,17 @@ std::string FormatOpenCvCameraYaml(const CameraResult& c, const std::vector<std:
   return fs.releaseAndGetString();
 }
 
+std::string ReportPageHead(const std::string& title, const std::string& extra_css) {
+  return "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\"><title>" + XmlEscape(title) +
+         "</title>\n<style>body{font-family:sans-serif;margin:24px;max-width:1400px}"
+         "table{border-collapse:collapse;margin:8px 0}td,th{border:1px solid #bbb;padding:3px 8px;text-align:right}"
+         "th{background:#eee}td.l,th.l{text-align:left}h2{border-bottom:1px solid #ccc}.bad{color:#b00}" +
+         extra_css + "</style></head><body>\n";
+}
+
 std::string FormatReportHtml(const RigCalibration& rig, const CalibInput& in, const ReportContext& ctx) {
   std::ostringstream h;
-  h << "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\"><title>" << XmlEscape(ctx.title) << "</title>\n"
-    << "<style>body{font-family:sans-serif;margin:24px;max-width:1400px}table{border-collapse:collapse;margin:8px 0}"
-       "td,th{border:1px solid #bbb;padding:3px 8px;text-align:right}th{background:#eee}td.l,th.l{text-align:left}"
-       ".fixed{color:#888;font-size:smaller}.charts{display:flex;flex-wrap:wrap;gap:8px}h2{border-bottom:1px solid #ccc}"
-       ".bad{color:#b00}</style></head><body>\n";
+  h << ReportPageHead(ctx.title, ".fixed{color:#888;font-size:smaller}.charts{display:flex;flex-wrap:wrap;gap:8px}");
   h << "<h1>" << XmlEscape(ctx.title) << "</h1>\n<table>";
   int n_tt = 0, n_free = 0, n_corners = 0;
   for (const ViewObservation& v : in.views) {

@@ -34,6 +34,10 @@ struct ReportContext {
   const TurntableMount* truth_mount = nullptr;
 };
 
+// The head of a report page up to <body>: doctype, title (escaped) and the reports' shared style
+// (tables, headings, class "bad"), plus extra_css. report.html of `rig` and of `survey` use it.
+std::string ReportPageHead(const std::string& title, const std::string& extra_css = "");
+
 // The rig file contents (with sigma) of a calibration.
 Rig ToRig(const RigCalibration& rig, const std::string& rig_id);
 

@@ -3,6 +3,7 @@
 #include <cstdio>
 #include <sstream>
 
+#include "host/calib/report/outputs.h"
 #include "host/calib/report/svg.h"
 
 namespace mfns::host {
@@ -72,11 +73,7 @@ void BeaconList(const SurveyResult& r, const char* id, const char* heading, Pick
 
 std::string SurveyReportHtml(const Rig& rig, const SurveyResult& r, const SurveyReportContext& ctx) {
   std::ostringstream h;
-  h << "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\"><title>" << XmlEscape(ctx.title) << "</title>\n"
-    << "<style>body{font-family:sans-serif;margin:24px;max-width:1400px}table{border-collapse:collapse;margin:8px 0}"
-       "td,th{border:1px solid #bbb;padding:3px 8px;text-align:right}th{background:#eee}td.l,th.l{text-align:left}"
-       "h2{border-bottom:1px solid #ccc}.bad{color:#b00}</style></head><body>\n<h1>"
-    << XmlEscape(ctx.title) << "</h1>\n<table>";
+  h << ReportPageHead(ctx.title) << "<h1>" << XmlEscape(ctx.title) << "</h1>\n<table>";
   const auto row = [&](const std::string& k, const std::string& v) {
     h << "<tr><th class=\"l\">" << XmlEscape(k) << "</th><td class=\"l\">" << v << "</td></tr>";
   };
