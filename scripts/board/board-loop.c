@@ -8,11 +8,21 @@
 //   board-loop feed CAPTURE OUTPUT FRAME.pgm
 //                                     streams the PGM (1280x1024, 8-bit) out until SIGTERM, so
 //                                     that whoever captures from CAPTURE (mfns-navd) gets it
+//   board-loop sweep PERIOD_MS N CAPTURE OUTPUT DIR [CAPTURE OUTPUT DIR]...
+//                                     frame sets DIR/000000.pgm..DIR/<N-1>.pgm, one per capture:
+//                                     the captures run at PERIOD_MS (custom CVT timings, below);
+//                                     each output holds a frame until its capture has taken one
+//                                     frame of it, then the next (docs/board.md, "The sweep").
+//                                     Prints "ready" once frame 0 is on every output; on SIGTERM
+//                                     one line per camera; exit 0 when every frame set was
+//                                     captured exactly once on every camera
 #include <errno.h>
 #include <fcntl.h>
 #include <linux/v4l2-dv-timings.h>
 #include <linux/videodev2.h>
 #include <poll.h>
+#include <signal.h>
+#include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -35,6 +45,46 @@ static int SetTimings(int fd, const char* which) {
   struct v4l2_dv_timings t = V4L2_DV_BT_DMT_1280X1024P60;
   if (ioctl(fd, VIDIOC_S_DV_TIMINGS, &t) < 0) return Fail(which);
   return 0;
+}
+
+// 1280x1024 progressive at about one frame per period_ms. vivid's HDMI capture takes its list of
+// standard timings (all 24 Hz or faster) or timings that v4l2_detect_cvt() recognises as CVT
+// from their total lines, line frequency and vsync width; it keeps the detected timings, which
+// must themselves be within vivid's limits (pixel clock at least 14 MHz). CVT with reduced
+// blanking v2 (vsync 8, HSYNC+ polarity) keeps the active width as given and needs 14 blanking
+// lines: 1038 lines, 1360 pixels a line; 14 MHz / 1360 / 1038 makes 10 Hz the slowest such
+// capture. Kernels without RB v2 get plain CVT (vsync 7 is 5:4, 1280x1024; 1040 lines). The
+// request's own pixel clock is the line frequency times a wide line (5840 pixels); the period
+// comes out within 1 % of period_ms (the detected pixel clock is rounded); PeriodMs() reports it.
+static int SetSlowTimings(int fd, unsigned period_ms) {
+  for (int rb2 = 1; rb2 >= 0; --rb2) {
+    struct v4l2_dv_timings t;
+    memset(&t, 0, sizeof(t));
+    t.type = V4L2_DV_BT_656_1120;
+    t.bt.width = 1280;
+    t.bt.height = 1024;
+    t.bt.hfrontporch = 2560;  // the widest line v4l2_valid_dv_timings allows: 5840 pixels
+    t.bt.hsync = 1000;
+    t.bt.hbackporch = 1000;
+    t.bt.polarities = rb2 ? V4L2_DV_HSYNC_POS_POL : V4L2_DV_VSYNC_POS_POL;
+    t.bt.vsync = rb2 ? 8 : 7;
+    t.bt.vfrontporch = rb2 ? 1 : 3;
+    t.bt.vbackporch = rb2 ? 5 : 6;
+    const unsigned lines = 1024 + t.bt.vfrontporch + t.bt.vsync + t.bt.vbackporch;
+    const unsigned hfreq = (lines * 1000u + period_ms / 2) / period_ms;
+    t.bt.pixelclock = (unsigned long long)hfreq * 5840u;
+    t.bt.standards = V4L2_DV_BT_STD_CVT;
+    if (ioctl(fd, VIDIOC_S_DV_TIMINGS, &t) == 0) return 0;
+  }
+  return Fail("S_DV_TIMINGS capture (CVT at the sweep's period)");
+}
+
+static double PeriodMs(int fd) {  // the capture's frame period as vivid streams it
+  struct v4l2_streamparm p;
+  memset(&p, 0, sizeof(p));
+  p.type = V4L2_BUF_TYPE_VIDEO_CAPTURE;
+  if (ioctl(fd, VIDIOC_G_PARM, &p) < 0 || p.parm.capture.timeperframe.denominator == 0) return 0.0;
+  return 1000.0 * p.parm.capture.timeperframe.numerator / p.parm.capture.timeperframe.denominator;
 }
 
 static int SetUp(int fd, enum v4l2_buf_type type, unsigned w, unsigned h, void** maps, size_t* lengths) {
@@ -113,10 +163,220 @@ static unsigned char* ReadPgm(const char* path, unsigned w, unsigned h) {
   return p;
 }
 
+
+#define kMaxCams 4
+#define kMaxSets 200
+#define kOutBuffers 3
+
+static volatile sig_atomic_t g_stop;
+static void OnTerm(int sig) { (void)sig; g_stop = 1; }
+
+struct SweepCam {
+  const char *cap_path, *out_path, *dir;
+  int cap, out;
+  void* maps[kOutBuffers];
+  size_t lengths[kOutBuffers];
+  int set_of[kOutBuffers];  // the frame set in each output buffer, -1: free
+  int fifo[kOutBuffers];    // the queued output buffers, the shown one first
+  int queued;
+  int next;                 // the next frame set to queue
+  uint64_t last_ns;         // the newest capture seen
+  int captures[kMaxSets];   // captures of each frame set
+  uint32_t seq[kMaxSets];   // the sequence number and stamp of its capture
+  uint64_t t_ns[kMaxSets];
+  int in_switch;            // captures while the output was between two frame sets
+};
+
+static int QueueSet(struct SweepCam* c, int set, unsigned w, unsigned h) {
+  int i = 0;
+  while (i < kOutBuffers && c->set_of[i] >= 0) ++i;
+  if (i == kOutBuffers || c->queued == kOutBuffers) {
+    printf("board-loop: %s: no free output buffer\n", c->out_path);
+    return 1;
+  }
+  char path[512];
+  snprintf(path, sizeof(path), "%s/%06d.pgm", c->dir, set);
+  unsigned char* img = ReadPgm(path, w, h);
+  if (img == NULL) return 1;
+  memcpy(c->maps[i], img, (size_t)w * h);
+  free(img);
+  struct v4l2_buffer b;
+  memset(&b, 0, sizeof(b));
+  b.type = V4L2_BUF_TYPE_VIDEO_OUTPUT;
+  b.memory = V4L2_MEMORY_MMAP;
+  b.index = (unsigned)i;
+  b.bytesused = w * h;
+  if (ioctl(c->out, VIDIOC_QBUF, &b) < 0) return Fail("QBUF output");
+  c->set_of[i] = set;
+  c->fifo[c->queued++] = i;
+  return 0;
+}
+
+// The output shows its first queued buffer; vivid releases it at an output frame (60 Hz) once
+// another is queued. Released buffers are free again.
+static int Shown(struct SweepCam* c) {
+  for (;;) {
+    struct v4l2_buffer b;
+    memset(&b, 0, sizeof(b));
+    b.type = V4L2_BUF_TYPE_VIDEO_OUTPUT;
+    b.memory = V4L2_MEMORY_MMAP;
+    if (ioctl(c->out, VIDIOC_DQBUF, &b) < 0) {
+      if (errno == EAGAIN) return 0;
+      return Fail("DQBUF output");
+    }
+    if (c->queued == 0 || c->fifo[0] != (int)b.index) {
+      printf("board-loop: %s: output buffer %u released out of order\n", c->out_path, b.index);
+      return 1;
+    }
+    c->set_of[b.index] = -1;
+    memmove(c->fifo, c->fifo + 1, sizeof(int) * (size_t)(--c->queued));
+  }
+}
+
+// New captures on CAPTURE since the last look, from the driver's bookkeeping of the capturing
+// process's buffers: QUERYBUF is allowed on any file handle (vb2 does not reserve it to the
+// queue's owner), and a buffer filled since carries a later stamp and its sequence number.
+static int NewCaptures(struct SweepCam* c, uint32_t* seq, uint64_t* t_ns) {
+  int fresh = 0;
+  uint64_t newest = c->last_ns;
+  for (unsigned i = 0; i < 32; ++i) {
+    struct v4l2_buffer b;
+    memset(&b, 0, sizeof(b));
+    b.type = V4L2_BUF_TYPE_VIDEO_CAPTURE;
+    b.memory = V4L2_MEMORY_MMAP;
+    b.index = i;
+    if (ioctl(c->cap, VIDIOC_QUERYBUF, &b) < 0) break;  // no (more) buffers: not streaming yet
+    const uint64_t t = (uint64_t)b.timestamp.tv_sec * 1000000000ull + (uint64_t)b.timestamp.tv_usec * 1000ull;
+    if (t <= c->last_ns) continue;
+    ++fresh;
+    if (t > newest) {
+      newest = t;
+      *seq = b.sequence;
+      *t_ns = t;
+    }
+  }
+  c->last_ns = newest;
+  return fresh;
+}
+
+static int Sweep(int argc, char** argv) {
+  const unsigned w = 1280, h = 1024;
+  const long period_ms = strtol(argv[2], NULL, 10), n = strtol(argv[3], NULL, 10);
+  const int ncams = (argc - 4) / 3;
+  if (period_ms < 50 || period_ms > 100 || n < 1 || n > kMaxSets || ncams < 1 || ncams > kMaxCams || (argc - 4) % 3 != 0) {
+    printf("board-loop: sweep: PERIOD_MS 50..100, N 1..%d, 1..%d CAPTURE OUTPUT DIR triples\n", kMaxSets, kMaxCams);
+    return 1;
+  }
+  static struct SweepCam cams[kMaxCams];
+  for (int k = 0; k < ncams; ++k) {
+    struct SweepCam* c = &cams[k];
+    memset(c, 0, sizeof(*c));
+    c->cap_path = argv[4 + 3 * k];
+    c->out_path = argv[5 + 3 * k];
+    c->dir = argv[6 + 3 * k];
+    c->cap = open(c->cap_path, O_RDWR | O_NONBLOCK);
+    c->out = open(c->out_path, O_RDWR | O_NONBLOCK);
+    if (c->cap < 0 || c->out < 0) return Fail("open");
+    if (SetSlowTimings(c->cap, (unsigned)period_ms) != 0 || SetTimings(c->out, "S_DV_TIMINGS output") != 0) return 1;
+    struct v4l2_format f;
+    memset(&f, 0, sizeof(f));
+    f.type = V4L2_BUF_TYPE_VIDEO_OUTPUT;
+    f.fmt.pix.width = w;
+    f.fmt.pix.height = h;
+    f.fmt.pix.pixelformat = V4L2_PIX_FMT_GREY;
+    f.fmt.pix.field = V4L2_FIELD_NONE;
+    if (ioctl(c->out, VIDIOC_S_FMT, &f) < 0) return Fail("S_FMT output");
+    struct v4l2_requestbuffers r;
+    memset(&r, 0, sizeof(r));
+    r.count = kOutBuffers;
+    r.type = V4L2_BUF_TYPE_VIDEO_OUTPUT;
+    r.memory = V4L2_MEMORY_MMAP;
+    if (ioctl(c->out, VIDIOC_REQBUFS, &r) < 0 || r.count != kOutBuffers) return Fail("REQBUFS output");
+    for (unsigned i = 0; i < kOutBuffers; ++i) {
+      struct v4l2_buffer b;
+      memset(&b, 0, sizeof(b));
+      b.type = V4L2_BUF_TYPE_VIDEO_OUTPUT;
+      b.memory = V4L2_MEMORY_MMAP;
+      b.index = i;
+      if (ioctl(c->out, VIDIOC_QUERYBUF, &b) < 0) return Fail("QUERYBUF output");
+      c->maps[i] = mmap(NULL, b.length, PROT_READ | PROT_WRITE, MAP_SHARED, c->out, b.m.offset);
+      if (c->maps[i] == MAP_FAILED) return Fail("mmap output");
+      c->lengths[i] = b.length;
+      c->set_of[i] = -1;
+    }
+    // vivid starts an output stream with two buffers queued: frame set 0 twice.
+    if (QueueSet(c, 0, w, h) != 0 || QueueSet(c, 0, w, h) != 0) return 1;
+    int on = V4L2_BUF_TYPE_VIDEO_OUTPUT;
+    if (ioctl(c->out, VIDIOC_STREAMON, &on) < 0) return Fail("STREAMON output");
+    c->next = 1;
+  }
+  signal(SIGTERM, OnTerm);
+  printf("board-loop: ready: frame set 0 of %ld on %d outputs; capture periods", n, ncams);
+  for (int k = 0; k < ncams; ++k) printf(" %.3f", PeriodMs(cams[k].cap));
+  printf(" ms\n");
+  fflush(stdout);
+  while (!g_stop) {
+    for (int k = 0; k < ncams; ++k) {
+      struct SweepCam* c = &cams[k];
+      if (Shown(c) != 0) return 1;
+      uint32_t seq = 0;
+      uint64_t t = 0;
+      const int fresh = NewCaptures(c, &seq, &t);
+      if (fresh == 0) continue;
+      const int shown = c->set_of[c->fifo[0]];
+      int settled = 1;
+      for (int q = 1; q < c->queued; ++q) settled = settled && c->set_of[c->fifo[q]] == shown;
+      if (!settled) {  // the output may have changed during the capture: which frame set it holds is unknown
+        c->in_switch += fresh;
+        continue;
+      }
+      if (c->captures[shown] == 0) {
+        c->seq[shown] = seq;
+        c->t_ns[shown] = t;
+      }
+      c->captures[shown] += fresh;
+      if (c->next < n && c->next == shown + 1) {
+        if (QueueSet(c, c->next, w, h) != 0) return 1;
+        ++c->next;
+      }
+    }
+    usleep(4000);
+  }
+  // Done: what each capture took, and the capture node back at 60 Hz for whoever comes next.
+  int ok = 1;
+  for (int k = 0; k < ncams; ++k) {
+    struct SweepCam* c = &cams[k];
+    int once = 0, twice = 0, missed = 0;
+    double dmin = 1e30, dmax = 0.0;
+    for (int i = 0; i < n; ++i) {
+      once += c->captures[i] == 1;
+      twice += c->captures[i] > 1;
+      missed += c->captures[i] == 0;
+      if (i > 0 && c->captures[i] > 0 && c->captures[i - 1] > 0) {
+        const double d = (double)(c->t_ns[i] - c->t_ns[i - 1]) / 1e6;
+        if (d < dmin) dmin = d;
+        if (d > dmax) dmax = d;
+      }
+    }
+    const int good = once == n && c->in_switch == 0;
+    ok = ok && good;
+    printf("board-loop: %s %s: %d of %ld frame sets captured once (sequences %u..%u), %d more than once, %d never, %d captures during a switch; %.1f-%.1f ms apart\n",
+           good ? "ok" : "bad", c->cap_path, once, n, c->seq[0], c->seq[n - 1], twice, missed, c->in_switch, dmin > dmax ? 0.0 : dmin, dmax);
+    int off = V4L2_BUF_TYPE_VIDEO_OUTPUT;
+    ioctl(c->out, VIDIOC_STREAMOFF, &off);
+    close(c->out);
+    if (SetTimings(c->cap, "S_DV_TIMINGS capture (back to 60 Hz)") != 0) ok = 0;
+    close(c->cap);
+  }
+  return ok ? 0 : 1;
+}
+
 int main(int argc, char** argv) {
+  if (argc >= 7 && strcmp(argv[1], "sweep") == 0) return Sweep(argc, argv);
   const int feed = argc == 5 && strcmp(argv[1], "feed") == 0;
   if (!feed && !(argc == 4 && strcmp(argv[1], "check") == 0)) {
-    printf("usage: board-loop check CAPTURE OUTPUT | board-loop feed CAPTURE OUTPUT FRAME.pgm\n");
+    printf("usage: board-loop check CAPTURE OUTPUT | board-loop feed CAPTURE OUTPUT FRAME.pgm |\n"
+           "       board-loop sweep PERIOD_MS N CAPTURE OUTPUT DIR [CAPTURE OUTPUT DIR]...\n");
     return 1;
   }
   const unsigned w = 1280, h = 1024;
