@@ -176,7 +176,8 @@ struct SweepCam {
   int cap, out;
   void* maps[kOutBuffers];
   size_t lengths[kOutBuffers];
-  int set_of[kOutBuffers];  // the frame set in each output buffer, -1: free
+  int set_of[kOutBuffers];  // the frame set in each queued output buffer, -1: free
+  int content[kOutBuffers]; // the frame set each output buffer holds (kept once released)
   int fifo[kOutBuffers];    // the queued output buffers, the shown one first
   int queued;
   int next;                 // the next frame set to queue
@@ -184,13 +185,16 @@ struct SweepCam {
   int captures[kMaxSets];   // captures of each frame set
   uint32_t seq[kMaxSets];   // the sequence number and stamp of its capture
   uint64_t t_ns[kMaxSets];
-  int in_switch;            // captures while the output was between two frame sets
+  int unknown;              // captures equal to none of the queued frame sets
+  const unsigned char* cap_maps[32];  // the capturing process's buffers, mapped read-only here
+  size_t cap_lengths[32];
 };
 
 static int QueueSet(struct SweepCam* c, int set, unsigned w, unsigned h) {
-  int i = 0;
-  while (i < kOutBuffers && c->set_of[i] >= 0) ++i;
-  if (i == kOutBuffers || c->queued == kOutBuffers) {
+  int i = kOutBuffers;  // the free buffer with the oldest frame set: the last one shown is kept
+  for (int j = 0; j < kOutBuffers; ++j)
+    if (c->set_of[j] < 0 && (i == kOutBuffers || c->content[j] < c->content[i])) i = j;
+  if (i == kOutBuffers) {
     printf("board-loop: %s: no free output buffer\n", c->out_path);
     return 1;
   }
@@ -208,6 +212,7 @@ static int QueueSet(struct SweepCam* c, int set, unsigned w, unsigned h) {
   b.bytesused = w * h;
   if (ioctl(c->out, VIDIOC_QBUF, &b) < 0) return Fail("QBUF output");
   c->set_of[i] = set;
+  c->content[i] = set;
   c->fifo[c->queued++] = i;
   return 0;
 }
@@ -234,11 +239,16 @@ static int Shown(struct SweepCam* c) {
 }
 
 // New captures on CAPTURE since the last look, from the driver's bookkeeping of the capturing
-// process's buffers: QUERYBUF is allowed on any file handle (vb2 does not reserve it to the
-// queue's owner), and a buffer filled since carries a later stamp and its sequence number.
-static int NewCaptures(struct SweepCam* c, uint32_t* seq, uint64_t* t_ns) {
+// process's buffers: QUERYBUF and mmap are allowed on any file handle (vb2 reserves only
+// REQBUFS, QBUF, DQBUF and STREAMON to the queue's owner), and a buffer filled since carries a
+// later stamp and its sequence number. Each is then compared with the queued frame sets, pixel
+// for pixel, with the frame sets in the output buffers: the frame set the capture took. The buffer is read within a capture period of its
+// filling; the driver refills it only after navd has dequeued and queued it again, and three
+// others before it.
+static int NewCaptures(struct SweepCam* c, unsigned w, unsigned h, int* newest_set) {
   int fresh = 0;
   uint64_t newest = c->last_ns;
+  *newest_set = -1;
   for (unsigned i = 0; i < 32; ++i) {
     struct v4l2_buffer b;
     memset(&b, 0, sizeof(b));
@@ -249,10 +259,27 @@ static int NewCaptures(struct SweepCam* c, uint32_t* seq, uint64_t* t_ns) {
     const uint64_t t = (uint64_t)b.timestamp.tv_sec * 1000000000ull + (uint64_t)b.timestamp.tv_usec * 1000ull;
     if (t <= c->last_ns) continue;
     ++fresh;
+    if (c->cap_maps[i] == NULL) {
+      void* m = mmap(NULL, b.length, PROT_READ, MAP_SHARED, c->cap, b.m.offset);
+      if (m == MAP_FAILED) return -Fail("mmap capture");
+      c->cap_maps[i] = m;
+      c->cap_lengths[i] = b.length;
+    }
+    int set = -1;
+    for (int q = 0; q < kOutBuffers && set < 0; ++q)  // the one shown, the next, the one before
+      if (c->content[q] >= 0 && memcmp(c->cap_maps[i], c->maps[q], (size_t)w * h) == 0) set = c->content[q];
+    if (set < 0) {
+      ++c->unknown;
+    } else {
+      if (c->captures[set] == 0) {
+        c->seq[set] = b.sequence;
+        c->t_ns[set] = t;
+      }
+      ++c->captures[set];
+    }
     if (t > newest) {
       newest = t;
-      *seq = b.sequence;
-      *t_ns = t;
+      *newest_set = set;
     }
   }
   c->last_ns = newest;
@@ -303,6 +330,7 @@ static int Sweep(int argc, char** argv) {
       if (c->maps[i] == MAP_FAILED) return Fail("mmap output");
       c->lengths[i] = b.length;
       c->set_of[i] = -1;
+      c->content[i] = -1;
     }
     // vivid starts an output stream with two buffers queued: frame set 0 twice.
     if (QueueSet(c, 0, w, h) != 0 || QueueSet(c, 0, w, h) != 0) return 1;
@@ -319,23 +347,11 @@ static int Sweep(int argc, char** argv) {
     for (int k = 0; k < ncams; ++k) {
       struct SweepCam* c = &cams[k];
       if (Shown(c) != 0) return 1;
-      uint32_t seq = 0;
-      uint64_t t = 0;
-      const int fresh = NewCaptures(c, &seq, &t);
-      if (fresh == 0) continue;
-      const int shown = c->set_of[c->fifo[0]];
-      int settled = 1;
-      for (int q = 1; q < c->queued; ++q) settled = settled && c->set_of[c->fifo[q]] == shown;
-      if (!settled) {  // the output may have changed during the capture: which frame set it holds is unknown
-        c->in_switch += fresh;
-        continue;
-      }
-      if (c->captures[shown] == 0) {
-        c->seq[shown] = seq;
-        c->t_ns[shown] = t;
-      }
-      c->captures[shown] += fresh;
-      if (c->next < n && c->next == shown + 1) {
+      int newest_set = -1;
+      const int fresh = NewCaptures(c, w, h, &newest_set);
+      if (fresh < 0) return 1;
+      // The newest queued frame set has been captured: the next one goes out.
+      if (fresh > 0 && newest_set >= 0 && newest_set == c->next - 1 && c->next < n) {
         if (QueueSet(c, c->next, w, h) != 0) return 1;
         ++c->next;
       }
@@ -358,13 +374,17 @@ static int Sweep(int argc, char** argv) {
         if (d > dmax) dmax = d;
       }
     }
-    const int good = once == n && c->in_switch == 0;
+    const int good = once == n && c->unknown == 0;
     ok = ok && good;
-    printf("board-loop: %s %s: %d of %ld frame sets captured once (sequences %u..%u), %d more than once, %d never, %d captures during a switch; %.1f-%.1f ms apart\n",
-           good ? "ok" : "bad", c->cap_path, once, n, c->seq[0], c->seq[n - 1], twice, missed, c->in_switch, dmin > dmax ? 0.0 : dmin, dmax);
+    printf("board-loop: %s %s: %d of %ld frame sets captured once (sequences %u..%u), %d more than once, %d never, %d captures equal to none; ",
+           good ? "ok" : "bad", c->cap_path, once, n, c->seq[0], c->seq[n - 1], twice, missed, c->unknown);
+    if (dmin <= dmax) printf("%.1f-%.1f ms apart\n", dmin, dmax);
+    else printf("no two consecutive frame sets captured\n");
     int off = V4L2_BUF_TYPE_VIDEO_OUTPUT;
     ioctl(c->out, VIDIOC_STREAMOFF, &off);
     close(c->out);
+    for (int i = 0; i < 32; ++i)
+      if (c->cap_maps[i] != NULL) munmap((void*)c->cap_maps[i], c->cap_lengths[i]);
     if (SetTimings(c->cap, "S_DV_TIMINGS capture (back to 60 Hz)") != 0) ok = 0;
     close(c->cap);
   }

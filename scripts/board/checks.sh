@@ -324,8 +324,9 @@ fi
 wait $feeder
 frc=$?
 sed 's/^/BOARD LOG navd (sweep): /' /tmp/navd-sweep.out
-info "sweep: navd ran $(awk -v a="${a:-0}" -v b="${b:-0}" 'BEGIN{printf "%.1f", b - a}') s for $SWEEP_FRAMES frame sets"
-info "sweep: $(grep -m 1 'ready' /tmp/sweep-feed.out | sed 's/^board-loop: ready: //')"
+if [ -n "${a:-}" ]; then
+  info "sweep: $(grep -m 1 'ready' /tmp/sweep-feed.out | sed 's/^board-loop: ready: //'); navd ran $(awk -v a="$a" -v b="$b" 'BEGIN{printf "%.1f", b - a}') s"
+fi
 pacing=$(grep -E '^board-loop: (ok|bad) ' /tmp/sweep-feed.out | sed 's/^board-loop: [a-z]* //' | tr '\n' ';')
 if [ $frc -eq 0 ] && [ -n "$pacing" ]; then
   pass "sweep-pacing: $pacing"
