@@ -341,10 +341,10 @@ else
     failed=$((failed + 1))
   fi
 fi
-# navd on the sweep through the loopback against the arm64 replay of the same frames (qemu-user),
-# each frame set stamped as the board's navd stamped it (the earliest of its three captures): the
-# same input to the tracker, so the same fix count and each pose equal within the tolerance
-# above. A second replay with the render's own stamps (exactly one period apart) is reported
+# navd on the sweep through the loopback against the arm64 replay of the same frames (qemu-user):
+# the frames each camera captured, in order, each frame set stamped as the board's navd stamped
+# it (the earliest of its three captures): the same input to the tracker, so the same fix count
+# and each pose equal within the tolerance above. A second replay with the render's own stamps (exactly one period apart) is reported
 # beside it: how much the board's capture jitter changed.
 sed -n 's/^BOARD SWEEP //p' "$console" >"$work/sweep-poses.csv"
 sweep_rows=$(awk 'NR > 1' "$work/sweep-poses.csv" | grep -c . || true)
@@ -352,13 +352,45 @@ if [ "$sweep_rows" -ne "$sweep_frames" ]; then
   echo "board: FAIL sweep-poses: $sweep_rows of $sweep_frames frame sets' poses came back from the board (console: $work/console.log)" >&2
   failed=$((failed + 1))
 else
+  # The frames as navd got them: navd dequeues every capture in order (a capture with no
+  # buffer free is dropped by the driver and seen by no one), so its n-th frame of camera k is
+  # camera k's n-th capture. Normally frame set n; a frame set captured twice (the feeder late,
+  # the board stalled) is replayed twice. Checked against navd's own stamps: its frame-set
+  # stamp is the earliest of the three captures.
   rm -rf "$work/sweep-replay"
-  mkdir -p "$work/sweep-replay"
-  ln -s "$work/sweep/frames" "$work/sweep-replay/frames"
-  awk -F, 'BEGIN { OFS = "," }
-    NR == FNR { if (FNR == 1) { for (i = 1; i <= NF; ++i) if ($i == "t_ns") c = i; next } t[FNR - 2] = $c; next }
-    FNR == 1 { for (i = 1; i <= NF; ++i) if ($i == "t_ns") d = i; print; next }
-    { $d = t[$1 + 0]; print }' "$work/sweep-poses.csv" "$work/sweep/truth.csv" >"$work/sweep-replay/truth.csv"
+  sed -n 's/^BOARD CAPTURE //p' "$console" | sort -k1,1n -k3,3n >"$work/sweep-captures.txt"
+  cams=($(sed -n 's/^  - name: *//p' "$work/sweep/rig.yaml"))
+  mapping=$(awk -v n="$sweep_frames" -v ncams="${#cams[@]}" '
+    NR == FNR { if (FNR > 1) { split($0, f, ","); t[FNR - 2] = f[2] }; next }
+    { k = $1; i = got[k]++; if (i < n) { set[k, i] = $4; st[k, i] = $3 } }
+    END {
+      bad = 0; repeats = 0
+      for (k = 0; k < ncams; ++k) if (got[k] < n) { printf "bad camera %d: %d captures for %d frame sets\n", k, got[k], n; exit }
+      for (i = 0; i < n; ++i) {
+        m = ""
+        for (k = 0; k < ncams; ++k) { if (set[k, i] < 0) bad++; if (m == "" || st[k, i] + 0 < m + 0) m = st[k, i]; if (i > 0 && set[k, i] == set[k, i - 1]) repeats++ }
+        if (m != t[i]) { printf "bad frame set %d: navd stamped it %s, its earliest capture is %s\n", i, t[i], m; exit }
+      }
+      if (bad) { printf "bad %d captures held no frame set of the sweep\n", bad; exit }
+      for (i = 0; i < n; ++i) { printf "map %d", i; for (k = 0; k < ncams; ++k) printf " %d", set[k, i]; printf " %s\n", t[i] }
+      printf "ok %d repeated\n", repeats
+    }' "$work/sweep-poses.csv" "$work/sweep-captures.txt")
+fi
+if [ "$sweep_rows" -eq "$sweep_frames" ] && [ "$(echo "$mapping" | tail -n 1 | cut -d' ' -f1)" != ok ]; then
+  echo "board: FAIL sweep-poses: cannot tell which frames navd got: $(echo "$mapping" | tail -n 1 | sed 's/^bad //')" >&2
+  failed=$((failed + 1))
+elif [ "$sweep_rows" -eq "$sweep_frames" ]; then
+  repeated=$(echo "$mapping" | tail -n 1 | cut -d' ' -f2)
+  for c in "${cams[@]}"; do mkdir -p "$work/sweep-replay/frames/$c"; done
+  echo "$mapping" | sed -n 's/^map //p' | while read -r i rest; do
+    set -- $rest
+    for c in "${cams[@]}"; do
+      ln -s "$work/sweep/frames/$c/$(printf '%06d' "$1").pgm" "$work/sweep-replay/frames/$c/$(printf '%06d' "$i").pgm"
+      shift
+    done
+  done
+  echo "$mapping" | sed -n 's/^map //p' | awk -v ncams="${#cams[@]}" 'BEGIN { print "frame,t_ns,x_mm,y_mm,z_mm,roll_deg,pitch_deg,yaw_deg" }
+    { printf "%d,%s,0,0,0,0,0,0\n", $1, $(ncams + 2) }' >"$work/sweep-replay/truth.csv"
   compare() {  # REPLAY.csv BOARD.csv: "ok|bad <detail>"
     awk -F, -v n="$sweep_frames" '
       NR == FNR { if (FNR == 1) { for (i = 1; i <= NF; ++i) rc[$i] = i; next }
@@ -387,10 +419,10 @@ else
     { if (NR > 2) { d = ($c - last) / 1e6; if (n == 0 || d < lo) lo = d; if (d > hi) hi = d; n++ } last = $c }
     END { printf "frame sets %.1f-%.1f ms apart", lo, hi }' "$work/sweep-poses.csv")
   if [ "${r%% *}" = ok ]; then
-    echo "board: PASS sweep-poses: ${r#ok } ($sweep_frames frame sets of paper-turntable at $sweep_period_ms ms; $stamps)" >&2
+    echo "board: PASS sweep-poses: ${r#ok } ($sweep_frames frame sets of paper-turntable at $sweep_period_ms ms; $stamps; $repeated frames repeated)" >&2
     passed=$((passed + 1))
   else
-    echo "board: FAIL sweep-poses: ${r#bad } ($sweep_frames frame sets of paper-turntable at $sweep_period_ms ms; $stamps; $work/sweep-poses.csv vs $work/sweep-replay.csv)" >&2
+    echo "board: FAIL sweep-poses: ${r#bad } ($sweep_frames frame sets of paper-turntable at $sweep_period_ms ms; $stamps; $repeated frames repeated; $work/sweep-poses.csv vs $work/sweep-replay.csv)" >&2
     failed=$((failed + 1))
   fi
   echo "board: INFO sweep-poses: $nominal" >&2

@@ -13,14 +13,17 @@
 //                                     the captures run at PERIOD_MS (custom CVT timings, below);
 //                                     each output holds a frame until its capture has taken one
 //                                     frame of it, then the next (docs/board.md, "The sweep").
-//                                     Prints "ready" once frame 0 is on every output; on SIGTERM
-//                                     one line per camera; exit 0 when every frame set was
-//                                     captured exactly once on every camera
+//                                     Prints "ready" once frame 0 is on every output, then a
+//                                     "capture K SEQUENCE T_NS SET" line per capture it saw (K the
+//                                     camera's place in the arguments); on SIGTERM one line per
+//                                     camera; exit 0 when every frame set was captured on every
+//                                     camera and every capture was one of them
 #include <errno.h>
 #include <fcntl.h>
 #include <linux/v4l2-dv-timings.h>
 #include <linux/videodev2.h>
 #include <poll.h>
+#include <sched.h>
 #include <signal.h>
 #include <stdint.h>
 #include <stdio.h>
@@ -49,13 +52,14 @@ static int SetTimings(int fd, const char* which) {
 
 // 1280x1024 progressive at about one frame per period_ms. vivid's HDMI capture takes its list of
 // standard timings (all 24 Hz or faster) or timings that v4l2_detect_cvt() recognises as CVT
-// from their total lines, line frequency and vsync width; it keeps the detected timings, which
-// must themselves be within vivid's limits (pixel clock at least 14 MHz). CVT with reduced
-// blanking v2 (vsync 8, HSYNC+ polarity) keeps the active width as given and needs 14 blanking
-// lines: 1038 lines, 1360 pixels a line; 14 MHz / 1360 / 1038 makes 10 Hz the slowest such
-// capture. Kernels without RB v2 get plain CVT (vsync 7 is 5:4, 1280x1024; 1040 lines). The
-// request's own pixel clock is the line frequency times a wide line (5840 pixels); the period
-// comes out within 1 % of period_ms (the detected pixel clock is rounded); PeriodMs() reports it.
+// from their total lines, line frequency and vsync width, and keeps the detected timings. CVT
+// with reduced blanking v2 (vsync 8, HSYNC+ polarity) keeps the active width as given and needs
+// 14 blanking lines: 1038 lines, 1360 pixels a line. On Debian's 6.1 kernel 100 ms is accepted
+// and 250 ms refused (EINVAL), as a check that the detected timings are within vivid's limits
+// (pixel clock at least 14 MHz: 14 MHz / 1360 / 1038 is 9.9 Hz) would do. Kernels without RB v2
+// get plain CVT (vsync 7 is 5:4, 1280x1024; 1040 lines). The request's own pixel clock is the
+// line frequency times a wide line (5840 pixels); the period comes out within 1 % of period_ms
+// (the detected pixel clock is rounded); PeriodMs() reports it.
 static int SetSlowTimings(int fd, unsigned period_ms) {
   for (int rb2 = 1; rb2 >= 0; --rb2) {
     struct v4l2_dv_timings t;
@@ -172,6 +176,7 @@ static volatile sig_atomic_t g_stop;
 static void OnTerm(int sig) { (void)sig; g_stop = 1; }
 
 struct SweepCam {
+  int index;                // its place in the arguments
   const char *cap_path, *out_path, *dir;
   int cap, out;
   void* maps[kOutBuffers];
@@ -241,10 +246,10 @@ static int Shown(struct SweepCam* c) {
 // New captures on CAPTURE since the last look, from the driver's bookkeeping of the capturing
 // process's buffers: QUERYBUF and mmap are allowed on any file handle (vb2 reserves only
 // REQBUFS, QBUF, DQBUF and STREAMON to the queue's owner), and a buffer filled since carries a
-// later stamp and its sequence number. Each is then compared with the queued frame sets, pixel
-// for pixel, with the frame sets in the output buffers: the frame set the capture took. The buffer is read within a capture period of its
-// filling; the driver refills it only after navd has dequeued and queued it again, and three
-// others before it.
+// later stamp and its sequence number. Each is then compared, pixel for pixel, with the frame
+// sets in the output buffers: the frame set the capture took. The buffer is read within a
+// capture period of its filling; the driver refills it only after navd has dequeued and queued
+// it again, and three others before it.
 static int NewCaptures(struct SweepCam* c, unsigned w, unsigned h, int* newest_set) {
   int fresh = 0;
   uint64_t newest = c->last_ns;
@@ -268,6 +273,7 @@ static int NewCaptures(struct SweepCam* c, unsigned w, unsigned h, int* newest_s
     int set = -1;
     for (int q = 0; q < kOutBuffers && set < 0; ++q)  // the one shown, the next, the one before
       if (c->content[q] >= 0 && memcmp(c->cap_maps[i], c->maps[q], (size_t)w * h) == 0) set = c->content[q];
+    printf("capture %d %u %llu %d\n", c->index, b.sequence, (unsigned long long)t, set);
     if (set < 0) {
       ++c->unknown;
     } else {
@@ -290,21 +296,25 @@ static int Sweep(int argc, char** argv) {
   const unsigned w = 1280, h = 1024;
   const long period_ms = strtol(argv[2], NULL, 10), n = strtol(argv[3], NULL, 10);
   const int ncams = (argc - 4) / 3;
-  if (period_ms < 50 || period_ms > 100 || n < 1 || n > kMaxSets || ncams < 1 || ncams > kMaxCams || (argc - 4) % 3 != 0) {
-    printf("board-loop: sweep: PERIOD_MS 50..100, N 1..%d, 1..%d CAPTURE OUTPUT DIR triples\n", kMaxSets, kMaxCams);
+  if (period_ms < 50 || period_ms > 100 || n < 1 || n > kMaxSets || ncams < 1 || ncams > kMaxCams ||
+      (argc - 4) % 3 != 0) {
+    printf("board-loop: sweep: PERIOD_MS 50..100, N 1..%d, 1..%d CAPTURE OUTPUT DIR triples\n", kMaxSets,
+           kMaxCams);
     return 1;
   }
   static struct SweepCam cams[kMaxCams];
   for (int k = 0; k < ncams; ++k) {
     struct SweepCam* c = &cams[k];
     memset(c, 0, sizeof(*c));
+    c->index = k;
     c->cap_path = argv[4 + 3 * k];
     c->out_path = argv[5 + 3 * k];
     c->dir = argv[6 + 3 * k];
     c->cap = open(c->cap_path, O_RDWR | O_NONBLOCK);
     c->out = open(c->out_path, O_RDWR | O_NONBLOCK);
     if (c->cap < 0 || c->out < 0) return Fail("open");
-    if (SetSlowTimings(c->cap, (unsigned)period_ms) != 0 || SetTimings(c->out, "S_DV_TIMINGS output") != 0) return 1;
+    if (SetSlowTimings(c->cap, (unsigned)period_ms) != 0 || SetTimings(c->out, "S_DV_TIMINGS output") != 0)
+      return 1;
     struct v4l2_format f;
     memset(&f, 0, sizeof(f));
     f.type = V4L2_BUF_TYPE_VIDEO_OUTPUT;
@@ -339,6 +349,10 @@ static int Sweep(int argc, char** argv) {
     c->next = 1;
   }
   signal(SIGTERM, OnTerm);
+  // Ahead of navd: a frame set captured again is one whose capture the feeder saw too late to
+  // queue the next before the following capture (the board stalled under the host's load).
+  struct sched_param sp = {.sched_priority = 10};
+  if (sched_setscheduler(0, SCHED_FIFO, &sp) != 0) printf("board-loop: no SCHED_FIFO: %s\n", strerror(errno));
   printf("board-loop: ready: frame set 0 of %ld on %d outputs; capture periods", n, ncams);
   for (int k = 0; k < ncams; ++k) printf(" %.3f", PeriodMs(cams[k].cap));
   printf(" ms\n");
@@ -374,9 +388,10 @@ static int Sweep(int argc, char** argv) {
         if (d > dmax) dmax = d;
       }
     }
-    const int good = once == n && c->unknown == 0;
+    const int good = missed == 0 && c->unknown == 0;
     ok = ok && good;
-    printf("board-loop: %s %s: %d of %ld frame sets captured once (sequences %u..%u), %d more than once, %d never, %d captures equal to none; ",
+    printf("board-loop: %s %s: %d of %ld frame sets captured once (sequences %u..%u), %d more than once (the "
+           "last stays shown after the sweep), %d never, %d captures equal to none; ",
            good ? "ok" : "bad", c->cap_path, once, n, c->seq[0], c->seq[n - 1], twice, missed, c->unknown);
     if (dmin <= dmax) printf("%.1f-%.1f ms apart\n", dmin, dmax);
     else printf("no two consecutive frame sets captured\n");

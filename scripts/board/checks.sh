@@ -297,9 +297,10 @@ fi
 # 6b. A moving sweep through the loopback: SWEEP_FRAMES rendered frame sets, one per capture.
 #     board-loop slows each capture to one frame per SWEEP_PERIOD_MS (the render's frame
 #     period, custom DV timings) and holds frame set i on an output until that camera has
-#     captured one frame of it (seen in the driver's bookkeeping of navd's buffers), then shows
-#     i + 1. navd from the truth pose of frame set 0; its poses go to the host (BOARD SWEEP),
-#     which replays the same frames with navd's frame-set stamps and compares.
+#     captured one frame of it (seen in the driver's bookkeeping of navd's buffers and told by
+#     its pixels), then shows i + 1. navd from the truth pose of frame set 0; its poses
+#     (BOARD SWEEP) and what each capture held (BOARD CAPTURE) go to the host, which replays the
+#     same frames with navd's frame-set stamps and compares.
 args=""
 k=0
 for cam in $LOOP_CAMERAS; do
@@ -331,8 +332,10 @@ pacing=$(grep -E '^board-loop: (ok|bad) ' /tmp/sweep-feed.out | sed 's/^board-lo
 if [ $frc -eq 0 ] && [ -n "$pacing" ]; then
   pass "sweep-pacing: $pacing"
 else
-  fail "sweep-pacing: feeder exit $frc: $(grep -v ready /tmp/sweep-feed.out | sed 's/^board-loop: //' | tr '\n' ';')"
+  fail "sweep-pacing: feeder exit $frc: $(grep -v -e ready -e '^capture ' /tmp/sweep-feed.out | sed 's/^board-loop: //' | tr '\n' ';')"
 fi
+# Which frame set each capture held, for the host to replay the frames as navd got them.
+sed -n 's/^capture /BOARD CAPTURE /p' /tmp/sweep-feed.out
 if [ $rc -eq 0 ] && [ -f /tmp/sweep.csv ]; then
   sed 's/^/BOARD SWEEP /' /tmp/sweep.csv
 else
