@@ -316,6 +316,15 @@ if grep -aq '^BOARD PASS gpiochip' "$console"; then
     failed=$((failed + 1))
   fi
 fi
+verdict() {  # NAME "ok|bad DETAIL" CONTEXT FILES: a counted PASS or FAIL line (FILES named on failure)
+  if [ "${2%% *}" = ok ]; then
+    echo "board: PASS $1: ${2#ok } ($3)" >&2
+    passed=$((passed + 1))
+  else
+    echo "board: FAIL $1: ${2#bad } ($3; $4)" >&2
+    failed=$((failed + 1))
+  fi
+}
 # navd on the looped rendered frames against the replay of the same frame set: every frame set
 # a fix, each pose equal to the replay's within the CSV's printed precision (0.0001 mm, 1e-6 deg)
 # plus numerical noise (0.001 mm, 1e-5 deg).
@@ -333,13 +342,7 @@ else
     END { ok = rs == "fix" && rows == n && fix == n && off == 0
           printf "%s %d of %d frame sets fixed (replay: %s); largest differences from the replay %.4f %.4f %.4f mm, %.6f %.6f %.6f deg\n", ok ? "ok" : "bad", fix, rows, rs, worst[0], worst[1], worst[2], worst[3], worst[4], worst[5] }' \
     "$work/replay.csv" "$work/loop-poses.csv")
-  if [ "${r%% *}" = ok ]; then
-    echo "board: PASS loop-poses: ${r#ok } (frame set $loop_frame of paper-turntable)" >&2
-    passed=$((passed + 1))
-  else
-    echo "board: FAIL loop-poses: ${r#bad } (frame set $loop_frame of paper-turntable; $work/loop-poses.csv vs $work/replay.csv)" >&2
-    failed=$((failed + 1))
-  fi
+  verdict loop-poses "$r" "frame set $loop_frame of paper-turntable" "$work/loop-poses.csv vs $work/replay.csv"
 fi
 # navd on the sweep through the loopback against the arm64 replay of the same frames (qemu-user):
 # the frames each camera captured, in order, each frame set stamped as the board's navd stamped
@@ -418,13 +421,8 @@ elif [ "$sweep_rows" -eq "$sweep_frames" ]; then
   stamps=$(awk -F, 'NR == 1 { for (i = 1; i <= NF; ++i) if ($i == "t_ns") c = i; next }
     { if (NR > 2) { d = ($c - last) / 1e6; if (n == 0 || d < lo) lo = d; if (d > hi) hi = d; n++ } last = $c }
     END { printf "frame sets %.1f-%.1f ms apart", lo, hi }' "$work/sweep-poses.csv")
-  if [ "${r%% *}" = ok ]; then
-    echo "board: PASS sweep-poses: ${r#ok } ($sweep_frames frame sets of paper-turntable at $sweep_period_ms ms; $stamps; $repeated frames repeated)" >&2
-    passed=$((passed + 1))
-  else
-    echo "board: FAIL sweep-poses: ${r#bad } ($sweep_frames frame sets of paper-turntable at $sweep_period_ms ms; $stamps; $repeated frames repeated; $work/sweep-poses.csv vs $work/sweep-replay.csv)" >&2
-    failed=$((failed + 1))
-  fi
+  verdict sweep-poses "$r" "$sweep_frames frame sets of paper-turntable at $sweep_period_ms ms; $stamps; $repeated frames repeated" \
+    "$work/sweep-poses.csv vs $work/sweep-replay.csv"
   echo "board: INFO sweep-poses: $nominal" >&2
 fi
 [ "$passed" -gt 0 ] || failed=$((failed + 1))

@@ -35,6 +35,15 @@
 
 #define kBuffers 4
 
+static struct v4l2_buffer Buffer(enum v4l2_buf_type type, unsigned index) {  // an MMAP buffer
+  struct v4l2_buffer b;
+  memset(&b, 0, sizeof(b));
+  b.type = type;
+  b.memory = V4L2_MEMORY_MMAP;
+  b.index = index;
+  return b;
+}
+
 static int Fail(const char* what) {
   printf("board-loop: %s: %s\n", what, strerror(errno));
   return 1;
@@ -91,7 +100,9 @@ static double PeriodMs(int fd) {  // the capture's frame period as vivid streams
   return 1000.0 * p.parm.capture.timeperframe.numerator / p.parm.capture.timeperframe.denominator;
 }
 
-static int SetUp(int fd, enum v4l2_buf_type type, unsigned w, unsigned h, void** maps, size_t* lengths) {
+// GREY w x h, field none, no row padding; then `count` MMAP buffers mapped into maps/lengths.
+static int GreyBuffers(int fd, enum v4l2_buf_type type, unsigned w, unsigned h, unsigned count, void** maps,
+                       size_t* lengths) {
   struct v4l2_format f;
   memset(&f, 0, sizeof(f));
   f.type = type;
@@ -108,20 +119,24 @@ static int SetUp(int fd, enum v4l2_buf_type type, unsigned w, unsigned h, void**
   }
   struct v4l2_requestbuffers r;
   memset(&r, 0, sizeof(r));
-  r.count = kBuffers;
+  r.count = count;
   r.type = type;
   r.memory = V4L2_MEMORY_MMAP;
-  if (ioctl(fd, VIDIOC_REQBUFS, &r) < 0 || r.count != kBuffers) return Fail("REQBUFS");
-  for (unsigned i = 0; i < kBuffers; ++i) {
-    struct v4l2_buffer b;
-    memset(&b, 0, sizeof(b));
-    b.type = type;
-    b.memory = V4L2_MEMORY_MMAP;
-    b.index = i;
+  if (ioctl(fd, VIDIOC_REQBUFS, &r) < 0 || r.count != count) return Fail("REQBUFS");
+  for (unsigned i = 0; i < count; ++i) {
+    struct v4l2_buffer b = Buffer(type, i);
     if (ioctl(fd, VIDIOC_QUERYBUF, &b) < 0) return Fail("QUERYBUF");
     maps[i] = mmap(NULL, b.length, PROT_READ | PROT_WRITE, MAP_SHARED, fd, b.m.offset);
     if (maps[i] == MAP_FAILED) return Fail("mmap");
     lengths[i] = b.length;
+  }
+  return 0;
+}
+
+static int SetUp(int fd, enum v4l2_buf_type type, unsigned w, unsigned h, void** maps, size_t* lengths) {
+  if (GreyBuffers(fd, type, w, h, kBuffers, maps, lengths) != 0) return 1;
+  for (unsigned i = 0; i < kBuffers; ++i) {
+    struct v4l2_buffer b = Buffer(type, i);
     if (type == V4L2_BUF_TYPE_VIDEO_OUTPUT) {
       unsigned char* p = maps[i];
       if (g_image != NULL) memcpy(p, g_image, (size_t)w * h);
@@ -140,10 +155,7 @@ static int SetUp(int fd, enum v4l2_buf_type type, unsigned w, unsigned h, void**
 static int Requeue(int out, unsigned w, unsigned h) {  // output buffers the driver has shown
   struct pollfd p = {out, POLLOUT, 0};
   while (poll(&p, 1, 0) > 0 && (p.revents & POLLOUT)) {
-    struct v4l2_buffer b;
-    memset(&b, 0, sizeof(b));
-    b.type = V4L2_BUF_TYPE_VIDEO_OUTPUT;
-    b.memory = V4L2_MEMORY_MMAP;
+    struct v4l2_buffer b = Buffer(V4L2_BUF_TYPE_VIDEO_OUTPUT, 0);
     if (ioctl(out, VIDIOC_DQBUF, &b) < 0) break;
     b.bytesused = w * h;
     if (ioctl(out, VIDIOC_QBUF, &b) < 0) return Fail("QBUF output");
@@ -209,11 +221,7 @@ static int QueueSet(struct SweepCam* c, int set, unsigned w, unsigned h) {
   if (img == NULL) return 1;
   memcpy(c->maps[i], img, (size_t)w * h);
   free(img);
-  struct v4l2_buffer b;
-  memset(&b, 0, sizeof(b));
-  b.type = V4L2_BUF_TYPE_VIDEO_OUTPUT;
-  b.memory = V4L2_MEMORY_MMAP;
-  b.index = (unsigned)i;
+  struct v4l2_buffer b = Buffer(V4L2_BUF_TYPE_VIDEO_OUTPUT, (unsigned)i);
   b.bytesused = w * h;
   if (ioctl(c->out, VIDIOC_QBUF, &b) < 0) return Fail("QBUF output");
   c->set_of[i] = set;
@@ -226,10 +234,7 @@ static int QueueSet(struct SweepCam* c, int set, unsigned w, unsigned h) {
 // another is queued. Released buffers are free again.
 static int Shown(struct SweepCam* c) {
   for (;;) {
-    struct v4l2_buffer b;
-    memset(&b, 0, sizeof(b));
-    b.type = V4L2_BUF_TYPE_VIDEO_OUTPUT;
-    b.memory = V4L2_MEMORY_MMAP;
+    struct v4l2_buffer b = Buffer(V4L2_BUF_TYPE_VIDEO_OUTPUT, 0);
     if (ioctl(c->out, VIDIOC_DQBUF, &b) < 0) {
       if (errno == EAGAIN) return 0;
       return Fail("DQBUF output");
@@ -255,11 +260,7 @@ static int NewCaptures(struct SweepCam* c, unsigned w, unsigned h, int* newest_s
   uint64_t newest = c->last_ns;
   *newest_set = -1;
   for (unsigned i = 0; i < 32; ++i) {
-    struct v4l2_buffer b;
-    memset(&b, 0, sizeof(b));
-    b.type = V4L2_BUF_TYPE_VIDEO_CAPTURE;
-    b.memory = V4L2_MEMORY_MMAP;
-    b.index = i;
+    struct v4l2_buffer b = Buffer(V4L2_BUF_TYPE_VIDEO_CAPTURE, i);
     if (ioctl(c->cap, VIDIOC_QUERYBUF, &b) < 0) break;  // no (more) buffers: not streaming yet
     const uint64_t t = (uint64_t)b.timestamp.tv_sec * 1000000000ull + (uint64_t)b.timestamp.tv_usec * 1000ull;
     if (t <= c->last_ns) continue;
@@ -315,33 +316,8 @@ static int Sweep(int argc, char** argv) {
     if (c->cap < 0 || c->out < 0) return Fail("open");
     if (SetSlowTimings(c->cap, (unsigned)period_ms) != 0 || SetTimings(c->out, "S_DV_TIMINGS output") != 0)
       return 1;
-    struct v4l2_format f;
-    memset(&f, 0, sizeof(f));
-    f.type = V4L2_BUF_TYPE_VIDEO_OUTPUT;
-    f.fmt.pix.width = w;
-    f.fmt.pix.height = h;
-    f.fmt.pix.pixelformat = V4L2_PIX_FMT_GREY;
-    f.fmt.pix.field = V4L2_FIELD_NONE;
-    if (ioctl(c->out, VIDIOC_S_FMT, &f) < 0) return Fail("S_FMT output");
-    struct v4l2_requestbuffers r;
-    memset(&r, 0, sizeof(r));
-    r.count = kOutBuffers;
-    r.type = V4L2_BUF_TYPE_VIDEO_OUTPUT;
-    r.memory = V4L2_MEMORY_MMAP;
-    if (ioctl(c->out, VIDIOC_REQBUFS, &r) < 0 || r.count != kOutBuffers) return Fail("REQBUFS output");
-    for (unsigned i = 0; i < kOutBuffers; ++i) {
-      struct v4l2_buffer b;
-      memset(&b, 0, sizeof(b));
-      b.type = V4L2_BUF_TYPE_VIDEO_OUTPUT;
-      b.memory = V4L2_MEMORY_MMAP;
-      b.index = i;
-      if (ioctl(c->out, VIDIOC_QUERYBUF, &b) < 0) return Fail("QUERYBUF output");
-      c->maps[i] = mmap(NULL, b.length, PROT_READ | PROT_WRITE, MAP_SHARED, c->out, b.m.offset);
-      if (c->maps[i] == MAP_FAILED) return Fail("mmap output");
-      c->lengths[i] = b.length;
-      c->set_of[i] = -1;
-      c->content[i] = -1;
-    }
+    if (GreyBuffers(c->out, V4L2_BUF_TYPE_VIDEO_OUTPUT, w, h, kOutBuffers, c->maps, c->lengths) != 0) return 1;
+    for (unsigned i = 0; i < kOutBuffers; ++i) c->set_of[i] = c->content[i] = -1;
     // vivid starts an output stream with two buffers queued: frame set 0 twice.
     if (QueueSet(c, 0, w, h) != 0 || QueueSet(c, 0, w, h) != 0) return 1;
     int on = V4L2_BUF_TYPE_VIDEO_OUTPUT;
@@ -441,10 +417,7 @@ int main(int argc, char** argv) {
     if (Requeue(out, w, h) != 0) return 1;
     struct pollfd c = {cap, POLLIN, 0};
     if (poll(&c, 1, 2000) <= 0) return Fail("poll capture");
-    struct v4l2_buffer b;
-    memset(&b, 0, sizeof(b));
-    b.type = V4L2_BUF_TYPE_VIDEO_CAPTURE;
-    b.memory = V4L2_MEMORY_MMAP;
+    struct v4l2_buffer b = Buffer(V4L2_BUF_TYPE_VIDEO_CAPTURE, 0);
     if (ioctl(cap, VIDIOC_DQBUF, &b) < 0) return Fail("DQBUF capture");
     ++frames;
     const unsigned char* q = cap_maps[b.index];
