@@ -18,6 +18,7 @@
 //                                     camera's place in the arguments); on SIGTERM one line per
 //                                     camera; exit 0 when every frame set was captured on every
 //                                     camera and every capture was one of them
+#define _GNU_SOURCE  // sched_setaffinity, CPU_SET
 #include <errno.h>
 #include <fcntl.h>
 #include <linux/v4l2-dv-timings.h>
@@ -325,8 +326,15 @@ static int Sweep(int argc, char** argv) {
     c->next = 1;
   }
   signal(SIGTERM, OnTerm);
-  // Ahead of navd: a frame set captured again is one whose capture the feeder saw too late to
-  // queue the next before the following capture (the board stalled under the host's load).
+  // Ahead of navd, on its CPU (checks.sh runs navd with taskset 1): whenever navd runs, this
+  // polls within 4 ms of that CPU's time, so it sees every capture navd dequeues before navd
+  // can have it refilled or, at the end, exit and free it, however long the host stalls a
+  // vCPU. A frame set captured again is one whose capture came before the next was shown
+  // (vivid catching up after a stall of the whole board).
+  cpu_set_t cpu0;
+  CPU_ZERO(&cpu0);
+  CPU_SET(0, &cpu0);
+  if (sched_setaffinity(0, sizeof(cpu0), &cpu0) != 0) printf("board-loop: not on CPU 0: %s\n", strerror(errno));
   struct sched_param sp = {.sched_priority = 10};
   if (sched_setscheduler(0, SCHED_FIFO, &sp) != 0) printf("board-loop: no SCHED_FIFO: %s\n", strerror(errno));
   printf("board-loop: ready: frame set 0 of %ld on %d outputs; capture periods", n, ncams);

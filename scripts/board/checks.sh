@@ -313,7 +313,8 @@ n=0
 while ! grep -q 'ready' /tmp/sweep-feed.out && kill -0 $feeder 2>/dev/null && [ $n -lt 100 ]; do usleep 100000; n=$((n + 1)); done
 if grep -q 'ready' /tmp/sweep-feed.out; then
   a=$(cut -d' ' -f1 /proc/uptime)
-  mfns-navd --params /board/sweep.bin --source v4l2 --frames "$SWEEP_FRAMES" --initial-pose "$SWEEP_POSE" \
+  # On CPU 0 with the feeder (SCHED_FIFO there): it sees each capture before navd is done with it.
+  taskset 1 mfns-navd --params /board/sweep.bin --source v4l2 --frames "$SWEEP_FRAMES" --initial-pose "$SWEEP_POSE" \
     --deadline-ms "$SWEEP_PERIOD_MS" --timeout-ms 2000 --log /tmp/sweep.csv --pid-file '' --quiet >/tmp/navd-sweep.out 2>&1
   rc=$?
   b=$(cut -d' ' -f1 /proc/uptime)
