@@ -221,8 +221,10 @@ for t in "${gtest_bins[@]}"; do
 done
 cp "$work/loop.bin" "$rootfs/board/loop.bin"
 cp -r "$work/loop/frames" "$rootfs/board/loop"
-cp "$work/sweep.bin" "$rootfs/board/sweep.bin"
-cp -r "$work/sweep/frames" "$rootfs/board/sweep"
+if [ "$icount" -eq 0 ]; then  # the sweep's 90 frames: 33 of the initramfs' 40 MB
+  cp "$work/sweep.bin" "$rootfs/board/sweep.bin"
+  cp -r "$work/sweep/frames" "$rootfs/board/sweep"
+fi
 if [ "$icount" -eq 1 ]; then  # the rendered frame sets 0..$loop_frame, replayed on the board
   mkdir -p "$rootfs/board/replay"
   cp -r "$work/sim/frames" "$work/sim/truth.csv" "$rootfs/board/replay/"
