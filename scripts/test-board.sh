@@ -16,6 +16,9 @@
 #   MFNS_BOARD_TIMEOUT  seconds for the whole guest run (default 420)
 #   MFNS_BOARD_FRAMES   frame sets mfns-navd runs (default 10)
 #   MFNS_BOARD_LOOP_FRAMES frame sets navd runs on the rendered frames looped through vivid (10)
+#   MFNS_BOARD_SWEEP_FRAMES frame sets of the moving sweep fed through the loopback (30)
+#   MFNS_BOARD_SWEEP_PERIOD_MS its frame period: the render's and the board's captures' (100;
+#                       50..100)
 #   MFNS_BOARD_DISCONNECT_FRAMES frame sets of the disconnect run (default 40; camera 1 goes at
 #                       ~10, is set aside 3 frame sets later and retried every 10)
 #   MFNS_BOARD_SMP      guest CPUs (default 2)
@@ -36,6 +39,8 @@ timeout_s=${MFNS_BOARD_TIMEOUT:-420}
 frames=${MFNS_BOARD_FRAMES:-10}
 loop_frames=${MFNS_BOARD_LOOP_FRAMES:-10}   # frame sets navd runs on the looped rendered frames
 render_frames=40
+sweep_frames=${MFNS_BOARD_SWEEP_FRAMES:-30}          # the moving sweep through the loopback
+sweep_period_ms=${MFNS_BOARD_SWEEP_PERIOD_MS:-100}   # its frame period on the board and in the render
 disconnect_frames=${MFNS_BOARD_DISCONNECT_FRAMES:-40}
 smp=${MFNS_BOARD_SMP:-2}
 # The test executables holding the cases the aarch64 preset excludes (its filter
@@ -103,6 +108,21 @@ loop_pose=$(awk -F, 'NR == 1 { for (i = 1; i <= NF; ++i) col[$i] = i; next }
 qemu-aarch64 -L /usr/aarch64-linux-gnu build/aarch64/bin/mfns-navd --params "$work/loop.bin" --source "replay:$work/loop" \
   --initial-pose "$loop_pose" --log "$work/replay.csv" --pid-file '' --quiet 2>"$work/replay.err" ||
   die "the replay of the loop frame set failed: $(cat "$work/replay.err")"
+
+# The moving sweep for the loopback: the paper turntable sweep rendered at the board's capture
+# rate (frame_rate_hz = 1000 / $sweep_period_ms), so that the driver's stamps, one capture period
+# apart, carry the sweep's motion. The board's poses are compared after the boot with a replay
+# of these frames stamped with the board's own frame-set stamps (below).
+[ "$sweep_period_ms" -ge 50 ] && [ "$sweep_period_ms" -le 100 ] || die "MFNS_BOARD_SWEEP_PERIOD_MS: 50..100, got $sweep_period_ms"
+"$sim" preset paper-turntable | awk -v hz="$(awk -v p="$sweep_period_ms" 'BEGIN { printf "%.9g", 1000 / p }')" \
+  '/^frame_rate_hz:/ { print "frame_rate_hz: " hz; next } { print }' >"$work/sweep.yaml"
+grep -q "^frame_rate_hz: " "$work/sweep.yaml" || die "the paper-turntable preset has no frame_rate_hz line"
+"$sim" render --scenario "$work/sweep.yaml" --out "$work/sweep" --frames "$sweep_frames" >"$work/render.log" 2>&1 ||
+  die "mfns-sim render of the sweep failed: $(tail -n 1 "$work/render.log")"
+"$calib" blob "$work/sweep/rig.yaml" --out "$work/sweep.bin" --generation 1 >/dev/null
+sweep_pose=$(awk -F, 'NR == 1 { for (i = 1; i <= NF; ++i) col[$i] = i; next } NR == 2 {
+  print $col["x_mm"] "," $col["y_mm"] "," $col["z_mm"] "," $col["roll_deg"] "," $col["pitch_deg"] "," $col["yaw_deg"] }' "$work/sweep/truth.csv")
+sweep_navd_args=(--initial-pose "$sweep_pose" --deadline-ms "$sweep_period_ms" --pid-file '' --quiet)
 
 # --- 2. Debian's arm64 kernel and busybox-static, fetched once into the cache.
 kpkg=${MFNS_BOARD_KERNEL:-$(apt-cache depends linux-image-arm64:arm64 2>/dev/null |
@@ -201,6 +221,10 @@ for t in "${gtest_bins[@]}"; do
 done
 cp "$work/loop.bin" "$rootfs/board/loop.bin"
 cp -r "$work/loop/frames" "$rootfs/board/loop"
+if [ "$icount" -eq 0 ]; then  # the sweep's 90 frames: 33 of the initramfs' 40 MB
+  cp "$work/sweep.bin" "$rootfs/board/sweep.bin"
+  cp -r "$work/sweep/frames" "$rootfs/board/sweep"
+fi
 if [ "$icount" -eq 1 ]; then  # the rendered frame sets 0..$loop_frame, replayed on the board
   mkdir -p "$rootfs/board/replay"
   cp -r "$work/sim/frames" "$work/sim/truth.csv" "$rootfs/board/replay/"
@@ -226,6 +250,9 @@ DISCONNECT_AT=10
 DISCONNECT_FRAMES=$disconnect_frames
 LOOP_FRAMES=$loop_frames
 LOOP_POSE=$loop_pose
+SWEEP_FRAMES=$sweep_frames
+SWEEP_PERIOD_MS=$sweep_period_ms
+SWEEP_POSE=$sweep_pose
 ICOUNT=$icount
 REPLAY_FRAMES=$((loop_frame + 1))
 REPLAY_POSE=$(awk -F, 'NR == 1 { for (i = 1; i <= NF; ++i) col[$i] = i; next } NR == 2 {
@@ -291,6 +318,15 @@ if grep -aq '^BOARD PASS gpiochip' "$console"; then
     failed=$((failed + 1))
   fi
 fi
+verdict() {  # NAME "ok|bad DETAIL" CONTEXT FILES: a counted PASS or FAIL line (FILES named on failure)
+  if [ "${2%% *}" = ok ]; then
+    echo "board: PASS $1: ${2#ok } ($3)" >&2
+    passed=$((passed + 1))
+  else
+    echo "board: FAIL $1: ${2#bad } ($3; $4)" >&2
+    failed=$((failed + 1))
+  fi
+}
 # navd on the looped rendered frames against the replay of the same frame set: every frame set
 # a fix, each pose equal to the replay's within the CSV's printed precision (0.0001 mm, 1e-6 deg)
 # plus numerical noise (0.001 mm, 1e-5 deg).
@@ -308,13 +344,88 @@ else
     END { ok = rs == "fix" && rows == n && fix == n && off == 0
           printf "%s %d of %d frame sets fixed (replay: %s); largest differences from the replay %.4f %.4f %.4f mm, %.6f %.6f %.6f deg\n", ok ? "ok" : "bad", fix, rows, rs, worst[0], worst[1], worst[2], worst[3], worst[4], worst[5] }' \
     "$work/replay.csv" "$work/loop-poses.csv")
-  if [ "${r%% *}" = ok ]; then
-    echo "board: PASS loop-poses: ${r#ok } (frame set $loop_frame of paper-turntable)" >&2
-    passed=$((passed + 1))
+  verdict loop-poses "$r" "frame set $loop_frame of paper-turntable" "$work/loop-poses.csv vs $work/replay.csv"
+fi
+# navd on the sweep through the loopback against the arm64 replay of the same frames (qemu-user):
+# the frames each camera captured, in order, each frame set stamped as the board's navd stamped
+# it (the earliest of its three captures): the same input to the tracker, so the same fix count
+# and each pose equal within the tolerance above. A second replay with the render's own stamps (exactly one period apart) is reported
+# beside it: how much the board's capture jitter changed.
+sed -n 's/^BOARD SWEEP //p' "$console" >"$work/sweep-poses.csv"
+sweep_rows=$(awk 'NR > 1' "$work/sweep-poses.csv" | grep -c . || true)
+if [ "$sweep_rows" -ne "$sweep_frames" ]; then
+  echo "board: FAIL sweep-poses: $sweep_rows of $sweep_frames frame sets' poses came back from the board (console: $work/console.log)" >&2
+  failed=$((failed + 1))
+else
+  # The frames as navd got them: navd dequeues every capture in order (a capture with no
+  # buffer free is dropped by the driver and seen by no one), so its n-th frame of camera k is
+  # camera k's n-th capture. Normally frame set n; a frame set captured twice (the feeder late,
+  # the board stalled) is replayed twice. Checked against navd's own stamps: its frame-set
+  # stamp is the earliest of the three captures.
+  rm -rf "$work/sweep-replay"
+  sed -n 's/^BOARD CAPTURE //p' "$console" | sort -k1,1n -k3,3n >"$work/sweep-captures.txt"
+  cams=($(sed -n 's/^  - name: *//p' "$work/sweep/rig.yaml"))
+  mapping=$(awk -v n="$sweep_frames" -v ncams="${#cams[@]}" '
+    NR == FNR { if (FNR > 1) { split($0, f, ","); t[FNR - 2] = f[2] }; next }
+    { k = $1; i = got[k]++; if (i < n) { set[k, i] = $4; st[k, i] = $3 } }
+    END {
+      bad = 0; repeats = 0
+      for (k = 0; k < ncams; ++k) if (got[k] < n) { printf "bad camera %d: %d captures for %d frame sets\n", k, got[k], n; exit }
+      for (i = 0; i < n; ++i) {
+        m = ""
+        for (k = 0; k < ncams; ++k) { if (set[k, i] < 0) bad++; if (m == "" || st[k, i] + 0 < m + 0) m = st[k, i]; if (i > 0 && set[k, i] == set[k, i - 1]) repeats++ }
+        if (m != t[i]) { printf "bad frame set %d: navd stamped it %s, its earliest capture is %s\n", i, t[i], m; exit }
+      }
+      if (bad) { printf "bad %d captures held no frame set of the sweep\n", bad; exit }
+      for (i = 0; i < n; ++i) { printf "map %d", i; for (k = 0; k < ncams; ++k) printf " %d", set[k, i]; printf " %s\n", t[i] }
+      printf "ok %d repeated\n", repeats
+    }' "$work/sweep-poses.csv" "$work/sweep-captures.txt")
+fi
+if [ "$sweep_rows" -eq "$sweep_frames" ] && [ "$(echo "$mapping" | tail -n 1 | cut -d' ' -f1)" != ok ]; then
+  echo "board: FAIL sweep-poses: cannot tell which frames navd got: $(echo "$mapping" | tail -n 1 | sed 's/^bad //')" >&2
+  failed=$((failed + 1))
+elif [ "$sweep_rows" -eq "$sweep_frames" ]; then
+  repeated=$(echo "$mapping" | tail -n 1 | cut -d' ' -f2)
+  for c in "${cams[@]}"; do mkdir -p "$work/sweep-replay/frames/$c"; done
+  echo "$mapping" | sed -n 's/^map //p' | while read -r i rest; do
+    set -- $rest
+    for c in "${cams[@]}"; do
+      ln -s "$work/sweep/frames/$c/$(printf '%06d' "$1").pgm" "$work/sweep-replay/frames/$c/$(printf '%06d' "$i").pgm"
+      shift
+    done
+  done
+  echo "$mapping" | sed -n 's/^map //p' | awk -v ncams="${#cams[@]}" 'BEGIN { print "frame,t_ns,x_mm,y_mm,z_mm,roll_deg,pitch_deg,yaw_deg" }
+    { printf "%d,%s,0,0,0,0,0,0\n", $1, $(ncams + 2) }' >"$work/sweep-replay/truth.csv"
+  compare() {  # REPLAY.csv BOARD.csv: "ok|bad <detail>"
+    awk -F, -v n="$sweep_frames" '
+      NR == FNR { if (FNR == 1) { for (i = 1; i <= NF; ++i) rc[$i] = i; next }
+                  r = FNR - 2; rs[r] = $rc["status"]; for (j = 0; j < 6; ++j) rv[r, j] = $(rc["x_mm"] + j); next }
+      FNR == 1 { for (i = 1; i <= NF; ++i) c[$i] = i; next }
+      { r = FNR - 2; rows++; s = $c["status"]; if (s == "fix") fix++; if (rs[r] == "fix") rfix++
+        if (s != rs[r]) { other++; if (first == "") first = sprintf(" (frame set %d: %s, replay %s)", r, s, rs[r]) }
+        if (s == "lost" || rs[r] == "lost") next
+        for (j = 0; j < 6; ++j) { d = $(c["x_mm"] + j) - rv[r, j]; if (d < 0) d = -d; tol = j < 3 ? 0.001 : 0.00001; if (d > tol) off++; if (d > worst[j]) worst[j] = d } }
+      END { ok = rows == n && fix == rfix && other == 0 && off == 0
+            printf "%s %d of %d frame sets fixed (replay: %d), %d with another status%s, %d poses off; largest differences %.4f %.4f %.4f mm, %.6f %.6f %.6f deg\n", ok ? "ok" : "bad", fix, rows, rfix, other, first, off, worst[0], worst[1], worst[2], worst[3], worst[4], worst[5] }' "$1" "$2"
+  }
+  if qemu-aarch64 -L /usr/aarch64-linux-gnu build/aarch64/bin/mfns-navd --params "$work/sweep.bin" --source "replay:$work/sweep-replay" \
+      "${sweep_navd_args[@]}" --log "$work/sweep-replay.csv" 2>"$work/sweep-replay.err"; then
+    r=$(compare "$work/sweep-replay.csv" "$work/sweep-poses.csv")
   else
-    echo "board: FAIL loop-poses: ${r#bad } (frame set $loop_frame of paper-turntable; $work/loop-poses.csv vs $work/replay.csv)" >&2
-    failed=$((failed + 1))
+    r="bad the replay failed: $(tail -n 1 "$work/sweep-replay.err")"
   fi
+  nominal="no replay with the render's stamps"
+  if qemu-aarch64 -L /usr/aarch64-linux-gnu build/aarch64/bin/mfns-navd --params "$work/sweep.bin" --source "replay:$work/sweep" \
+      "${sweep_navd_args[@]}" --log "$work/sweep-nominal.csv" 2>"$work/sweep-nominal.err"; then
+    nominal=$(compare "$work/sweep-nominal.csv" "$work/sweep-poses.csv")
+    nominal="with the render's stamps: ${nominal#* }"
+  fi
+  stamps=$(awk -F, 'NR == 1 { for (i = 1; i <= NF; ++i) if ($i == "t_ns") c = i; next }
+    { if (NR > 2) { d = ($c - last) / 1e6; if (n == 0 || d < lo) lo = d; if (d > hi) hi = d; n++ } last = $c }
+    END { printf "frame sets %.1f-%.1f ms apart", lo, hi }' "$work/sweep-poses.csv")
+  verdict sweep-poses "$r" "$sweep_frames frame sets of paper-turntable at $sweep_period_ms ms; $stamps; $repeated frames repeated" \
+    "$work/sweep-poses.csv vs $work/sweep-replay.csv"
+  echo "board: INFO sweep-poses: $nominal" >&2
 fi
 [ "$passed" -gt 0 ] || failed=$((failed + 1))
 echo "test-board: boot and checks $((end - boot)) s, total $((end - start)) s" >&2

@@ -293,6 +293,55 @@ if [ $rc -eq 0 ] && [ -f /tmp/loop.csv ]; then
 else
   fail "loop-navd: exit $rc, $(tail -n 2 /tmp/navd-loop.out | tr '\n' ' ')"
 fi
+
+# 6b. A moving sweep through the loopback: SWEEP_FRAMES rendered frame sets, one per capture.
+#     board-loop slows each capture to one frame per SWEEP_PERIOD_MS (the render's frame
+#     period, custom DV timings) and holds frame set i on an output until that camera has
+#     captured one frame of it (seen in the driver's bookkeeping of navd's buffers and told by
+#     its pixels), then shows i + 1. navd from the truth pose of frame set 0; its poses
+#     (BOARD SWEEP) and what each capture held (BOARD CAPTURE) go to the host, which replays the
+#     same frames with navd's frame-set stamps and compares.
+args=""
+k=0
+for cam in $LOOP_CAMERAS; do
+  args="$args /dev/video$k /dev/video$((k + NUM_CAMERAS)) /board/sweep/$cam"
+  k=$((k + 1))
+done
+board-loop sweep "$SWEEP_PERIOD_MS" "$SWEEP_FRAMES" $args >/tmp/sweep-feed.out 2>&1 &
+feeder=$!
+n=0
+while ! grep -q 'ready' /tmp/sweep-feed.out && kill -0 $feeder 2>/dev/null && [ $n -lt 100 ]; do usleep 100000; n=$((n + 1)); done
+if grep -q 'ready' /tmp/sweep-feed.out; then
+  a=$(cut -d' ' -f1 /proc/uptime)
+  # On CPU 0 with the feeder (SCHED_FIFO there): it sees each capture before navd is done with it.
+  taskset 1 mfns-navd --params /board/sweep.bin --source v4l2 --frames "$SWEEP_FRAMES" --initial-pose "$SWEEP_POSE" \
+    --deadline-ms "$SWEEP_PERIOD_MS" --timeout-ms 2000 --log /tmp/sweep.csv --pid-file '' --quiet >/tmp/navd-sweep.out 2>&1
+  rc=$?
+  b=$(cut -d' ' -f1 /proc/uptime)
+  kill $feeder 2>/dev/null
+else
+  rc=1
+  echo "mfns-navd: not run: the feeder did not start" >/tmp/navd-sweep.out
+fi
+wait $feeder
+frc=$?
+sed 's/^/BOARD LOG navd (sweep): /' /tmp/navd-sweep.out
+if [ -n "${a:-}" ]; then
+  info "sweep: $(grep -m 1 'ready' /tmp/sweep-feed.out | sed 's/^board-loop: ready: //'); navd ran $(awk -v a="$a" -v b="$b" 'BEGIN{printf "%.1f", b - a}') s"
+fi
+pacing=$(grep -E '^board-loop: (ok|bad) ' /tmp/sweep-feed.out | sed 's/^board-loop: [a-z]* //' | tr '\n' ';')
+if [ $frc -eq 0 ] && [ -n "$pacing" ]; then
+  pass "sweep-pacing: $pacing"
+else
+  fail "sweep-pacing: feeder exit $frc: $(grep -v -e ready -e '^capture ' /tmp/sweep-feed.out | sed 's/^board-loop: //' | tr '\n' ';')"
+fi
+# Which frame set each capture held, for the host to replay the frames as navd got them.
+sed -n 's/^capture /BOARD CAPTURE /p' /tmp/sweep-feed.out
+if [ $rc -eq 0 ] && [ -f /tmp/sweep.csv ]; then
+  sed 's/^/BOARD SWEEP /' /tmp/sweep.csv
+else
+  fail "sweep-navd: exit $rc, $(tail -n 2 /tmp/navd-sweep.out | tr '\n' ' ')"
+fi
 k=0
 while [ $k -lt "$NUM_CAMERAS" ]; do board-ctl /dev/video$k 'Loop Video' 0; k=$((k + 1)); done
 
