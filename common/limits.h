@@ -44,7 +44,7 @@ inline constexpr int kBlindCells = kBlindCellsX * kBlindCellsY;
 static_assert(kMaxCameras * (1 + kBlindCells) <= 32, "delivered bits and blind cells share 32 bits");
 
 // Parameter blob (common/blob): the whole encoded blob never exceeds this.
-inline constexpr std::size_t kMaxBlobBytes = 16384;
+inline constexpr std::size_t kMaxBlobBytes = 32768;
 // Parameter store (firmware/modules/params): inotify reads drained per Changed() poll; a
 // queue still not empty after this many reads counts as "changed" anyway.
 inline constexpr int kMaxStoreEventReads = 16;

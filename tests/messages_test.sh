@@ -6,7 +6,7 @@
 #   2. A camera folder missing: one line naming the folder (was a bare "open failed").
 #   3. mfns-flash given a directory or a FIFO as the blob: says which (was "no such file"), never
 #      blocks on the FIFO.
-#   4. mfns-calib inspect of a 16385-byte file quotes the limit 16384 (was 16385).
+#   4. mfns-calib inspect of a file one byte over the blob limit (32768) quotes the limit.
 # Usage: messages_test.sh MFNS_CALIB MFNS_NAVD MFNS_FLASH WORK_DIR
 set -euo pipefail
 calib=$1 navd=$2 flash=$3 work=$4
@@ -52,8 +52,8 @@ err=$(timeout 10 "$flash" "$work/fifo" "$work/store" 2>&1) || rc=$?
   fail "flash FIFO: exit $rc: $err"
 
 # 4. inspect of a file one byte above the blob limit.
-head -c 16385 /dev/zero >"$work/big.bin"
+head -c 32769 /dev/zero >"$work/big.bin"
 rc=0
 err=$("$calib" inspect "$work/big.bin" 2>&1) || rc=$?
-[[ $rc == 1 && $err == "mfns-calib: $work/big.bin: too large (16385 bytes, limit 16384)" ]] || fail "inspect: exit $rc: $err"
+[[ $rc == 1 && $err == "mfns-calib: $work/big.bin: too large (32769 bytes, limit 32768)" ]] || fail "inspect: exit $rc: $err"
 echo PASS

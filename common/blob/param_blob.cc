@@ -38,9 +38,9 @@ constexpr std::uint16_t kKnownFlags = kFlagHasSigma;
 constexpr std::size_t kSectionHeaderBytes = 8;  // u16 type, u16 version, u32 body length
 constexpr std::uint16_t kSectionVersion = 1;
 enum SectionType : std::uint16_t {
-  kCameras = 1, kExtrinsics = 2, kBeacons = 3, kSigma = 4, kFacing = 5
+  kCameras = 1, kExtrinsics = 2, kBeacons = 3, kSigma = 4, kFacing = 5, kBeaconSigmas = 6
 };
-constexpr std::size_t kNumSectionSlots = 6;  // indexed by SectionType
+constexpr std::size_t kNumSectionSlots = 7;  // indexed by SectionType
 
 constexpr std::size_t kCountBytes = 4;        // u32 count at the start of every known body
 constexpr std::size_t kNameBytes = limits::kMaxCameraNameChars + 1;
@@ -50,30 +50,33 @@ constexpr std::size_t kBeaconRecordBytes = 3 * 8;                        // x, y
 constexpr std::size_t kBeaconFixedBytes = 8;                             // beacon_sigma
 constexpr std::size_t kSigmaRecordBytes = 16 * 8;  // intrinsics 5, kc 5, euler 3, r_b_bk 3
 constexpr std::size_t kFacingRecordBytes = 4 * 8;  // normal x, y, z, half-angle
+constexpr std::size_t kBeaconSigmaRecordBytes = 8;  // 1-sigma (m)
 
 constexpr std::size_t SectionBytes(std::size_t fixed, std::size_t count, std::size_t record) {
   return kSectionHeaderBytes + kCountBytes + fixed + count * record;
 }
 
-constexpr std::size_t PayloadBytes(std::size_t cameras, std::size_t beacons, bool sigma, bool facing) {
+constexpr std::size_t PayloadBytes(std::size_t cameras, std::size_t beacons, bool sigma, bool facing,
+                                   bool beacon_sigmas) {
   return SectionBytes(0, cameras, kCameraRecordBytes) +
          SectionBytes(0, cameras, kExtrinsicRecordBytes) +
          SectionBytes(kBeaconFixedBytes, beacons, kBeaconRecordBytes) +
          (sigma ? SectionBytes(0, cameras, kSigmaRecordBytes) : 0) +
-         (facing ? SectionBytes(0, beacons, kFacingRecordBytes) : 0);
+         (facing ? SectionBytes(0, beacons, kFacingRecordBytes) : 0) +
+         (beacon_sigmas ? SectionBytes(0, beacons, kBeaconSigmaRecordBytes) : 0);
 }
 
 constexpr std::size_t kLargestBlobBytes =
-    kBlobHeaderBytes + PayloadBytes(limits::kMaxCameras, limits::kMaxBeacons, true, true);
+    kBlobHeaderBytes + PayloadBytes(limits::kMaxCameras, limits::kMaxBeacons, true, true, true);
 static_assert(kLargestBlobBytes <= limits::kMaxBlobBytes,
-              "the largest rig (kMaxCameras with sigma, kMaxBeacons with facing) must fit kMaxBlobBytes");
+              "the largest rig (kMaxCameras with sigma, kMaxBeacons with facing and sigmas) must fit kMaxBlobBytes");
 static_assert(limits::kMaxBlobBytes - kBlobHeaderBytes <= 0xFFFF,
-              "the payload length field is a u16: a larger kMaxBlobBytes needs format v2");
-// The sizes README.md states: 1412 + 56 B bytes for 4 cameras with sigma and B beacons with
-// facing, i.e. 15748 bytes at kMaxBeacons = 256.
-static_assert(limits::kMaxCameras != 4 || kLargestBlobBytes == 1412 + 56 * std::size_t{limits::kMaxBeacons},
+              "the payload length field is a u16: a larger kMaxBlobBytes needs another format version");
+// The sizes README.md states: 1424 + 64 B bytes for 4 cameras with sigma and B beacons with
+// facing and per-beacon sigmas, i.e. 17808 bytes at kMaxBeacons = 256.
+static_assert(limits::kMaxCameras != 4 || kLargestBlobBytes == 1424 + 64 * std::size_t{limits::kMaxBeacons},
               "common/blob/README.md states the largest blob's size: update it");
-static_assert(limits::kMaxCameras != 4 || limits::kMaxBeacons != 256 || kLargestBlobBytes == 15748,
+static_assert(limits::kMaxCameras != 4 || limits::kMaxBeacons != 256 || kLargestBlobBytes == 17808,
               "common/blob/README.md states the largest blob's size: update it");
 
 // Every section is at least a section header, so a payload holds at most this many: the
@@ -114,7 +117,7 @@ BlobStatus ParseHeader(std::span<const std::uint8_t> in, Header* h, bool* valid)
   const std::span<const std::uint8_t> b = in.first(kBlobHeaderBytes);
   if (!std::equal(kMagic.begin(), kMagic.end(), b.begin())) return BlobStatus::kBadMagic;
   const auto version = static_cast<std::uint16_t>(LoadLe(b, kOffVersion, 2));
-  if (version != kBlobFormatVersion) return BlobStatus::kUnsupportedVersion;
+  if (version < kOldestBlobFormatVersion || version > kBlobFormatVersion) return BlobStatus::kUnsupportedVersion;
   if (Crc32(b.first(kOffHeaderCrc)) != LoadLe(b, kOffHeaderCrc, 4))
     return BlobStatus::kHeaderCrcMismatch;
 
@@ -144,11 +147,11 @@ struct Section {
 };
 using SectionTable = std::array<Section, kNumSectionSlots>;
 
-bool IsKnownSection(std::uint16_t type) { return type >= kCameras && type <= kFacing; }
+bool IsKnownSection(std::uint16_t type) { return type >= kCameras && type <= kBeaconSigmas; }
 
 // Walks the section headers: every length must stay inside the payload; unknown types are
 // skipped (forward compatibility); a known type appears at most once, in version 1.
-BlobStatus FindSections(std::span<const std::uint8_t> payload, SectionTable* table) {
+BlobStatus FindSections(std::span<const std::uint8_t> payload, std::uint16_t blob_version, SectionTable* table) {
   std::size_t pos = 0;
   for (std::size_t i = 0; i < kMaxSections && pos < payload.size(); ++i) {
     if (payload.size() - pos < kSectionHeaderBytes) return BlobStatus::kBadSection;
@@ -159,7 +162,9 @@ BlobStatus FindSections(std::span<const std::uint8_t> payload, SectionTable* tab
     if (length > payload.size() - pos) return BlobStatus::kBadSection;
     const auto body = payload.subspan(pos, static_cast<std::size_t>(length));
     pos += static_cast<std::size_t>(length);
-    if (!IsKnownSection(type)) continue;
+    // (BEACON_SIGMAS is a version-2 section: in a version-1 blob it is unknown, as it was to
+    // version-1 decoders.)
+    if (!IsKnownSection(type) || (type == kBeaconSigmas && blob_version < 2)) continue;
     Section& s = (*table)[type];
     if (s.present) return BlobStatus::kDuplicateSection;
     if (version != kSectionVersion) return BlobStatus::kBadSection;
@@ -181,7 +186,7 @@ BlobStatus CheckCount(std::span<const std::uint8_t> body, std::uint32_t max_coun
 }
 
 struct Counts {
-  std::uint32_t cameras = 0, extrinsics = 0, beacons = 0, sigma = 0, facing = 0;
+  std::uint32_t cameras = 0, extrinsics = 0, beacons = 0, sigma = 0, facing = 0, beacon_sigmas = 0;
 };
 
 BlobStatus CheckCounts(const SectionTable& t, bool has_sigma, bool has_facing, Counts* n) {
@@ -199,9 +204,13 @@ BlobStatus CheckCounts(const SectionTable& t, bool has_sigma, bool has_facing, C
   if (s == BlobStatus::kOk && has_facing)
     s = CheckCount(t[kFacing].body, kMaxBea, BlobStatus::kTooManyBeacons, 0, kFacingRecordBytes,
                    &n->facing);
+  const bool has_beacon_sigmas = t[kBeaconSigmas].present;
+  if (s == BlobStatus::kOk && has_beacon_sigmas)
+    s = CheckCount(t[kBeaconSigmas].body, kMaxBea, BlobStatus::kTooManyBeacons, 0, kBeaconSigmaRecordBytes,
+                   &n->beacon_sigmas);
   if (s != BlobStatus::kOk) return s;
   if (n->extrinsics != n->cameras || (has_sigma && n->sigma != n->cameras) ||
-      (has_facing && n->facing != n->beacons))
+      (has_facing && n->facing != n->beacons) || (has_beacon_sigmas && n->beacon_sigmas != n->beacons))
     return BlobStatus::kCountMismatch;
   return BlobStatus::kOk;
 }
@@ -225,6 +234,8 @@ BlobStatus ReadRecords(const SectionTable& t, bool has_sigma, bool has_facing, c
   ByteReader bea(t[kBeacons].body.subspan(kCountBytes));
   ByteReader sig(has_sigma ? t[kSigma].body.subspan(kCountBytes) : std::span<const std::uint8_t>());
   ByteReader fac(has_facing ? t[kFacing].body.subspan(kCountBytes) : std::span<const std::uint8_t>());
+  const bool has_beacon_sigmas = t[kBeaconSigmas].present;
+  ByteReader bsg(has_beacon_sigmas ? t[kBeaconSigmas].body.subspan(kCountBytes) : std::span<const std::uint8_t>());
   bool names_ok = true;
   rig->num_cameras = static_cast<int>(n.cameras);
   for (std::size_t i = 0; i < n.cameras; ++i) {
@@ -259,17 +270,19 @@ BlobStatus ReadRecords(const SectionTable& t, bool has_sigma, bool has_facing, c
     ReadVector(fac, &rig->beacon_normal_w[i]);
     rig->beacon_half_angle[i] = fac.F64();
   }
+  rig->has_beacon_sigmas = has_beacon_sigmas;
+  for (std::size_t i = 0; has_beacon_sigmas && i < n.beacons; ++i) rig->beacon_sigmas[i] = bsg.F64();
 
-  if (!cam.ok() || !ext.ok() || !bea.ok() || !sig.ok() || !fac.ok()) return BlobStatus::kBadSection;
-  if (!cam.finite() || !ext.finite() || !bea.finite() || !sig.finite() || !fac.finite())
+  if (!cam.ok() || !ext.ok() || !bea.ok() || !sig.ok() || !fac.ok() || !bsg.ok()) return BlobStatus::kBadSection;
+  if (!cam.finite() || !ext.finite() || !bea.finite() || !sig.finite() || !fac.finite() || !bsg.finite())
     return BlobStatus::kNonFiniteValue;
   if (!names_ok || ValidateRig(*rig) != RigStatus::kOk) return BlobStatus::kInvalidValue;
   return BlobStatus::kOk;
 }
 
-BlobStatus DecodePayload(std::span<const std::uint8_t> payload, bool has_sigma, Rig* rig) {
+BlobStatus DecodePayload(std::span<const std::uint8_t> payload, std::uint16_t blob_version, bool has_sigma, Rig* rig) {
   SectionTable table{};
-  BlobStatus s = FindSections(payload, &table);
+  BlobStatus s = FindSections(payload, blob_version, &table);
   if (s != BlobStatus::kOk) return s;
   if (!table[kCameras].present || !table[kExtrinsics].present || !table[kBeacons].present ||
       (has_sigma && !table[kSigma].present))
@@ -358,6 +371,12 @@ void WritePayload(const Rig& rig, ByteWriter& w) {
       w.F64(rig.beacon_half_angle[i]);
     }
   }
+
+  if (rig.has_beacon_sigmas) {
+    WriteSectionHeader(w, kBeaconSigmas, SectionBytes(0, n_bea, kBeaconSigmaRecordBytes));
+    w.U32(static_cast<std::uint32_t>(n_bea));
+    for (std::size_t i = 0; i < n_bea; ++i) w.F64(rig.beacon_sigmas[i]);
+  }
 }
 
 }  // namespace
@@ -395,7 +414,8 @@ BlobStatus EncodeParamBlob(const Rig& rig, std::uint64_t generation, std::span<s
   if (valid != BlobStatus::kOk) return valid;
   const std::size_t payload_bytes =
       PayloadBytes(static_cast<std::size_t>(rig.num_cameras),
-                   static_cast<std::size_t>(rig.num_beacons), rig.has_sigma, rig.has_facing);
+                   static_cast<std::size_t>(rig.num_beacons), rig.has_sigma, rig.has_facing,
+                   rig.has_beacon_sigmas);
   const std::size_t total = kBlobHeaderBytes + payload_bytes;
   if (out.size() < total) return BlobStatus::kBufferTooSmall;
 
@@ -406,7 +426,7 @@ BlobStatus EncodeParamBlob(const Rig& rig, std::uint64_t generation, std::span<s
 
   ByteWriter h(blob.first(kBlobHeaderBytes));
   h.Bytes(kMagic);
-  h.U16(kBlobFormatVersion);
+  h.U16(rig.has_beacon_sigmas ? kBlobFormatVersion : kOldestBlobFormatVersion);
   h.U16(static_cast<std::uint16_t>(kBlobHeaderBytes));
   h.U16(rig.has_sigma ? kFlagHasSigma : 0);
   h.U16(static_cast<std::uint16_t>(payload_bytes));
@@ -443,7 +463,7 @@ BlobStatus DecodeParamBlob(std::span<const std::uint8_t> in, const char* expecte
 
   Rig decoded;  // *rig is written only on success
   decoded.rig_id = h.rig_id;
-  s = DecodePayload(payload, (h.flags & kFlagHasSigma) != 0, &decoded);
+  s = DecodePayload(payload, h.info.format_version, (h.flags & kFlagHasSigma) != 0, &decoded);
   if (s != BlobStatus::kOk) return s;
   if (expected_rig_id != nullptr &&
       std::strncmp(expected_rig_id, decoded.rig_id.data(), decoded.rig_id.size()) != 0)

@@ -7,7 +7,8 @@
 //     u32 header CRC32 (the fields fill the 64 bytes exactly; README.md says why u16)
 //   payload: sections, each {u16 type, u16 version, u32 length, bytes}: cameras (intrinsics and
 //     image size), extrinsics (C_k_b, r_b_bk), beacons (map and its 1-sigma), sigma (optional),
-//     beacon facing (optional: normal and beam half-angle per beacon; Rig::has_facing).
+//     beacon facing (optional: normal and beam half-angle per beacon; Rig::has_facing), beacon
+//     sigmas (optional, version 2: one 1-sigma per beacon; Rig::has_beacon_sigmas).
 // The decoder never trusts a length or a count: every failure is a typed BlobStatus.
 #pragma once
 
@@ -20,7 +21,12 @@
 
 namespace mfns {
 
-inline constexpr std::uint16_t kBlobFormatVersion = 1;
+// Version 2 adds the optional BEACON_SIGMAS section (per-beacon 1-sigma, Rig::has_beacon_sigmas);
+// the encoder writes version 1 for a rig without them (older flyers keep loading those) and 2
+// with them (an older decoder refuses it: kUnsupportedVersion, rather than drop the sigmas).
+// The decoder reads both.
+inline constexpr std::uint16_t kBlobFormatVersion = 2;
+inline constexpr std::uint16_t kOldestBlobFormatVersion = 1;
 inline constexpr std::size_t kBlobHeaderBytes = 64;
 
 enum class BlobStatus : unsigned char {

@@ -91,7 +91,7 @@ struct TestSection {
   std::optional<std::uint32_t> length;  // default: body.size()
 };
 
-enum : std::uint16_t { kCam = 1, kExt = 2, kBea = 3, kSig = 4, kFac = 5 };
+enum : std::uint16_t { kCam = 1, kExt = 2, kBea = 3, kSig = 4, kFac = 5, kBsg = 6 };
 
 Bytes Assemble(const TestHeader& h, const std::vector<TestSection>& sections) {
   Bytes payload;
@@ -172,6 +172,13 @@ Bytes FacingBody(const Rig& r, int records, std::uint32_t count) {
   return b;
 }
 
+Bytes BeaconSigmasBody(const Rig& r, int records, std::uint32_t count) {
+  Bytes b;
+  PutLe(&b, count, 4);
+  for (int i = 0; i < records; ++i) PutF64(&b, r.beacon_sigmas[static_cast<std::size_t>(i % std::max(r.num_beacons, 1))]);
+  return b;
+}
+
 std::vector<TestSection> SectionsOf(const Rig& r) {
   const int nc = r.num_cameras;
   const int nb = r.num_beacons;
@@ -181,12 +188,14 @@ std::vector<TestSection> SectionsOf(const Rig& r) {
                                 {kBea, 1, BeaconsBody(r, nb, static_cast<std::uint32_t>(nb)), {}}};
   if (r.has_sigma) s.push_back({kSig, 1, SigmaBody(r, nc, unc), {}});
   if (r.has_facing) s.push_back({kFac, 1, FacingBody(r, nb, static_cast<std::uint32_t>(nb)), {}});
+  if (r.has_beacon_sigmas) s.push_back({kBsg, 1, BeaconSigmasBody(r, nb, static_cast<std::uint32_t>(nb)), {}});
   return s;
 }
 
 TestHeader HeaderOf(const Rig& r, std::uint64_t generation) {
   TestHeader h;
   h.flags = r.has_sigma ? 1 : 0;
+  h.version = r.has_beacon_sigmas ? 2 : 1;
   h.rig_id = r.rig_id;
   h.generation = generation;
   return h;
@@ -276,6 +285,22 @@ Rig WithFacing(Rig r) {
 
 Rig PaperRigWithFacing() { return WithFacing(PaperRig()); }
 
+// A 1-sigma for every beacon of r (as mfns-calib survey writes): zero, subnormal, the limit and
+// ordinary values; beacon_sigma their largest.
+Rig WithBeaconSigmas(Rig r) {
+  r.has_beacon_sigmas = true;
+  double largest = 0.0;
+  for (std::size_t m = 0; m < static_cast<std::size_t>(r.num_beacons); ++m) {
+    r.beacon_sigmas[m] = 1e-4 * static_cast<double>(m % 7 + 1) / 3.0;
+    if (m == 0) r.beacon_sigmas[m] = 0.0;
+    if (m == 1) r.beacon_sigmas[m] = std::numeric_limits<double>::denorm_min();
+    if (m == 2 && r.num_beacons > 20) r.beacon_sigmas[m] = limits::kMaxBeaconSigmaM;
+    largest = std::max(largest, r.beacon_sigmas[m]);
+  }
+  r.beacon_sigma = largest;
+  return r;
+}
+
 bool Same(double a, double b) { return std::bit_cast<std::uint64_t>(a) == std::bit_cast<std::uint64_t>(b); }
 
 ::testing::AssertionResult RigsBitEqual(const Rig& a, const Rig& b) {
@@ -289,6 +314,9 @@ bool Same(double a, double b) { return std::bit_cast<std::uint64_t>(a) == std::b
   check(a.has_facing == b.has_facing, "has_facing");
   check(a.num_beacons == b.num_beacons, "num_beacons");
   check(Same(a.beacon_sigma, b.beacon_sigma), "beacon_sigma");
+  check(a.has_beacon_sigmas == b.has_beacon_sigmas, "has_beacon_sigmas");
+  for (std::size_t i = 0; a.has_beacon_sigmas && i < static_cast<std::size_t>(a.num_beacons); ++i)
+    check(Same(a.beacon_sigmas[i], b.beacon_sigmas[i]), "beacon sigma " + std::to_string(i));
   if (!diff.str().empty()) return ::testing::AssertionFailure() << "differ: " << diff.str();
   for (std::size_t i = 0; i < static_cast<std::size_t>(a.num_cameras) && i < a.cameras.size(); ++i) {
     const RigCamera& ca = a.cameras[i];
@@ -440,7 +468,8 @@ TEST(ParamBlob, EncoderWritesTheDocumentedLayout) {
 }
 
 TEST(ParamBlob, RoundTripIsBitExact) {
-  for (const Rig& rig : {PaperRig(), PaperRigNoSigma(), MaxRig(), PaperRigWithFacing(), WithFacing(MaxRig())}) {
+  for (const Rig& rig : {PaperRig(), PaperRigNoSigma(), MaxRig(), PaperRigWithFacing(), WithFacing(MaxRig()),
+                         WithBeaconSigmas(PaperRig()), WithBeaconSigmas(WithFacing(MaxRig()))}) {
     for (const std::uint64_t generation : {std::uint64_t{0}, kGeneration, ~std::uint64_t{0}}) {
       const Bytes blob = Encode(rig, generation);
       EXPECT_LE(blob.size(), limits::kMaxBlobBytes);
@@ -448,7 +477,8 @@ TEST(ParamBlob, RoundTripIsBitExact) {
       BlobInfo info;
       ASSERT_EQ(DecodeParamBlob(blob, rig.rig_id.data(), &decoded, &info), BlobStatus::kOk);
       EXPECT_TRUE(RigsBitEqual(decoded, rig));
-      EXPECT_EQ(info.format_version, kBlobFormatVersion);
+      // Version 2 only for per-beacon sigmas: every other blob stays loadable by older flyers.
+      EXPECT_EQ(info.format_version, rig.has_beacon_sigmas ? kBlobFormatVersion : kOldestBlobFormatVersion);
       EXPECT_EQ(info.generation, generation);
       EXPECT_EQ(info.rig_id, rig.rig_id);
       EXPECT_EQ(info.payload_bytes, blob.size() - kBlobHeaderBytes);
@@ -651,7 +681,7 @@ TEST(ParamBlob, BadMagic) {
 
 TEST(ParamBlob, OtherFormatVersionsAreUnsupported) {
   const Rig rig = PaperRig();
-  for (const std::uint16_t version : {2, 0, 0xFFFF}) {
+  for (const std::uint16_t version : {3, 0, 0xFFFF}) {
     TestHeader h = HeaderOf(rig, 1);
     h.version = version;  // header CRC computed over it: a well-formed blob of another version
     BlobInfo info;
@@ -1293,6 +1323,49 @@ TEST(ParamBlob, RandomMutationsNeverCrashOrDecodeToAnotherRig) {
   ::testing::Test::RecordProperty("statuses", record.str());
   ::testing::Test::RecordProperty("repaired_ok", repaired_ok);
   EXPECT_GE(seen.size(), 12u) << record.str();  // the mutations reach most checks
+}
+
+}  // namespace
+}  // namespace mfns
+
+namespace mfns {
+namespace {
+
+// Issue 16: per-beacon sigmas (format version 2). The largest rig still fits; a version-1 blob
+// reads as before and treats section 6 as unknown; counts and values are checked.
+TEST(ParamBlob, BeaconSigmasNeedVersion2AndAreChecked) {
+  const Rig rig = WithBeaconSigmas(PaperRig());
+  const Bytes largest = Encode(WithBeaconSigmas(WithFacing(MaxRig())), 1);
+  EXPECT_LE(largest.size(), limits::kMaxBlobBytes);
+  Rig out = Sentinel();
+  ASSERT_EQ(DecodeParamBlob(Assemble(HeaderOf(rig, 1), SectionsOf(rig)), nullptr, &out, nullptr), BlobStatus::kOk);
+  EXPECT_TRUE(RigsBitEqual(out, rig));
+  // In a version-1 header the section is unknown, skipped: the rig has no per-beacon sigmas.
+  TestHeader v1 = HeaderOf(rig, 1);
+  v1.version = 1;
+  out = Sentinel();
+  ASSERT_EQ(DecodeParamBlob(Assemble(v1, SectionsOf(rig)), nullptr, &out, nullptr), BlobStatus::kOk);
+  EXPECT_FALSE(out.has_beacon_sigmas);
+  // A count other than the beacons', a negative or NaN sigma, beacon_sigma not their largest.
+  std::vector<TestSection> s = SectionsOf(rig);
+  s.back().body = BeaconSigmasBody(rig, rig.num_beacons - 1, static_cast<std::uint32_t>(rig.num_beacons - 1));
+  EXPECT_EQ(DecodeParamBlob(Assemble(HeaderOf(rig, 1), s), nullptr, nullptr, nullptr), BlobStatus::kCountMismatch);
+  s.back().body = BeaconSigmasBody(rig, rig.num_beacons, 1000);
+  EXPECT_EQ(DecodeParamBlob(Assemble(HeaderOf(rig, 1), s), nullptr, nullptr, nullptr), BlobStatus::kTooManyBeacons);
+  Rig bad = rig;
+  bad.beacon_sigmas[3] = -1e-4;
+  EXPECT_EQ(DecodeParamBlob(Assemble(HeaderOf(bad, 1), SectionsOf(bad)), nullptr, nullptr, nullptr),
+            BlobStatus::kInvalidValue);
+  bad = rig;
+  bad.beacon_sigmas[3] = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_EQ(DecodeParamBlob(Assemble(HeaderOf(bad, 1), SectionsOf(bad)), nullptr, nullptr, nullptr),
+            BlobStatus::kNonFiniteValue);
+  bad = rig;
+  bad.beacon_sigma *= 2.0;
+  EXPECT_EQ(DecodeParamBlob(Assemble(HeaderOf(bad, 1), SectionsOf(bad)), nullptr, nullptr, nullptr),
+            BlobStatus::kInvalidValue);
+  Bytes buf(limits::kMaxBlobBytes);
+  EXPECT_EQ(EncodeParamBlob(bad, 1, buf, nullptr), BlobStatus::kInvalidValue);
 }
 
 }  // namespace

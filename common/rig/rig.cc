@@ -1,5 +1,6 @@
 #include "common/rig/rig.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 
@@ -130,6 +131,20 @@ RigStatus ValidateRig(const Rig& rig, int* camera_index, int* beacon_index) {
       return s;
     }
   }
+  double largest = 0.0;
+  for (int i = 0; rig.has_beacon_sigmas && i < rig.num_beacons; ++i) {
+    const double s = rig.beacon_sigmas[static_cast<std::size_t>(i)];
+    const RigStatus bad = !std::isfinite(s) ? RigStatus::kNonFinite
+                          : (s < 0.0 || s > limits::kMaxBeaconSigmaM) ? RigStatus::kBadSigma
+                                                                      : RigStatus::kOk;
+    if (bad != RigStatus::kOk) {
+      if (beacon_index != nullptr) *beacon_index = i;
+      return bad;
+    }
+    largest = std::max(largest, s);
+  }
+  // beacon_sigma is the largest of them (what a reader of the one number must see).
+  if (rig.has_beacon_sigmas && rig.beacon_sigma != largest) return RigStatus::kBadSigma;
   if (!std::isfinite(rig.beacon_sigma)) return RigStatus::kNonFinite;
   if (rig.beacon_sigma < 0.0 || rig.beacon_sigma > limits::kMaxBeaconSigmaM) return RigStatus::kBadSigma;
   for (int i = 0; rig.has_facing && i < rig.num_beacons; ++i) {

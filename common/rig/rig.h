@@ -37,6 +37,11 @@ struct Rig {
   int num_beacons = 0;
   std::array<Eigen::Vector3d, limits::kMaxBeacons> beacons_w{};  // world frame, m
   double beacon_sigma = 0.0;  // 1-sigma of each beacon coordinate (m); 0 = unknown
+  // Optional per-beacon 1-sigma (m per coordinate; e.g. mfns-calib survey's, where each beacon
+  // is known as well as it was seen). When present beacon_sigma is their largest: every reader
+  // of the one number (the navigator's gates and covariance today) stays on the safe side.
+  bool has_beacon_sigmas = false;
+  std::array<double, limits::kMaxBeacons> beacon_sigmas{};
   // Optional facing of every beacon (all or none): the unit normal of its emitting side
   // (world frame) and its beam half-angle (rad, in (0, pi]). Beacon m is visible from a point
   // p_w only when the angle between p_w - P_m and its normal is at most the half-angle (an LED
@@ -78,7 +83,7 @@ enum class RigStatus : unsigned char {
   kBadIntrinsics,     // alpha <= 0 or principal point outside the image
   kNotARotation,      // C_k_b not orthonormal with det +1 (1e-6)
   kNonFinite,         // NaN or Inf anywhere
-  kBadSigma,          // negative sigma
+  kBadSigma,          // negative sigma, or beacon_sigma not the largest of beacon_sigmas
   kBadFacing,         // beacon normal not a unit vector (1e-6) or half-angle outside (0, pi]
   // Physically sensible ranges (common/limits.h):
   kBadDistortion,      // |kc_i| above limits::kMaxDistortion

@@ -60,8 +60,9 @@ void Inspect(const std::string& blob_path) {
                 c.intrinsics.u0, c.intrinsics.v0, RadToDeg(e.phi), RadToDeg(e.theta), RadToDeg(e.psi),
                 c.r_b_bk.x() * 1e3, c.r_b_bk.y() * 1e3, c.r_b_bk.z() * 1e3);
   }
-  std::printf("  beacons %d (1-sigma %.4f mm), sigma %s, facing %s\n", rig.num_beacons, rig.beacon_sigma * 1e3,
-              rig.has_sigma ? "present" : "absent", rig.has_facing ? "present" : "absent");
+  std::printf("  beacons %d (1-sigma %.4f mm%s), sigma %s, facing %s\n", rig.num_beacons, rig.beacon_sigma * 1e3,
+              rig.has_beacon_sigmas ? " at most: one per beacon" : "", rig.has_sigma ? "present" : "absent",
+              rig.has_facing ? "present" : "absent");
 }
 
 std::uint64_t NowSeconds() {

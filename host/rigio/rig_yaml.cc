@@ -104,6 +104,27 @@ std::string Short(double v) {
   return std::string(buf, r.ptr);
 }
 
+// beacon_sigma_mm: one number (every beacon's 1-sigma per coordinate), or a list of one per
+// beacons_mm entry, in its order (mfns-calib survey's); then beacon_sigma is their largest.
+void ReadBeaconSigma(const YAML::Node& bs, const YamlCtx& ctx, Rig* rig) {
+  if (!bs.IsSequence()) {
+    rig->beacon_sigma = Number(bs, ctx) * kMm;
+    if (rig->beacon_sigma < 0) ctx.Fail(bs, "must not be negative");
+    return;
+  }
+  if (bs.size() != static_cast<std::size_t>(rig->num_beacons))
+    ctx.Fail(bs, "expected one number or " + std::to_string(rig->num_beacons) +
+                     " entries (one per beacons_mm entry), got " + std::to_string(bs.size()));
+  rig->has_beacon_sigmas = true;
+  rig->beacon_sigma = 0.0;
+  for (std::size_t i = 0; i < bs.size(); ++i) {
+    const double s = Number(bs[i], ctx.Index(i)) * kMm;
+    if (s < 0) ctx.Index(i).Fail(bs[i], "must not be negative");
+    rig->beacon_sigmas[i] = s;
+    rig->beacon_sigma = std::max(rig->beacon_sigma, s);
+  }
+}
+
 // beacon_facing: [[nx, ny, nz, half_angle_deg], ...], one per beacons_mm entry, in its order.
 // A normal within 1e-3 of unit length is normalised (hand-typed or rounded values); anything
 // further off is an error, as is a half-angle outside (0, 180] deg.
@@ -174,7 +195,9 @@ void FailIfInvalid(const Rig& rig, const YAML::Node& root, const YamlCtx& ctx) {
   }
   if (bad_beacon >= 0) {
     const auto i = static_cast<std::size_t>(bad_beacon);
-    const char* list = status == RigStatus::kBadFacing ? "beacon_facing" : "beacons_mm";
+    const char* list = status == RigStatus::kBadFacing  ? "beacon_facing"
+                       : status == RigStatus::kBadSigma ? "beacon_sigma_mm"
+                                                        : "beacons_mm";
     std::string what = ToString(status);
     if (status == RigStatus::kDuplicateBeacon)
       what = "same position as beacons_mm[" + std::to_string(SameBeaconAs(rig, bad_beacon)) + "] (closer than " +
@@ -227,10 +250,7 @@ Rig ParseRig(const std::string& text, const std::string& source) {
       rig.beacons_w[i] = Vec3(Numbers<3>(beacons[i], bctx.Index(i))) * kMm;
   }
   const YAML::Node bs = root["beacon_sigma_mm"];
-  if (bs.IsDefined() && !bs.IsNull()) {
-    rig.beacon_sigma = Number(bs, ctx.Sub("beacon_sigma_mm")) * kMm;
-    if (rig.beacon_sigma < 0) ctx.Sub("beacon_sigma_mm").Fail(bs, "must not be negative");
-  }
+  if (bs.IsDefined() && !bs.IsNull()) ReadBeaconSigma(bs, ctx.Sub("beacon_sigma_mm"), &rig);
   const YAML::Node facing = root["beacon_facing"];
   if (facing.IsDefined() && !facing.IsNull()) ReadFacing(facing, ctx.Sub("beacon_facing"), &rig);
 
@@ -275,7 +295,14 @@ std::string FormatRigYaml(const Rig& rig) {
       o << "  - " << List({b.x(), b.y(), b.z()}) << "\n";
     }
   }
-  if (rig.beacon_sigma > 0) o << "beacon_sigma_mm: " << Num(rig.beacon_sigma / kMm) << "\n";
+  if (rig.has_beacon_sigmas && rig.num_beacons > 0) {
+    o << "beacon_sigma_mm: [";  // one per beacon (mfns-calib survey)
+    for (int i = 0; i < rig.num_beacons; ++i)
+      o << (i == 0 ? "" : ", ") << Num(rig.beacon_sigmas[static_cast<std::size_t>(i)] / kMm);
+    o << "]\n";
+  } else if (rig.beacon_sigma > 0) {
+    o << "beacon_sigma_mm: " << Num(rig.beacon_sigma / kMm) << "\n";
+  }
   if (rig.has_facing) {
     o << "beacon_facing:" << (rig.num_beacons == 0 ? " []" : "") << "  # [nx, ny, nz, half_angle_deg] per beacon\n";
     for (int i = 0; i < rig.num_beacons; ++i) {

@@ -12,7 +12,8 @@
 //       r_b_bk_mm: [x, y, z]
 //       sigma: {intrinsics: [5], distortion: [5], euler_deg: [3], r_b_bk_mm: [3]}  # optional
 //   beacons_mm: [[x, y, z], ...]                           # world frame; optional
-//   beacon_sigma_mm: 0.3963                                # optional (MFNS extension)
+//   beacon_sigma_mm: 0.3963                                # optional (MFNS extension); or one
+//                                                          # per beacons_mm entry: [0.1, 0.2, ...]
 //   beacon_facing: [[nx, ny, nz, half_angle_deg], ...]    # optional, one per beacons_mm entry
 //
 // beacon_facing (Rig::has_facing): the unit normal of each LED's emitting side (world frame)

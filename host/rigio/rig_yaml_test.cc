@@ -270,6 +270,28 @@ TEST(RigYaml, BeaconFacingNormalsWithin1e3AreNormalised) {
   EXPECT_EQ(ValidateRig(rig), RigStatus::kOk);
 }
 
+// Issue 16: beacon_sigma_mm as one number per beacon (mfns-calib survey); beacon_sigma their largest.
+TEST(RigYaml, BeaconSigmaPerBeacon) {
+  const std::string head = std::string("rig_id: r\ncameras:\n") + kCam + "beacons_mm: [[0, 0, 0], [1000, 0, 0], [0, 1000, 0]]\n";
+  const Rig rig = ParseRigYaml(head + "beacon_sigma_mm: [0.1, 0.25, 0.05]\n", "rig.yaml");
+  ASSERT_TRUE(rig.has_beacon_sigmas);
+  EXPECT_DOUBLE_EQ(rig.beacon_sigmas[0], 0.1e-3);
+  EXPECT_DOUBLE_EQ(rig.beacon_sigmas[1], 0.25e-3);
+  EXPECT_DOUBLE_EQ(rig.beacon_sigmas[2], 0.05e-3);
+  EXPECT_DOUBLE_EQ(rig.beacon_sigma, 0.25e-3);
+  const Rig again = ParseRigYaml(FormatRigYaml(rig), "again.yaml");
+  ASSERT_TRUE(again.has_beacon_sigmas);
+  for (std::size_t i = 0; i < 3; ++i) EXPECT_DOUBLE_EQ(again.beacon_sigmas[i], rig.beacon_sigmas[i]);
+  EXPECT_EQ(again.beacon_sigma, rig.beacon_sigma);
+  EXPECT_FALSE(ParseRigYaml(head + "beacon_sigma_mm: 0.4\n", "rig.yaml").has_beacon_sigmas);
+  // Line 5 is beacon_sigma_mm.
+  EXPECT_EQ(ErrorOf(head + "beacon_sigma_mm: [0.1, 0.2]\n"),
+            "rig.yaml:5: beacon_sigma_mm: expected one number or 3 entries (one per beacons_mm entry), got 2");
+  EXPECT_EQ(ErrorOf(head + "beacon_sigma_mm: [0.1, -0.2, 0.3]\n"), "rig.yaml:5: beacon_sigma_mm[1]: must not be negative");
+  EXPECT_EQ(ErrorOf(head + "beacon_sigma_mm: [0.1, 2000, 0.3]\n").find("rig.yaml:5: beacon_sigma_mm[1]: "), 0u)
+      << ErrorOf(head + "beacon_sigma_mm: [0.1, 2000, 0.3]\n");
+}
+
 TEST(RigYaml, BeaconFacingErrorsNameTheFieldAndLine) {
   const std::string head = std::string("rig_id: r\ncameras:\n") + kCam + "beacons_mm: [[0, 0, 0], [1, 0, 0]]\n";
   auto facing = [&head](const std::string& entries) { return ErrorOf(head + "beacon_facing:\n" + entries); };

@@ -210,7 +210,7 @@ TEST_F(ParamctlTest, RefusalsAreOneLineWithTheReasonAndLeaveTheOldBlobActive) {
   const Result big = Paramctl({"install", "--store", store_, "--no-signal", "-"},
                          std::vector<std::uint8_t>(limits::kMaxBlobBytes + 10, 0x55));
   EXPECT_EQ(big.code, 1);
-  EXPECT_THAT(big.err, StartsWith("mfns-paramctl: refused: blob larger than 16384 bytes"));
+  EXPECT_THAT(big.err, StartsWith("mfns-paramctl: refused: blob larger than " + std::to_string(limits::kMaxBlobBytes) + " bytes"));
 }
 
 TEST_F(ParamctlTest, ForceAndAllowRigChangeOverrideTheirRefusalOnly) {

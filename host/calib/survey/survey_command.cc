@@ -58,16 +58,17 @@ RecordingOptions RecordingOptionsOf(const SurveyCommandOptions& o) {
   return r;
 }
 
-// The input rig with the refined map: one beacon_sigma, the largest per-axis 1-sigma of any
-// beacon (the rig file holds one number).
+// The input rig with the refined map and each beacon's 1-sigma (its largest per-axis one: the
+// rig file and the blob hold one number per beacon); beacon_sigma the largest of them.
 Rig RefinedRig(const Rig& in, const SurveyResult& r, const std::string& rig_id) {
   Rig out = in;
-  double sigma = 0.0;
+  out.has_beacon_sigmas = true;
+  out.beacon_sigma = 0.0;
   for (std::size_t b = 0; b < r.beacons.size(); ++b) {
     out.beacons_w[b] = r.beacons[b].refined_w;
-    sigma = std::max(sigma, r.beacons[b].Sigma().maxCoeff());
+    out.beacon_sigmas[b] = r.beacons[b].Sigma().maxCoeff();
+    out.beacon_sigma = std::max(out.beacon_sigma, out.beacon_sigmas[b]);
   }
-  out.beacon_sigma = sigma;
   if (!rig_id.empty()) {
     if (rig_id.size() > limits::kMaxRigIdChars) throw UserError("--rig-id: longer than " + std::to_string(limits::kMaxRigIdChars) + " characters");
     out.rig_id.fill('\0');

@@ -2,9 +2,9 @@
 // of each recording identified and posed by mfns-navd's own loop (replay source, detection,
 // navigator; PoseRecording), then the map refined (AdjustMap, survey.h). Outputs in DIR, each
 // written atomically (nothing is written when anything fails):
-//   rig.yaml          the input rig with the refined map; beacon_sigma_mm the largest per-axis
-//                     1-sigma of any beacon (one number until the rig file carries one per beacon)
-//   calibration.bin   its parameter blob (common/blob)
+//   rig.yaml          the input rig with the refined map; beacon_sigma_mm one per beacon (its
+//                     largest per-axis 1-sigma; unseen beacons keep the survey's)
+//   calibration.bin   its parameter blob (common/blob; format version 2: per-beacon sigmas)
 //   survey.csv        per beacon: index, surveyed and refined position (mm), 1-sigma (mm),
 //                     shift (mm and survey sigmas), observations, frame sets, residual RMS (px),
 //                     moved (1: inconsistent with the survey by more than 5 sigma), seen

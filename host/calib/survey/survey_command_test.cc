@@ -86,9 +86,12 @@ TEST_F(SurveyCommandTest, RefinesTheMapFromRenderedFramesAndWritesEveryOutput) {
     re += e.squaredNorm();
     for (int k = 0; k < 3; ++k) within += std::abs(e(k)) <= 3 * r.beacons[sb].Sigma()(k) ? 1 : 0;
     n += 3;
-    // The rig file holds the refined map (to its 1 um text) and one sigma bounding every beacon's.
+    // The rig file holds the refined map (to its 1 um text) and each beacon's sigma.
     EXPECT_LT((refined.beacons_w[sb] - r.beacons[sb].refined_w).norm(), 2e-6);
-    EXPECT_GE(refined.beacon_sigma, r.beacons[sb].Sigma().maxCoeff() - 1e-9);
+    ASSERT_TRUE(refined.has_beacon_sigmas);
+    EXPECT_NEAR(refined.beacon_sigmas[sb], r.beacons[sb].Sigma().maxCoeff(), 1e-9);
+    EXPECT_LT(refined.beacon_sigmas[sb], believed.beacon_sigma);  // seen: better known than surveyed
+    EXPECT_GE(refined.beacon_sigma, refined.beacon_sigmas[sb]);
   }
   ASSERT_GE(n, 45);
   EXPECT_LT(std::sqrt(re / n), 0.7 * std::sqrt(se / n)) << std::sqrt(re / n) << " vs " << std::sqrt(se / n);
@@ -101,7 +104,11 @@ TEST_F(SurveyCommandTest, RefinesTheMapFromRenderedFramesAndWritesEveryOutput) {
                             nullptr, &from_blob, &info),
             BlobStatus::kOk);
   EXPECT_EQ(info.generation, 42u);
+  EXPECT_EQ(info.format_version, 2);  // per-beacon sigmas
   EXPECT_EQ(from_blob.num_beacons, refined.num_beacons);
+  ASSERT_TRUE(from_blob.has_beacon_sigmas);
+  for (int b = 0; b < refined.num_beacons; ++b)
+    EXPECT_NEAR(from_blob.beacon_sigmas[static_cast<std::size_t>(b)], refined.beacon_sigmas[static_cast<std::size_t>(b)], 1e-9);
   // report.html: every beacon in its table, the unseen ones listed.
   const std::string html = ReadText(dir_ / "out" / "report.html");
   EXPECT_NE(html.find("<table id=\"beacons\">"), std::string::npos);
