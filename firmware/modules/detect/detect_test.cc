@@ -4,6 +4,7 @@
 
 #include <atomic>
 #include <cstdlib>
+#include <cstring>
 #include <new>
 #include <random>
 #include <string>
@@ -886,6 +887,165 @@ TEST(BlobDetector, StreamingLabelsMatchFloodFillOnRandomImages) {
       EXPECT_NEAR(b.flux_dn, ref[match].flux, 1e-9 * ref[match].flux);
     }
   }
+}
+
+// ---- Issue 20 item 2: the fast path (chunk skip against a lower bound of the thresholds, lazy
+// row thresholds, histogram statistics) gives the BlobList of the per-pixel reference path
+// (DetectOptions::reference_path) bit for bit: every blob field, the frame's background, noise,
+// thresholds, blind cells, rows and counters, and the status. Random frames: sizes that are and
+// are not multiples of the 128-px chunk and the 16-px segment, mono8 and mono16 (padded strides,
+// unaligned), flat or sloped backgrounds (to 0.25 DN/px: 160 DN across 640 px, thresholds a few DN above),
+// noise, spots anywhere including across the borders, saturated spots and a bright rectangle,
+// a truncated frame, a tiny label table; adaptive (several tile sizes and sample steps, with and
+// without the mesh median) and fixed thresholds, every centroid weighting.
+void ExpectSameBlobList(const BlobList& a, const BlobList& b, const std::string& where) {
+  ASSERT_EQ(a.count, b.count) << where;
+  for (std::size_t i = 0; i < static_cast<std::size_t>(a.count); ++i) {
+    const Blob& x = a.blobs[i];
+    const Blob& y = b.blobs[i];
+    const std::string at = where + " blob " + std::to_string(i);
+    EXPECT_EQ(x.uv_px.x(), y.uv_px.x()) << at;
+    EXPECT_EQ(x.uv_px.y(), y.uv_px.y()) << at;
+    EXPECT_EQ(x.x_n.x(), y.x_n.x()) << at;
+    EXPECT_EQ(x.x_n.y(), y.x_n.y()) << at;
+    EXPECT_EQ(x.normalised_ok, y.normalised_ok) << at;
+    EXPECT_EQ(x.flux_dn, y.flux_dn) << at;
+    EXPECT_EQ(x.background_dn, y.background_dn) << at;
+    EXPECT_EQ(x.peak_dn, y.peak_dn) << at;
+    EXPECT_EQ(x.area_px, y.area_px) << at;
+    EXPECT_EQ(x.saturated_px, y.saturated_px) << at;
+    EXPECT_EQ(x.saturated, y.saturated) << at;
+    EXPECT_EQ(x.x_min, y.x_min) << at;
+    EXPECT_EQ(x.y_min, y.y_min) << at;
+    EXPECT_EQ(x.x_max, y.x_max) << at;
+    EXPECT_EQ(x.y_max, y.y_max) << at;
+    EXPECT_EQ(x.m_xx, y.m_xx) << at;
+    EXPECT_EQ(x.m_yy, y.m_yy) << at;
+    EXPECT_EQ(x.m_xy, y.m_xy) << at;
+    EXPECT_EQ(x.elongation, y.elongation) << at;
+  }
+  EXPECT_EQ(a.background_dn, b.background_dn) << where;
+  EXPECT_EQ(a.noise_dn, b.noise_dn) << where;
+  EXPECT_EQ(a.contrast_dn, b.contrast_dn) << where;
+  EXPECT_EQ(a.threshold_min_dn, b.threshold_min_dn) << where;
+  EXPECT_EQ(a.threshold_max_dn, b.threshold_max_dn) << where;
+  EXPECT_EQ(a.blind_cells, b.blind_cells) << where;
+  EXPECT_EQ(a.rows_written, b.rows_written) << where;
+  const DetectCounters& p = a.counters;
+  const DetectCounters& q = b.counters;
+  EXPECT_EQ(p.components, q.components) << where;
+  EXPECT_EQ(p.rejected_small, q.rejected_small) << where;
+  EXPECT_EQ(p.rejected_large, q.rejected_large) << where;
+  EXPECT_EQ(p.rejected_border, q.rejected_border) << where;
+  EXPECT_EQ(p.rejected_faint, q.rejected_faint) << where;
+  EXPECT_EQ(p.rejected_saturated, q.rejected_saturated) << where;
+  EXPECT_EQ(p.rejected_elongated, q.rejected_elongated) << where;
+  EXPECT_EQ(p.flagged_saturated, q.flagged_saturated) << where;
+  EXPECT_EQ(p.over_blob_limit, q.over_blob_limit) << where;
+  EXPECT_EQ(p.label_table_full, q.label_table_full) << where;
+  EXPECT_EQ(p.open_discarded, q.open_discarded) << where;
+  EXPECT_EQ(p.blank_frames, q.blank_frames) << where;
+  EXPECT_EQ(p.truncated_frames, q.truncated_frames) << where;
+  EXPECT_EQ(p.saturated_frames, q.saturated_frames) << where;
+}
+
+TEST(BlobDetector, FastPathEqualsReference) {
+  constexpr int kTrials = 60;
+  std::mt19937_64 rng(2012);
+  std::uniform_real_distribution<double> u01(0.0, 1.0);
+  BlobList fast_out, ref_out;
+  int blobs = 0, steep = 0, saturated = 0, border = 0, truncated = 0, full = 0;
+  for (int trial = 0; trial < kTrials; ++trial) {
+    const PixelFormat format = trial % 3 == 2 ? PixelFormat::kMono16 : PixelFormat::kMono8;
+    const bool mono8 = format == PixelFormat::kMono8;
+    const double scale = mono8 ? 1.0 : 40.0;  // mono16 frames: the same scene at 40x the DN
+    const int w = trial % 4 == 0 ? 640 : 100 + static_cast<int>(u01(rng) * 500);
+    const int h = trial % 4 == 0 ? 512 : 60 + static_cast<int>(u01(rng) * 300);
+    SyntheticImage img(w, h);
+    const bool is_steep = trial % 2 == 1;
+    steep += is_steep ? 1 : 0;
+    const double gx = is_steep ? (u01(rng) - 0.5) * 0.5 : 0.0, gy = is_steep ? (u01(rng) - 0.5) * 0.5 : 0.0;
+    img.AddBackground(scale * (60.0 + 30.0 * u01(rng)), scale * gx, scale * gy);
+    const int n_spots = 5 + static_cast<int>(u01(rng) * 30);
+    for (int i = 0; i < n_spots; ++i) {
+      Spot s;
+      // Some spots straddle the border (a quarter of them within 3 px of an edge).
+      const bool edge = u01(rng) < 0.25;
+      s.u = edge ? (u01(rng) < 0.5 ? -1.0 + 4.0 * u01(rng) : w - 3.0 + 4.0 * u01(rng)) : u01(rng) * (w - 1);
+      s.v = edge && u01(rng) < 0.5 ? (u01(rng) < 0.5 ? -1.0 + 4.0 * u01(rng) : h - 3.0 + 4.0 * u01(rng))
+                                   : u01(rng) * (h - 1);
+      border += edge ? 1 : 0;
+      s.sigma_x = 0.8 + 2.0 * u01(rng);
+      s.sigma_y = s.sigma_x * (0.7 + 0.6 * u01(rng));
+      const double peak = u01(rng) < 0.2 ? 400.0 : 8.0 + 150.0 * u01(rng);  // 20 % saturate (> 255)
+      saturated += peak > 255.0 ? 1 : 0;
+      s.flux = scale * peak * 2.0 * std::numbers::pi * s.sigma_x * s.sigma_y;
+      img.AddSpot(s);
+    }
+    if (trial % 5 == 3) {  // a lamp: a saturated rectangle
+      const int x0 = static_cast<int>(u01(rng) * (w - 40)), y0 = static_cast<int>(u01(rng) * (h - 40));
+      img.AddRect(x0, y0, x0 + 39, y0 + 39, scale * 300.0);
+    }
+    img.AddNoise(scale * (0.5 + 3.0 * u01(rng)), rng);
+    FrameBuffer fb = Quantize(img, format, trial % 4, mono8 ? 0 : trial % 2);
+    if (trial % 7 == 6) {  // truncated: the lower 20 rows never written
+      const std::ptrdiff_t offset = fb.view.data - fb.bytes.data();
+      for (int y = h - 20; y < h; ++y)
+        std::memset(fb.bytes.data() + offset + static_cast<std::ptrdiff_t>(y) * fb.view.stride_bytes, 0,
+                    static_cast<std::size_t>(w * BytesPerPixel(format)));
+      ++truncated;
+    }
+
+    DetectOptions o;
+    o.centroid_weights = static_cast<CentroidWeights>(trial % 3);
+    o.saturation_policy = static_cast<SaturationPolicy>((trial / 3) % 3);
+    o.min_area_px = 1 + trial % 3;
+    o.border_margin_px = trial % 4 == 1 ? 2 : 0;
+    switch (trial % 6) {
+      case 0:
+        break;  // defaults
+      case 1:
+        o.tile_px = 64;
+        o.sample_step_px = 4;
+        break;  // before issue 20
+      case 2:
+        o.tile_px = 64;
+        o.sample_step_px = 8;
+        o.mesh_median_filter = false;
+        break;
+      case 3:
+        o.tile_px = 96;
+        o.sample_step_px = 5;
+        o.k_sigma = 3.0;
+        break;  // thresholds in the noise
+      case 4:
+        o.threshold_mode = ThresholdMode::kFixed;
+        o.fixed_threshold_dn = static_cast<int>(scale * (70.0 + 40.0 * u01(rng)));
+        o.fixed_background_dn = scale * 60.0;
+        break;
+      case 5:
+        o.tile_px = 2048;
+        break;  // one tile: a flat mesh
+    }
+    const int labels = trial % 11 == 10 ? 6 : limits::kMaxBlobLabels;  // a tiny table overflows
+    full += labels < limits::kMaxBlobLabels ? 1 : 0;
+    DetectOptions r = o;
+    r.reference_path = true;
+    BlobDetector fast(o, labels), ref(r, labels);
+    const std::string where = "trial " + std::to_string(trial);
+    const DetectStatus sf = fast.Detect(fb.view, nullptr, &fast_out);
+    const DetectStatus sr = ref.Detect(fb.view, nullptr, &ref_out);
+    ASSERT_EQ(sf, sr) << where << ": " << ToString(sf) << " / " << ToString(sr);
+    ExpectSameBlobList(fast_out, ref_out, where);
+    blobs += ref_out.count;
+  }
+  // The frames did what they were drawn for.
+  EXPECT_GT(blobs, 10 * kTrials);
+  EXPECT_GT(steep, 0);
+  EXPECT_GT(saturated, 0);
+  EXPECT_GT(border, 0);
+  EXPECT_GT(truncated, 0);
+  EXPECT_GT(full, 0);
 }
 
 // ---- No heap after construction: 100 frames (mono8 and mono16, adaptive and fixed, with
