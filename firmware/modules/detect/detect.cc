@@ -144,6 +144,23 @@ double Interpolate(const double* c, const double* v, int n, int tile, double t) 
 // selection otherwise.
 constexpr int kHistogramBins = 1024;
 
+// The median bin m (rank n / 2, 0-based) and the MAD d in bins of a histogram of n values over
+// `range` bins (both paths: MedianMad and HistogramClippedMeanRms).
+void HistogramMedianMad(const int* hist, int range, int n, int* m_out, int* d_out) {
+  const int half = n / 2;
+  int m = 0;
+  for (int seen = hist[0]; seen <= half; seen += hist[++m]) {
+  }
+  // Rank n / 2 of |v - median|: widen a window about the median until it holds more.
+  int d = 0;
+  for (int seen = hist[m]; seen <= half; ++d) {
+    if (m - d - 1 >= 0) seen += hist[m - d - 1];
+    if (m + d + 1 < range) seen += hist[m + d + 1];
+  }
+  *m_out = m;
+  *d_out = d;
+}
+
 // `max_abs`: a bound on |v| known in advance (255 for mono8), or 0 to find the range.
 void MedianMad(int* v, int n, int max_abs, int* hist, int* scratch, int* median, int* mad) {
   int lo = -max_abs, range = 2 * max_abs + 1;
@@ -157,16 +174,8 @@ void MedianMad(int* v, int n, int max_abs, int* hist, int* scratch, int* median,
     std::fill_n(hist, range, 0);
     for (int k = 0; k < n; ++k) ++hist[v[k] - lo];
     int m = 0;
-    for (int seen = hist[0]; seen <= half; seen += hist[++m]) {
-    }
+    HistogramMedianMad(hist, range, n, &m, mad);
     *median = lo + m;
-    // Rank n / 2 of |v - median|: widen a window about the median until it holds more.
-    int d = 0;
-    for (int seen = hist[m]; seen <= half; ++d) {
-      if (m - d - 1 >= 0) seen += hist[m - d - 1];
-      if (m + d + 1 < range) seen += hist[m + d + 1];
-    }
-    *mad = d;
     return;
   }
   std::nth_element(v, v + half, v + n);
@@ -201,15 +210,8 @@ void ClippedMeanRms(int* v, int n, int max_abs, int* hist, int* scratch, double*
 // values' range; the clipped sums are sums of integers below 2^53, exact in any order, so equal
 // to the sample loop's.
 void HistogramClippedMeanRms(const int* hist, int range, int n, int lo, double* mean, double* rms) {
-  const int half = n / 2;
-  int m = 0;
-  for (int seen = hist[0]; seen <= half; seen += hist[++m]) {
-  }
-  int d = 0;
-  for (int seen = hist[m]; seen <= half; ++d) {
-    if (m - d - 1 >= 0) seen += hist[m - d - 1];
-    if (m + d + 1 < range) seen += hist[m + d + 1];
-  }
+  int m = 0, d = 0;
+  HistogramMedianMad(hist, range, n, &m, &d);
   const double clip = kClipSigmas * std::max(kMadToSigma * d, 1.0);
   const int reach = static_cast<int>(clip);  // |e| <= clip <=> |e| <= floor(clip) for integers; clip > 0
   std::int64_t sum = 0, sum2 = 0, count = 0;
@@ -374,6 +376,8 @@ DetectCounters& DetectCounters::operator+=(const DetectCounters& o) {
   blank_frames += o.blank_frames;
   truncated_frames += o.truncated_frames;
   saturated_frames += o.saturated_frames;
+  rejected_window_edge += o.rejected_window_edge;
+  windows_dropped += o.windows_dropped;
   return *this;
 }
 
@@ -424,6 +428,10 @@ struct detail::DetectWorkspace {
   const double* row_a = nullptr;
   const double* row_b = nullptr;
   double row_f = 0.0;
+
+  // Windowed detection: the merged windows of the current call.
+  std::array<PixelWindow, limits::kMaxDetectWindows> windows{};
+  int num_windows = 0;
 
   // Per frame.
   int width = 0;
@@ -589,15 +597,17 @@ class FramePass {
 
   void SetUpFixed();
   void EstimateBackground();
-  DetectStatus Label();
+  // Labels the components inside window r (the whole frame: every row, every column). With
+  // `windowed`, a component touching r's edge inside the frame is rejected.
+  DetectStatus Label(const PixelWindow& r, bool windowed);
 
  private:
   RowT Row(int y) const { return RowT{f_.data + static_cast<std::ptrdiff_t>(y) * f_.stride_bytes}; }
   bool Adaptive() const { return o_.threshold_mode == ThresholdMode::kAdaptive; }
   template <typename Visit>
   void ForEachSample(int x0, int x1, int y0, int y1, Visit&& visit) const;
-  int ScanRow(int y, Run* runs) const;
-  int ScanRowFast(int y, Run* runs) const;
+  int ScanRow(int y, int xa, int xb, Run* runs) const;
+  int ScanRowFast(int y, int xa, int xb, Run* runs) const;
   void Accumulate(const Run& run, int y, Component* c) const;
   void Close(const Component& c);
   void Emit(const Blob& b);
@@ -606,6 +616,8 @@ class FramePass {
   detail::DetectWorkspace& ws_;
   const FrameView& f_;
   BlobList* out_;
+  PixelWindow window_;     // of the current Label
+  bool windowed_ = false;  // Label's `windowed`
 };
 
 template <typename RowT>
@@ -765,16 +777,17 @@ void ScanSpan(const RowT& row, int x, int x1, int t, int* start, Run* runs, int*
   }
 }
 
+// The runs of row y within columns [xa, xb).
 template <typename RowT>
-int FramePass<RowT>::ScanRow(int y, Run* runs) const {
+int FramePass<RowT>::ScanRow(int y, int xa, int xb, Run* runs) const {
   const RowT row = Row(y);
-  const int W = f_.width;
   const int L = ws_.segment_px;
   int n = 0;
   int start = -1;
-  for (int k = 0; k < ws_.num_segments; ++k)
-    ScanSpan(row, k * L, std::min((k + 1) * L, W), ws_.segment_thr[static_cast<std::size_t>(k)], &start, runs, &n);
-  if (start >= 0) runs[n++] = Run{start, W - 1, -1};
+  for (int k = xa / L; k * L < xb; ++k)
+    ScanSpan(row, std::max(k * L, xa), std::min((k + 1) * L, xb), ws_.segment_thr[static_cast<std::size_t>(k)], &start,
+             runs, &n);
+  if (start >= 0) runs[n++] = Run{start, xb - 1, -1};
   return n;
 }
 
@@ -782,15 +795,14 @@ int FramePass<RowT>::ScanRow(int y, Run* runs) const {
 // the row's band) holds no foreground and ends an open run at its first pixel; any other chunk is
 // scanned segment by segment with the exact thresholds, computed for this row only then.
 template <typename RowT>
-int FramePass<RowT>::ScanRowFast(int y, Run* runs) const {
+int FramePass<RowT>::ScanRowFast(int y, int xa, int xb, Run* runs) const {
   const RowT row = Row(y);
-  const int W = f_.width;
   const int L = ws_.segment_px;
   int n = 0;
   int start = -1;
   bool thresholds_ready = false;
-  for (int c = 0; c < ws_.num_chunks; ++c) {
-    const int cx0 = c * kChunkPx, cx1 = std::min(cx0 + kChunkPx, W);
+  for (int c = xa / kChunkPx; c * kChunkPx < xb; ++c) {
+    const int cx0 = std::max(c * kChunkPx, xa), cx1 = std::min((c + 1) * kChunkPx, xb);
     if (cx1 - cx0 == kChunkPx && !row.AnyAboveChunk(cx0, ws_.chunk_lb[static_cast<std::size_t>(c)])) {
       if (start >= 0) {
         runs[n++] = Run{start, cx0 - 1, -1};
@@ -806,7 +818,7 @@ int FramePass<RowT>::ScanRowFast(int y, Run* runs) const {
       ScanSpan(row, std::max(k * L, cx0), std::min((k + 1) * L, cx1), ws_.SegmentThreshold(k, Adaptive()), &start, runs,
                &n);
   }
-  if (start >= 0) runs[n++] = Run{start, W - 1, -1};
+  if (start >= 0) runs[n++] = Run{start, xb - 1, -1};
   return n;
 }
 
@@ -856,6 +868,12 @@ template <typename RowT>
 void FramePass<RowT>::Close(const Component& c) {
   DetectCounters& k = out_->counters;
   ++k.components;
+  const PixelWindow& win = window_;
+  if (windowed_ && ((c.x_min == win.x0 && win.x0 > 0) || (c.y_min == win.y0 && win.y0 > 0) ||
+                    (c.x_max == win.x1 - 1 && win.x1 < f_.width) || (c.y_max == win.y1 - 1 && win.y1 < f_.height))) {
+    ++k.rejected_window_edge;  // may continue outside the window: not the whole component
+    return;
+  }
   if (c.area < o_.min_area_px) {
     ++k.rejected_small;
     return;
@@ -930,8 +948,11 @@ void FramePass<RowT>::Emit(const Blob& b) {
 // Streaming 8-connected labelling, one row at a time. A component is closed (measured and
 // freed) at the end of the first row that does not continue it.
 template <typename RowT>
-DetectStatus FramePass<RowT>::Label() {
+DetectStatus FramePass<RowT>::Label(const PixelWindow& win, bool windowed) {
   detail::DetectWorkspace& w = ws_;
+  window_ = win;
+  windowed_ = windowed;
+  // Every label is free at the start of a window (the previous one closed all of its own).
   w.num_free = 0;
   for (int l = w.max_labels - 1; l >= 0; --l) w.free_labels[static_cast<std::size_t>(w.num_free++)] = l;
   Run* prev = w.runs_a.data();
@@ -939,11 +960,11 @@ DetectStatus FramePass<RowT>::Label() {
   int n_prev = 0;
 
   const bool fast = !o_.reference_path;
-  w.band_last = -1;
-  for (int y = 0; y < f_.height; ++y) {
+  w.band_last = win.y0 - 1;
+  for (int y = win.y0; y < win.y1; ++y) {
     if (fast && y > w.band_last) w.PrepareBand(y, Adaptive());
     if (!fast && Adaptive()) w.PrepareRow(y, true);
-    const int n_cur = fast ? ScanRowFast(y, cur) : ScanRow(y, cur);
+    const int n_cur = fast ? ScanRowFast(y, win.x0, win.x1, cur) : ScanRow(y, win.x0, win.x1, cur);
     w.num_merged = 0;
     // The background along the row (Accumulate) only where there are runs.
     if (n_cur > 0 && (fast || !Adaptive())) w.PrepareRow(y, false);
@@ -988,8 +1009,8 @@ DetectStatus FramePass<RowT>::Label() {
   }
   for (int k = 0; k < n_prev; ++k) {
     const int root = prev[k].label;  // resolved at the end of the last row
-    if (w.Comp(root).stamp != f_.height) {
-      w.Comp(root).stamp = f_.height;
+    if (w.Comp(root).stamp != win.y1) {
+      w.Comp(root).stamp = win.y1;
       Close(w.Comp(root));
       w.Release(root);
     }
@@ -1001,8 +1022,9 @@ int SaturationLevel(const DetectOptions& o, const FrameView& f) {
   return o.saturation_dn > 0 ? o.saturation_dn : f.format == PixelFormat::kMono8 ? 255 : 65535;
 }
 
+// Detection in the whole frame (`windowed` false) or in ws.windows[0, ws.num_windows).
 template <typename RowT>
-DetectStatus DetectTyped(const DetectOptions& o, detail::DetectWorkspace& ws, const FrameView& f,
+DetectStatus DetectTyped(const DetectOptions& o, detail::DetectWorkspace& ws, const FrameView& f, bool windowed,
                          BlobList* out) {
   ws.width = f.width;
   ws.height = f.height;
@@ -1014,7 +1036,57 @@ DetectStatus DetectTyped(const DetectOptions& o, detail::DetectWorkspace& ws, co
   } else {
     pass.SetUpFixed();
   }
-  return pass.Label();
+  if (!windowed) return pass.Label(PixelWindow{0, 0, f.width, f.height}, false);
+  for (int i = 0; i < ws.num_windows; ++i) {
+    PixelWindow r = ws.windows[static_cast<std::size_t>(i)];
+    r.y1 = std::min(r.y1, f.height);  // a truncated frame ends above
+    if (r.y0 >= r.y1) continue;
+    const DetectStatus s = pass.Label(r, true);
+    if (s != DetectStatus::kOk) return s;
+  }
+  return DetectStatus::kOk;
+}
+
+// Clips windows to the frame and merges those that overlap or touch (8-connectivity: one pixel
+// apart) into their bounding box, until none do; stores them in ws.windows. Returns how many
+// were dropped (empty after clipping, or beyond kMaxDetectWindows).
+int MergeWindows(const PixelWindow* in, int n, int width, int height, detail::DetectWorkspace& ws) {
+  int dropped = 0, m = 0;
+  for (int i = 0; i < std::max(n, 0); ++i) {
+    if (i >= limits::kMaxDetectWindows) {
+      dropped += n - i;
+      break;
+    }
+    PixelWindow r = in[i];
+    r.x0 = std::max(r.x0, 0);
+    r.y0 = std::max(r.y0, 0);
+    r.x1 = std::min(r.x1, width);
+    r.y1 = std::min(r.y1, height);
+    if (r.x0 >= r.x1 || r.y0 >= r.y1) {
+      ++dropped;
+      continue;
+    }
+    ws.windows[static_cast<std::size_t>(m++)] = r;
+  }
+  // Each merge removes a window: at most m - 1 merges, each found in at most m^2 pairs.
+  const auto near = [](const PixelWindow& a, const PixelWindow& b) {
+    return a.x0 <= b.x1 && b.x0 <= a.x1 && a.y0 <= b.y1 && b.y0 <= a.y1;
+  };
+  for (bool merged = true; merged;) {
+    merged = false;
+    for (int i = 0; i < m && !merged; ++i) {
+      for (int j = i + 1; j < m && !merged; ++j) {
+        PixelWindow& a = ws.windows[static_cast<std::size_t>(i)];
+        const PixelWindow b = ws.windows[static_cast<std::size_t>(j)];
+        if (!near(a, b)) continue;
+        a = PixelWindow{std::min(a.x0, b.x0), std::min(a.y0, b.y0), std::max(a.x1, b.x1), std::max(a.y1, b.y1)};
+        ws.windows[static_cast<std::size_t>(j)] = ws.windows[static_cast<std::size_t>(--m)];
+        merged = true;
+      }
+    }
+  }
+  ws.num_windows = m;
+  return dropped;
 }
 
 bool FrameIsValid(const FrameView& f) {
@@ -1145,8 +1217,24 @@ bool IsFlat(const FrameView& frame) {
 }
 }  // namespace
 
-DetectStatus BlobDetector::Detect(const FrameView& frame, const CameraIntrinsics* camera,
-                                  BlobList* out) {
+DetectStatus BlobDetector::Detect(const FrameView& frame, const CameraIntrinsics* camera, BlobList* out) {
+  return Run(frame, camera, nullptr, 0, false, out);
+}
+
+DetectStatus BlobDetector::Detect(const FrameView& frame, const CameraIntrinsics* camera, const PixelWindow* windows,
+                                  int num_windows, BlobList* out) {
+  return Run(frame, camera, windows, num_windows, true, out);
+}
+
+PixelWindow DetectionStripe(int width, int height, int index, int stripes, int margin_px) {
+  const int n = std::max(stripes, 1);
+  const int k = ((index % n) + n) % n;
+  const auto row = [&](int i) { return static_cast<int>(static_cast<long>(height) * i / n); };
+  return PixelWindow{0, std::max(row(k) - margin_px, 0), width, std::min(row(k + 1) + margin_px, height)};
+}
+
+DetectStatus BlobDetector::Run(const FrameView& frame, const CameraIntrinsics* camera, const PixelWindow* windows,
+                               int num_windows, bool windowed, BlobList* out) {
   out->count = 0;
   out->camera = frame.camera;
   out->sequence = frame.sequence;
@@ -1176,7 +1264,11 @@ DetectStatus BlobDetector::Detect(const FrameView& frame, const CameraIntrinsics
   const int saturation_level = SaturationLevel(options_, frame);
   FrameView written = frame;  // a truncated frame is detected as if it ended where writing stopped
   written.height = mono8 ? WrittenRows<Mono8Row>(frame, saturation_level) : WrittenRows<Mono16Row>(frame, saturation_level);
-  status = mono8 ? DetectTyped<Mono8Row>(options_, *ws_, written, out) : DetectTyped<Mono16Row>(options_, *ws_, written, out);
+  if (windowed)
+    out->counters.windows_dropped =
+        static_cast<std::uint64_t>(MergeWindows(windows, num_windows, frame.width, frame.height, *ws_));
+  status = mono8 ? DetectTyped<Mono8Row>(options_, *ws_, written, windowed, out)
+                 : DetectTyped<Mono16Row>(options_, *ws_, written, windowed, out);
   if (status == DetectStatus::kOk && out->counters.over_blob_limit > 0) status = DetectStatus::kBlobLimit;
   if (status == DetectStatus::kOk && out->count == 0 && IsFlat(frame)) {
     status = DetectStatus::kBlankFrame;

@@ -144,6 +144,9 @@ struct DetectCounters {
   std::uint64_t blank_frames = 0;        // kBlankFrame
   std::uint64_t truncated_frames = 0;    // kTruncatedFrame: lower rows never written
   std::uint64_t saturated_frames = 0;    // frames with a blind cell from a saturated region
+  std::uint64_t rejected_window_edge = 0;  // windowed Detect: touches its window's edge inside the
+                                           // frame (may continue outside: not measured)
+  std::uint64_t windows_dropped = 0;       // windowed Detect: empty, outside the frame or over the limit
 
   DetectCounters& operator+=(const DetectCounters& o);
 };
@@ -187,6 +190,23 @@ struct BlobList {
   DetectCounters counters;  // this frame only
 };
 
+// A rectangle of pixels [x0, x1) x [y0, y1) (windowed detection, issue 20 item 1).
+struct PixelWindow {
+  int x0 = 0;
+  int y0 = 0;
+  int x1 = 0;
+  int y1 = 0;
+};
+
+// Stripe `index` (taken modulo `stripes`) of a frame cut into `stripes` bands of rows of equal
+// height, widened by `margin_px` rows on each side (clipped to the frame), full width. Every row
+// is in stripe index mod stripes; a blob at most margin_px rows tall lies inside the stripe of
+// its top row without touching its edges, so a windowed Detect that includes stripe k of frame
+// set k finds every such blob that does not move within N = stripes frame sets, and one whose
+// image moves less than 2 margin_px - height rows (and less than a stripe) per frame set within
+// 2N - 1 (README "Windowed detection").
+PixelWindow DetectionStripe(int width, int height, int index, int stripes, int margin_px);
+
 class BlobDetector {
  public:
   // Reserves all working memory (about 0.4 MB). `max_labels` sizes the label table; the default
@@ -213,10 +233,24 @@ class BlobDetector {
   // may be half written), as in a frame that ends there: a blob cut by the end is a border blob.
   DetectStatus Detect(const FrameView& frame, const CameraIntrinsics* camera, BlobList* out);
 
+  // Windowed detection (issue 20 item 1): as Detect, but components are found only inside
+  // windows[0, num_windows) (at most limits::kMaxDetectWindows; more, empty ones and the parts
+  // outside the frame are dropped and counted in windows_dropped). Windows that overlap or touch
+  // are merged into their bounding box. The background, noise, thresholds, blind cells and the
+  // truncation and blank tests are the whole frame's, as in Detect; a component that touches
+  // its window's edge inside the frame may continue outside it and is rejected
+  // (rejected_window_edge). So every blob found is the one Detect finds, bit for bit (centroid,
+  // flux, moments, gates; test WindowedEqualsFullFrame); blobs outside the windows are missing.
+  DetectStatus Detect(const FrameView& frame, const CameraIntrinsics* camera, const PixelWindow* windows,
+                      int num_windows, BlobList* out);
+
   const DetectOptions& options() const { return options_; }
   const DetectCounters& counters() const { return counters_; }  // since construction
 
  private:
+  DetectStatus Run(const FrameView& frame, const CameraIntrinsics* camera, const PixelWindow* windows, int num_windows,
+                   bool windowed, BlobList* out);
+
   DetectOptions options_;
   bool options_valid_ = false;
   DetectCounters counters_;

@@ -100,6 +100,30 @@ void BM_DetectAdaptiveTile64(benchmark::State& state) {
   RunDetector(state, o);
 }
 
+// Windowed detection while tracking (issue 20 item 1): 33 x 33 px windows around the 10 spots
+// plus one of 8 stripes (1/8 of the rows + 2 x 16 margin rows), default options.
+void BM_DetectWindowed(benchmark::State& state) {
+  const FrameView& view = Frame().view;
+  BlobDetector detector;
+  static BlobList full, out;
+  detector.Detect(view, nullptr, &full);
+  std::vector<PixelWindow> windows;
+  for (int i = 0; i < full.count; ++i) {
+    const auto& b = full.blobs[static_cast<std::size_t>(i)];
+    const int u = static_cast<int>(b.uv_px.x()), v = static_cast<int>(b.uv_px.y());
+    windows.push_back(PixelWindow{u - 16, v - 16, u + 17, v + 17});
+  }
+  windows.push_back(PixelWindow{});
+  int frame_set = 0;
+  for (auto _ : state) {
+    windows.back() = DetectionStripe(view.width, view.height, frame_set++, 8, 16);
+    detector.Detect(view, nullptr, windows.data(), static_cast<int>(windows.size()), &out);
+    benchmark::DoNotOptimize(out.blobs.data());
+    benchmark::ClobberMemory();
+  }
+  state.counters["blobs"] = out.count;
+}
+
 void BM_DetectFixed(benchmark::State& state) {
   DetectOptions o;
   o.threshold_mode = ThresholdMode::kFixed;
@@ -113,6 +137,7 @@ BENCHMARK(BM_DetectAdaptive)->MeasureProcessCPUTime()->Unit(benchmark::kMicrosec
 BENCHMARK(BM_DetectAdaptiveBefore)->MeasureProcessCPUTime()->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_DetectAdaptiveIssue4Sampling)->MeasureProcessCPUTime()->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_DetectAdaptiveTile64)->MeasureProcessCPUTime()->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_DetectWindowed)->MeasureProcessCPUTime()->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_DetectFixed)->MeasureProcessCPUTime()->Unit(benchmark::kMicrosecond);
 
 #ifdef MFNS_HAVE_OPENCV
