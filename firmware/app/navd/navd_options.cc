@@ -27,50 +27,19 @@ bool HasMavlinkOutput(const NavdOptions& o) {
 }
 
 enum : int {
-  kParams = 1000,
-  kRealtime,
-  kSource,
-  kDevice,
-  kY16,
-  kBuffers,
-  kRate,
-  kTrigger,
-  kPulse,
-  kOutput,
-  kLog,
-  kFrames,
-  kTimeout,
-  kDeadline,
-  kSigma,
-  kHealthEvery,
-  kRetryEvery,
-  kSetAside,
-  kInitialPose,
-  kInitialSigma,
-  kPidFile,
-  kQuiet,
-  kHelp,
-  kMavlinkSysid,
-  kMavlinkCompid,
-  kMavlinkFrame,
-  kNoWindowed
+  kParams = 1000, kRealtime, kSource, kDevice, kY16, kBuffers, kRate, kTrigger, kPulse, kOutput, kLog, kFrames, kTimeout,
+  kDeadline, kSigma, kHealthEvery, kRetryEvery, kSetAside, kInitialPose, kInitialSigma, kPidFile, kQuiet, kHelp,
+  kMavlinkSysid, kMavlinkCompid, kMavlinkFrame, kNoWindowed
 };
 
 const option kLongOptions[] = {
-    {"params", required_argument, nullptr, kParams},
-    {"source", required_argument, nullptr, kSource},
-    {"device", required_argument, nullptr, kDevice},
-    {"y16", no_argument, nullptr, kY16},
-    {"buffers", required_argument, nullptr, kBuffers},
-    {"rate-hz", required_argument, nullptr, kRate},
-    {"trigger", required_argument, nullptr, kTrigger},
-    {"trigger-pulse-us", required_argument, nullptr, kPulse},
-    {"output", required_argument, nullptr, kOutput},
-    {"log", required_argument, nullptr, kLog},
-    {"frames", required_argument, nullptr, kFrames},
-    {"timeout-ms", required_argument, nullptr, kTimeout},
-    {"deadline-ms", required_argument, nullptr, kDeadline},
-    {"sigma-px", required_argument, nullptr, kSigma},
+    {"params", required_argument, nullptr, kParams},       {"source", required_argument, nullptr, kSource},
+    {"device", required_argument, nullptr, kDevice},       {"y16", no_argument, nullptr, kY16},
+    {"buffers", required_argument, nullptr, kBuffers},     {"rate-hz", required_argument, nullptr, kRate},
+    {"trigger", required_argument, nullptr, kTrigger},     {"trigger-pulse-us", required_argument, nullptr, kPulse},
+    {"output", required_argument, nullptr, kOutput},       {"log", required_argument, nullptr, kLog},
+    {"frames", required_argument, nullptr, kFrames},       {"timeout-ms", required_argument, nullptr, kTimeout},
+    {"deadline-ms", required_argument, nullptr, kDeadline}, {"sigma-px", required_argument, nullptr, kSigma},
     {"health-every", required_argument, nullptr, kHealthEvery},
     {"camera-retry-every", required_argument, nullptr, kRetryEvery},
     {"camera-timeouts", required_argument, nullptr, kSetAside},
@@ -81,9 +50,7 @@ const option kLongOptions[] = {
     {"mavlink-compid", required_argument, nullptr, kMavlinkCompid},
     {"mavlink-frame", required_argument, nullptr, kMavlinkFrame},
     {"no-windowed-detection", no_argument, nullptr, kNoWindowed},
-    {"realtime", no_argument, nullptr, kRealtime},
-    {"quiet", no_argument, nullptr, kQuiet},
-    {"help", no_argument, nullptr, kHelp},
+    {"realtime", no_argument, nullptr, kRealtime},         {"quiet", no_argument, nullptr, kQuiet},               {"help", no_argument, nullptr, kHelp},
     {nullptr, 0, nullptr, 0},
 };
 
@@ -325,9 +292,7 @@ OptionsStatus ParseNavdOptions(int argc, char** argv, NavdOptions* opt, char* wh
         break;
       case kQuiet: opt->quiet = true; break;
       case kRealtime: opt->realtime = true; break;
-      case kNoWindowed:
-        opt->windowed_detection = false;
-        break;
+      case kNoWindowed: opt->windowed_detection = false; break;
       case kHelp: opt->help = true; return OptionsStatus::kHelp;
       default: {
         const char* bad = (optind >= 1 && optind <= argc) ? argv[optind - 1] : "?";
