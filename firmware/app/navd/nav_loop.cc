@@ -27,8 +27,11 @@ bool NavLoop::Configure(const NavLoopConfig& config, const char** why) {
              !(config.reload_sigma_rad >= 0) || !config.initial_pose.r_w_wb.allFinite() ||
              !config.initial_pose.C_w_b.allFinite()) {
     reason = "the initial pose and the pose sigmas must be finite, sigmas >= 0";
-  } else if (config.window_half_px < 1 || config.detection_stripes < 1 || config.stripe_margin_px < 0) {
-    reason = "window_half_px and detection_stripes must be positive, stripe_margin_px >= 0";
+  } else if (config.window_half_px < 1 || config.max_window_half_px < config.window_half_px ||
+             !(config.window_sigmas >= 0) || config.detection_stripes < 1 || config.stripe_margin_px < 0) {
+    reason =
+        "window_half_px and detection_stripes must be positive, max_window_half_px >= window_half_px, "
+        "window_sigmas and stripe_margin_px >= 0";
   }
   if (reason != nullptr) {
     if (why != nullptr) *why = reason;
@@ -66,14 +69,27 @@ bool NavLoop::Reload(const Rig& rig, std::uint64_t generation, const char** why)
 
 int NavLoop::PlanWindows(int k, int width, int height, const BodyPose& pose) {
   const RigCamera& cam = rig_->cameras[static_cast<std::size_t>(k)];
-  const int half = config_.window_half_px;
+  // The window grows by window_sigmas image sigmas of the beacon under the last pose's
+  // covariance (J_uv_pose C J_uv_pose^T), up to max_window_half_px in all.
+  const SolveResult& solve = navigator_.last_track().solve;
+  const bool has_cov = solve.has_covariance && solve.covariance.allFinite();
   int n = 0;
-  windows_[0] = DetectionStripe(width, height, static_cast<int>(counters_.frame_sets % 1000000007u),
-                                config_.detection_stripes, config_.stripe_margin_px);
+  const auto stripe = static_cast<int>(counters_.frame_sets % static_cast<std::uint64_t>(config_.detection_stripes));
+  windows_[0] = DetectionStripe(width, height, stripe, config_.detection_stripes, config_.stripe_margin_px);
   ++n;
   for (int m = 0; m < rig_->num_beacons; ++m) {
     Eigen::Vector2d uv;
-    if (ProjectBeacon(cam, pose, rig_->beacons_w[static_cast<std::size_t>(m)], &uv) != ProjectStatus::kOk) continue;
+    Eigen::Matrix<double, 2, 6> J;
+    if (ProjectBeacon(cam, pose, rig_->beacons_w[static_cast<std::size_t>(m)], &uv, has_cov ? &J : nullptr) !=
+        ProjectStatus::kOk)
+      continue;
+    double grow = 0.0;
+    if (has_cov) {
+      const Eigen::Matrix2d S = J * solve.covariance * J.transpose();
+      grow = config_.window_sigmas * std::sqrt(std::max({S(0, 0), S(1, 1), 0.0}));
+    }
+    const int half = static_cast<int>(
+        std::min(config_.window_half_px + std::ceil(grow), static_cast<double>(config_.max_window_half_px)));
     if (uv.x() < -half || uv.y() < -half || uv.x() > width + half || uv.y() > height + half) continue;
     if (n == limits::kMaxDetectWindows) return 0;
     const int u = static_cast<int>(std::lround(uv.x())), v = static_cast<int>(std::lround(uv.y()));

@@ -43,13 +43,15 @@ struct NavLoopConfig {
   double reload_sigma_m = 0.01, reload_sigma_rad = 0.01;
   // Windowed detection while tracking (issue 20 item 1; --no-windowed-detection turns it off):
   // with a pose from the last frame set (fix or degraded), each camera's frame is detected only
-  // in windows of +-window_half_px around the pixels of the beacons projected at that pose, plus
+  // in windows about the pixels of the beacons projected at that pose (half-size below), plus
   // stripe (frame set mod detection_stripes) of DetectionStripe with stripe_margin_px rows of
   // margin, so that every row is scanned once every detection_stripes frame sets (a blob the map
   // does not predict, a reflection, is found within that many, detect.h). Lost or acquiring,
   // or more beacons predicted in a camera than windows allow: full frames.
   bool windowed_detection = true;
-  int window_half_px = 48;  // the spot (a few px) plus the motion of one frame set (~40 px)
+  int window_half_px = 48;       // the spot (a few px) plus the motion of one frame set (~40 px),
+  double window_sigmas = 3.0;    // plus this many image sigmas of the beacon under the pose's
+  int max_window_half_px = 256;  // covariance (SolveResult), up to this half-size in all
   int detection_stripes = 8;
   int stripe_margin_px = 24;
 };
