@@ -209,8 +209,12 @@ struct Outcomes {
   }
 };
 
+// Argument: NavLoopConfig::windowed_detection (1, the default: windows about the predicted
+// beacons plus a stripe while tracking; 0: full frames, issue 20 item 1).
 void BM_FrameSet_NavLoop(benchmark::State& state) {
   const FrameSets& fs = Sets();
+  NavLoopConfig config;
+  config.windowed_detection = state.range(0) != 0;
   InProcessSource source(fs.rig.num_cameras);
   if (source.Start() != SourceStatus::kOk) {
     state.SkipWithError("InProcessSource::Start failed");
@@ -218,7 +222,7 @@ void BM_FrameSet_NavLoop(benchmark::State& state) {
   }
   auto loop = std::make_unique<NavLoop>(fs.rig, &source, nullptr, nullptr, nullptr);
   const char* why = nullptr;
-  if (!loop->Configure(NavLoopConfig{}, &why)) {
+  if (!loop->Configure(config, &why)) {
     state.SkipWithError(why);
     return;
   }
@@ -238,7 +242,7 @@ void BM_FrameSet_NavLoop(benchmark::State& state) {
   // A cold start: Configure re-initialises the navigator (Reload would keep the track going
   // from the last pose, and the pass restarts at yaw 0).
   const auto restart = [&]() {
-    if (!loop->Configure(NavLoopConfig{}, nullptr)) state.SkipWithError("NavLoop::Configure failed");
+    if (!loop->Configure(config, nullptr)) state.SkipWithError("NavLoop::Configure failed");
   };
   for (auto _ : state) {
     const std::size_t f = NextTimed(state, &r, restart, step);
@@ -249,6 +253,7 @@ void BM_FrameSet_NavLoop(benchmark::State& state) {
   state.counters["steps_counted"] = static_cast<double>(r.n);
   state.counters["allocs_in_step"] = static_cast<double>(allocs);
   state.counters["deadline_slips"] = static_cast<double>(loop->counters().deadline_slips);
+  state.counters["windowed_frames"] = static_cast<double>(loop->counters().windowed_frames);
 }
 
 // Detection of one frame set into BlobObs (as NavLoop::AcquireAll does).
@@ -444,7 +449,7 @@ void BM_FrameSet_OpenCvBaseline(benchmark::State& state) {
   state.SetItemsProcessed(static_cast<std::int64_t>(n));
 }
 
-BENCHMARK(BM_FrameSet_NavLoop)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_FrameSet_NavLoop)->ArgName("windowed")->Arg(1)->Arg(0)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_FrameSet_Stages)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_FrameSet_LostInSpaceEverySet)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_FrameSet_OpenCvBaseline)->ArgName("cv_threads")->Arg(1)->Unit(benchmark::kMillisecond);

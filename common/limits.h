@@ -57,6 +57,8 @@ inline constexpr int kMaxObservations = kMaxCameras * kMaxBlobsPerFrame;
 // so this label table can never overflow for frames within kMaxImageWidth.
 inline constexpr int kMaxRunsPerRow = (kMaxImageWidth + 1) / 2;
 inline constexpr int kMaxBlobLabels = 2 * kMaxRunsPerRow;
+// Windowed detection (issue 20 item 1): windows of one BlobDetector::Detect call.
+inline constexpr int kMaxDetectWindows = 64;
 // Adaptive background mesh of the detector: tiles per axis and sparse samples per tile.
 inline constexpr int kMaxBackgroundTilesPerAxis = 64;
 inline constexpr int kMaxBackgroundSamplesPerTile = 1024;

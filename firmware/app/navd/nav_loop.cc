@@ -27,6 +27,11 @@ bool NavLoop::Configure(const NavLoopConfig& config, const char** why) {
              !(config.reload_sigma_rad >= 0) || !config.initial_pose.r_w_wb.allFinite() ||
              !config.initial_pose.C_w_b.allFinite()) {
     reason = "the initial pose and the pose sigmas must be finite, sigmas >= 0";
+  } else if (config.window_half_px < 1 || config.max_window_half_px < config.window_half_px ||
+             !(config.window_sigmas >= 0) || config.detection_stripes < 1 || config.stripe_margin_px < 0) {
+    reason =
+        "window_half_px and detection_stripes must be positive, max_window_half_px >= window_half_px, "
+        "window_sigmas and stripe_margin_px >= 0";
   }
   if (reason != nullptr) {
     if (why != nullptr) *why = reason;
@@ -62,8 +67,41 @@ bool NavLoop::Reload(const Rig& rig, std::uint64_t generation, const char** why)
   return ok;
 }
 
+int NavLoop::PlanWindows(int k, int width, int height, const BodyPose& pose) {
+  const RigCamera& cam = rig_->cameras[static_cast<std::size_t>(k)];
+  // The window grows by window_sigmas image sigmas of the beacon under the last pose's
+  // covariance (J_uv_pose C J_uv_pose^T), up to max_window_half_px in all.
+  const SolveResult& solve = navigator_.last_track().solve;
+  const bool has_cov = solve.has_covariance && solve.covariance.allFinite();
+  int n = 0;
+  const auto stripe = static_cast<int>(counters_.frame_sets % static_cast<std::uint64_t>(config_.detection_stripes));
+  windows_[0] = DetectionStripe(width, height, stripe, config_.detection_stripes, config_.stripe_margin_px);
+  ++n;
+  for (int m = 0; m < rig_->num_beacons; ++m) {
+    Eigen::Vector2d uv;
+    Eigen::Matrix<double, 2, 6> J;
+    if (ProjectBeacon(cam, pose, rig_->beacons_w[static_cast<std::size_t>(m)], &uv, has_cov ? &J : nullptr) !=
+        ProjectStatus::kOk)
+      continue;
+    double grow = 0.0;
+    if (has_cov) {
+      const Eigen::Matrix2d S = J * solve.covariance * J.transpose();
+      grow = config_.window_sigmas * std::sqrt(std::max({S(0, 0), S(1, 1), 0.0}));
+    }
+    const int half = static_cast<int>(
+        std::min(config_.window_half_px + std::ceil(grow), static_cast<double>(config_.max_window_half_px)));
+    if (uv.x() < -half || uv.y() < -half || uv.x() > width + half || uv.y() > height + half) continue;
+    if (n == limits::kMaxDetectWindows) return 0;
+    const int u = static_cast<int>(std::lround(uv.x())), v = static_cast<int>(std::lround(uv.y()));
+    windows_[static_cast<std::size_t>(n++)] = PixelWindow{u - half, v - half, u + half + 1, v + half + 1};
+  }
+  return n;
+}
+
 bool NavLoop::AcquireAll(std::uint64_t* t_capture_ns, bool* all_ended, std::uint32_t* delivered_set) {
   num_obs_ = 0;
+  BodyPose pose;
+  const bool windowed = config_.windowed_detection && navigator_.LastPose(&pose);
   *t_capture_ns = 0;
   *delivered_set = 0;
   int ended = 0, delivered = 0;
@@ -100,7 +138,13 @@ bool NavLoop::AcquireAll(std::uint64_t* t_capture_ns, bool* all_ended, std::uint
     sup.consecutive_failures = 0;
     ++delivered;
     stamps_[ks] = view.t_capture_ns;
-    const DetectStatus d = detectors_[ks].Detect(view, &rig_->cameras[ks].intrinsics, &lists_[ks]);
+    const int num_windows = windowed ? PlanWindows(k, view.width, view.height, pose) : 0;
+    if (windowed && num_windows == 0) ++counters_.windowed_fallbacks;
+    counters_.windowed_frames += num_windows > 0 ? 1 : 0;
+    const CameraIntrinsics* intrinsics = &rig_->cameras[ks].intrinsics;
+    const DetectStatus d = num_windows > 0
+                               ? detectors_[ks].Detect(view, intrinsics, windows_.data(), num_windows, &lists_[ks])
+                               : detectors_[ks].Detect(view, intrinsics, &lists_[ks]);
     source_->Release(k);
     if (d == DetectStatus::kBlankFrame) {
       ++sup.blank_frames;  // no information (a stuck sensor): as if the camera had not delivered

@@ -41,6 +41,19 @@ struct NavLoopConfig {
   // A reload keeps the track: the last pose seeds the new rig's with these 1-sigma errors
   // (a new calibration moves the solved pose by millimetres and milliradians).
   double reload_sigma_m = 0.01, reload_sigma_rad = 0.01;
+  // Windowed detection while tracking (issue 20 item 1; --no-windowed-detection turns it off):
+  // with a pose from the last frame set (fix or degraded), each camera's frame is detected only
+  // in windows about the pixels of the beacons projected at that pose (half-size below), plus
+  // stripe (frame set mod detection_stripes) of DetectionStripe with stripe_margin_px rows of
+  // margin, so that every row is scanned once every detection_stripes frame sets (a blob the map
+  // does not predict, a reflection, is found within that many, detect.h). Lost or acquiring,
+  // or more beacons predicted in a camera than windows allow: full frames.
+  bool windowed_detection = true;
+  int window_half_px = 48;       // the spot (a few px) plus the motion of one frame set (~40 px),
+  double window_sigmas = 3.0;    // plus this many image sigmas of the beacon under the pose's
+  int max_window_half_px = 256;  // covariance (SolveResult), up to this half-size in all
+  int detection_stripes = 8;
+  int stripe_margin_px = 24;
 };
 
 enum class StepStatus : unsigned char { kOk = 0, kEndOfStream, kNotStarted };
@@ -74,6 +87,8 @@ struct LoopCounters {
   // timeouts): the driver clock stepped forward, or the loop stood still that long. The time is
   // kept (it may be real); the health message counts these among its clock_faults.
   std::uint64_t stamp_jumps = 0;
+  std::uint64_t windowed_frames = 0;     // frames detected in windows (NavLoopConfig::windowed_detection)
+  std::uint64_t windowed_fallbacks = 0;  // tracking, but more beacons predicted than windows: full frame
   std::array<std::uint64_t, static_cast<std::size_t>(NavReason::kCount)> by_reason{};
 };
 
@@ -107,10 +122,16 @@ class NavLoop {
   const BlobObs* observations() const { return obs_.data(); }
   int num_observations() const { return num_obs_; }
   const NavOutput& last_output() const { return nav_; }
+  // Camera k's blob list of the last frame set (count 0 when it delivered no usable frame).
+  const BlobList& blobs(int k) const { return lists_[static_cast<std::size_t>(k)]; }
   HealthRecord Health() const;
 
  private:
   bool AcquireAll(std::uint64_t* t_capture_ns, bool* all_ended, std::uint32_t* delivered);
+  // The windows of camera k for a frame of width x height at `pose` (windowed_detection): the
+  // stripe of this frame set and a window about each beacon projected into the frame; 0 when
+  // they do not fit in limits::kMaxDetectWindows (detect the full frame).
+  int PlanWindows(int k, int width, int height, const BodyPose& pose);
   std::uint64_t DropStaleFrames(std::uint32_t* delivered_set);
   bool CheckClock(std::uint64_t* t_capture_ns);
   void CarryMissingPeriods(std::uint64_t driver_t_ns);
@@ -127,6 +148,7 @@ class NavLoop {
   NavLoopConfig config_;
   std::array<BlobDetector, limits::kMaxCameras> detectors_;
   std::array<BlobList, limits::kMaxCameras> lists_{};
+  std::array<PixelWindow, limits::kMaxDetectWindows> windows_{};  // one camera's, this frame set
   std::array<BlobObs, limits::kMaxObservations> obs_{};
   std::array<std::uint64_t, limits::kMaxCameras> stamps_{};  // this frame set's, per camera (0: none)
   int num_obs_ = 0;

@@ -157,6 +157,7 @@ int Run(int argc, char** argv) {
   config.has_initial_pose = InitialPoseOf(opt, &config.initial_pose);
   config.initial_sigma_m = opt.initial_sigma_mm * 1e-3;
   config.initial_sigma_rad = DegToRad(opt.initial_sigma_deg);
+  config.windowed_detection = opt.windowed_detection;
   auto loop = std::make_unique<NavLoop>(rig, source.get(), &trigger, &outputs, &log);
   const char* reason = nullptr;
   if (!loop->Configure(config, &reason)) {

@@ -29,7 +29,7 @@ bool HasMavlinkOutput(const NavdOptions& o) {
 enum : int {
   kParams = 1000, kRealtime, kSource, kDevice, kY16, kBuffers, kRate, kTrigger, kPulse, kOutput, kLog, kFrames, kTimeout,
   kDeadline, kSigma, kHealthEvery, kRetryEvery, kSetAside, kInitialPose, kInitialSigma, kPidFile, kQuiet, kHelp,
-  kMavlinkSysid, kMavlinkCompid, kMavlinkFrame
+  kMavlinkSysid, kMavlinkCompid, kMavlinkFrame, kNoWindowed
 };
 
 const option kLongOptions[] = {
@@ -49,6 +49,7 @@ const option kLongOptions[] = {
     {"mavlink-sysid", required_argument, nullptr, kMavlinkSysid},
     {"mavlink-compid", required_argument, nullptr, kMavlinkCompid},
     {"mavlink-frame", required_argument, nullptr, kMavlinkFrame},
+    {"no-windowed-detection", no_argument, nullptr, kNoWindowed},
     {"realtime", no_argument, nullptr, kRealtime},         {"quiet", no_argument, nullptr, kQuiet},               {"help", no_argument, nullptr, kHelp},
     {nullptr, 0, nullptr, 0},
 };
@@ -146,6 +147,8 @@ const char* NavdUsage() {
          "  --pid-file PATH         pid file for mfns-paramctl's reload signal (default /run/mfns-navd.pid; '' = none)\n"
          "  --quiet                 no per-second status line on stderr\n"
          "  --realtime              replay: deliver each frame set at its recorded time, not as fast as read\n"
+         "  --no-windowed-detection detect in full frames also while tracking (default: windows about the\n"
+         "                          predicted beacons plus a stripe, docs/navd.md)\n"
          "  --help                  this text\n";
 }
 
@@ -289,6 +292,7 @@ OptionsStatus ParseNavdOptions(int argc, char** argv, NavdOptions* opt, char* wh
         break;
       case kQuiet: opt->quiet = true; break;
       case kRealtime: opt->realtime = true; break;
+      case kNoWindowed: opt->windowed_detection = false; break;
       case kHelp: opt->help = true; return OptionsStatus::kHelp;
       default: {
         const char* bad = (optind >= 1 && optind <= argc) ? argv[optind - 1] : "?";

@@ -55,6 +55,7 @@ struct NavdOptions {
   Path pid_file{};               // --pid-file ("" = none); default /run/mfns-navd.pid
   bool quiet = false;
   bool realtime = false;  // replay: each frame set at its recorded time (ReplayConfig::realtime)
+  bool windowed_detection = true;  // --no-windowed-detection: full frames always (NavLoopConfig)
   bool help = false;
 };
 

@@ -50,6 +50,11 @@ TEST(NavdOptions, TheDesignCommandLine) {
   EXPECT_EQ(o.timeout_ms, 161);
   EXPECT_NEAR(o.deadline_ms, 53.763, 1e-3);
   EXPECT_EQ(o.health_every, 19);
+  EXPECT_TRUE(o.windowed_detection);  // issue 20 item 1: on unless turned off
+  NavdOptions off;
+  ASSERT_EQ(Parse({"--params", "p", "--source", "replay:d", "--no-windowed-detection"}, &off, &why), OptionsStatus::kOk)
+      << why;
+  EXPECT_FALSE(off.windowed_detection);
 }
 
 // --initial-pose is in the poses CSV's terms: the pose it gives, logged, reads back the same

@@ -17,6 +17,11 @@ constexpr int kMinTilePx =
 // background slope (error <= 8 px x slope), long enough for the vectorised background skip.
 constexpr int kSegmentPx = 16;
 constexpr int kMaxSegments = (limits::kMaxImageWidth + kSegmentPx - 1) / kSegmentPx;
+// The fast path tests a row kChunkPx pixels at a time against a lower bound of the thresholds of
+// the chunk's segments (issue 20 item 2); a multiple of kSegmentPx.
+constexpr int kChunkPx = 128;
+constexpr int kMaxChunks = (limits::kMaxImageWidth + kChunkPx - 1) / kChunkPx;
+static_assert(kChunkPx % kSegmentPx == 0);
 constexpr double kPixelVariance = 1.0 / 12.0;  // variance of a uniform 1 px box
 constexpr double kMadToSigma = 1.4826;          // Gaussian sigma / median absolute deviation
 constexpr double kClipSigmas = 3.5;             // background samples kept within this
@@ -44,22 +49,53 @@ struct Component {
 using U8x16 = std::uint8_t __attribute__((vector_size(16)));
 using U16x8 = std::uint16_t __attribute__((vector_size(16)));
 
+// Whether any lane of a vector comparison result is set.
+template <typename V>
+bool AnyLane(const V& mask) {
+  static_assert(sizeof(V) == 16);
+  std::uint64_t h[2];
+  std::memcpy(h, &mask, sizeof h);
+  return (h[0] | h[1]) != 0;
+}
+
+// Whether any of the kChunkPx pixels from p (pixel type V's lanes) exceeds t: the lane-wise
+// maximum of the chunk's vectors against t, one comparison a chunk.
+template <typename V, typename Lane>
+bool ChunkAbove(const std::uint8_t* p, int t) {
+  constexpr int kVectors = kChunkPx * static_cast<int>(sizeof(Lane)) / static_cast<int>(sizeof(V));
+  V m0, m1;  // two independent chains of maxima
+  std::memcpy(&m0, p, sizeof m0);
+  std::memcpy(&m1, p + sizeof(V), sizeof m1);
+  for (int i = 2; i < kVectors; i += 2) {
+    V a, b;
+    std::memcpy(&a, p + i * static_cast<int>(sizeof(V)), sizeof a);
+    std::memcpy(&b, p + (i + 1) * static_cast<int>(sizeof(V)), sizeof b);
+    m0 = a > m0 ? a : m0;
+    m1 = b > m1 ? b : m1;
+  }
+  m0 = m1 > m0 ? m1 : m0;
+  return AnyLane(m0 > static_cast<Lane>(t));
+}
+
 struct Mono8Row {
   static constexpr int kBlock = 16;  // pixels per AnyAbove
+  static constexpr int kFullScale = 255;
   const std::uint8_t* p;
   int operator[](int x) const { return p[x]; }
   bool AnyAbove(int x, int t) const {
     U8x16 v;
     std::memcpy(&v, p + x, sizeof v);
-    const auto gt = v > static_cast<std::uint8_t>(std::min(t, 255));
-    std::uint64_t h[2];
-    std::memcpy(h, &gt, sizeof h);
-    return (h[0] | h[1]) != 0;
+    return AnyLane(v > static_cast<std::uint8_t>(std::min(t, 255)));
+  }
+  // Pixels [x, x + kChunkPx): any > t (t < 0: always true).
+  bool AnyAboveChunk(int x, int t) const {
+    return t < 0 || (t < kFullScale && ChunkAbove<U8x16, std::uint8_t>(p + x, t));
   }
 };
 
 struct Mono16Row {
   static constexpr int kBlock = 8;
+  static constexpr int kFullScale = 65535;
   const std::uint8_t* p;
   int operator[](int x) const {
     std::uint16_t v;
@@ -69,10 +105,10 @@ struct Mono16Row {
   bool AnyAbove(int x, int t) const {
     U16x8 v;
     std::memcpy(&v, p + 2 * static_cast<std::ptrdiff_t>(x), sizeof v);
-    const auto gt = v > static_cast<std::uint16_t>(std::min(t, 65535));
-    std::uint64_t h[2];
-    std::memcpy(h, &gt, sizeof h);
-    return (h[0] | h[1]) != 0;
+    return AnyLane(v > static_cast<std::uint16_t>(std::min(t, 65535)));
+  }
+  bool AnyAboveChunk(int x, int t) const {
+    return t < 0 || (t < kFullScale && ChunkAbove<U16x8, std::uint16_t>(p + 2 * static_cast<std::ptrdiff_t>(x), t));
   }
 };
 
@@ -85,7 +121,9 @@ void Bracket(const double* c, int n, int tile, double t, int* i, double* f) {
     *f = 0.0;
     return;
   }
-  int k = std::clamp(static_cast<int>(std::floor(t / tile)), 0, n - 1);
+  // Truncation instead of floor: they differ only for t < 0, where both clamp to 0 (and x86-64's
+  // baseline has no inline floor: a libm call per pixel of every run).
+  int k = std::clamp(static_cast<int>(t / tile), 0, n - 1);
   if (t < c[k] && k > 0) --k;
   k = std::min(k, n - 2);
   *i = k;
@@ -106,6 +144,23 @@ double Interpolate(const double* c, const double* v, int n, int tile, double t) 
 // selection otherwise.
 constexpr int kHistogramBins = 1024;
 
+// The median bin m (rank n / 2, 0-based) and the MAD d in bins of a histogram of n values over
+// `range` bins (both paths: MedianMad and HistogramClippedMeanRms).
+void HistogramMedianMad(const int* hist, int range, int n, int* m_out, int* d_out) {
+  const int half = n / 2;
+  int m = 0;
+  for (int seen = hist[0]; seen <= half; seen += hist[++m]) {
+  }
+  // Rank n / 2 of |v - median|: widen a window about the median until it holds more.
+  int d = 0;
+  for (int seen = hist[m]; seen <= half; ++d) {
+    if (m - d - 1 >= 0) seen += hist[m - d - 1];
+    if (m + d + 1 < range) seen += hist[m + d + 1];
+  }
+  *m_out = m;
+  *d_out = d;
+}
+
 // `max_abs`: a bound on |v| known in advance (255 for mono8), or 0 to find the range.
 void MedianMad(int* v, int n, int max_abs, int* hist, int* scratch, int* median, int* mad) {
   int lo = -max_abs, range = 2 * max_abs + 1;
@@ -119,16 +174,8 @@ void MedianMad(int* v, int n, int max_abs, int* hist, int* scratch, int* median,
     std::fill_n(hist, range, 0);
     for (int k = 0; k < n; ++k) ++hist[v[k] - lo];
     int m = 0;
-    for (int seen = hist[0]; seen <= half; seen += hist[++m]) {
-    }
+    HistogramMedianMad(hist, range, n, &m, mad);
     *median = lo + m;
-    // Rank n / 2 of |v - median|: widen a window about the median until it holds more.
-    int d = 0;
-    for (int seen = hist[m]; seen <= half; ++d) {
-      if (m - d - 1 >= 0) seen += hist[m - d - 1];
-      if (m + d + 1 < range) seen += hist[m + d + 1];
-    }
-    *mad = d;
     return;
   }
   std::nth_element(v, v + half, v + n);
@@ -157,6 +204,39 @@ void ClippedMeanRms(int* v, int n, int max_abs, int* hist, int* scratch, double*
   *rms = std::sqrt(std::max(sum2 / m - mu * mu, 0.0));
 }
 
+// ClippedMeanRms from the histogram of the values (hist[b]: how many equal lo + b, b < range;
+// n in all), bit for bit (the fast path; the reference path keeps ClippedMeanRms): the median and
+// MAD loops are MedianMad's, which give the same ranks whatever empty bins lie outside the
+// values' range; the clipped sums are sums of integers below 2^53, exact in any order, so equal
+// to the sample loop's.
+void HistogramClippedMeanRms(const int* hist, int range, int n, int lo, double* mean, double* rms) {
+  int m = 0, d = 0;
+  HistogramMedianMad(hist, range, n, &m, &d);
+  const double clip = kClipSigmas * std::max(kMadToSigma * d, 1.0);
+  const int reach = static_cast<int>(clip);  // |e| <= clip <=> |e| <= floor(clip) for integers; clip > 0
+  std::int64_t sum = 0, sum2 = 0, count = 0;
+  for (int b = std::max(m - reach, 0); b <= std::min(m + reach, range - 1); ++b) {
+    const std::int64_t c = hist[b], e = b - m;
+    sum += c * e;
+    sum2 += c * e * e;
+    count += c;
+  }
+  const double mu = static_cast<double>(sum) / static_cast<double>(count);
+  *mean = lo + m + mu;
+  *rms = std::sqrt(std::max(static_cast<double>(sum2) / static_cast<double>(count) - mu * mu, 0.0));
+}
+
+// The same from the values v[0..n-1], all in [lo, hi]; false when hi - lo + 1 > kHistogramBins
+// (the caller falls back to ClippedMeanRms).
+bool HistogramClippedMeanRms(const int* v, int n, int lo, int hi, int* hist, double* mean, double* rms) {
+  const int range = hi - lo + 1;
+  if (range > kHistogramBins) return false;
+  std::fill_n(hist, range, 0);
+  for (int k = 0; k < n; ++k) ++hist[v[k] - lo];
+  HistogramClippedMeanRms(hist, range, n, lo, mean, rms);
+  return true;
+}
+
 void AddComponent(Component* into, const Component& from) {
   into->s0 += from.s0;
   into->sx += from.sx;
@@ -172,6 +252,26 @@ void AddComponent(Component* into, const Component& from) {
   into->x_max = std::max(into->x_max, from.x_max);
   into->y_min = std::min(into->y_min, from.y_min);
   into->y_max = std::max(into->y_max, from.y_max);
+}
+
+// The threshold (DN) of a row segment whose background lies between a (tile-centre row j) and
+// b (row j + 1) at fraction f: the one expression of both paths, so they agree bit for bit.
+// pixel > t <=> pixel > floor(t) for integer pixels; t is clamped >= 0, so truncate.
+int SegmentThresholdOf(double a, double b, double f, double contrast, double top) {
+  return static_cast<int>(std::clamp(a + f * (b - a) + contrast, 0.0, top));
+}
+
+// The median of 9 values (the value nth_element would put at rank 4): a 19-exchange network.
+double MedianOf9(std::array<double, 9>& p) {
+  const auto sort2 = [&p](std::size_t a, std::size_t b) {  // branch-free: minsd / maxsd
+    const double lo = std::min(p[a], p[b]), hi = std::max(p[a], p[b]);
+    p[a] = lo;
+    p[b] = hi;
+  };
+  sort2(1, 2), sort2(4, 5), sort2(7, 8), sort2(0, 1), sort2(3, 4), sort2(6, 7), sort2(1, 2), sort2(4, 5), sort2(7, 8);
+  sort2(0, 3), sort2(5, 8), sort2(4, 7), sort2(3, 6), sort2(1, 4), sort2(2, 5), sort2(4, 7), sort2(4, 2), sort2(6, 4);
+  sort2(4, 2);
+  return p[4];
 }
 
 bool BrighterFirst(const Blob& a, const Blob& b) {
@@ -276,6 +376,8 @@ DetectCounters& DetectCounters::operator+=(const DetectCounters& o) {
   blank_frames += o.blank_frames;
   truncated_frames += o.truncated_frames;
   saturated_frames += o.saturated_frames;
+  rejected_window_edge += o.rejected_window_edge;
+  windows_dropped += o.windows_dropped;
   return *this;
 }
 
@@ -310,8 +412,26 @@ struct detail::DetectWorkspace {
   std::array<int, limits::kMaxBackgroundSamplesPerTile> differences{};
   std::array<int, limits::kMaxBackgroundSamplesPerTile> scratch{};
   std::array<int, kHistogramBins> histogram{};
+  // Fast path, mono8: histograms of a tile's samples (value v at v) and differences (d at d + 255),
+  // filled while sampling; all zero between tiles (each tile clears the bins it used).
+  std::array<int, 256> mono8_samples{};
+  std::array<int, 511> mono8_differences{};
   // Background at each threshold segment's centre on each tile row: [ny][num_segments].
   std::array<double, kMeshAxis * kMaxSegments> segment_bg{};
+  // Fast path: for the rows [band_first, band_last] (one pair of tile-centre rows), the lowest
+  // threshold of each chunk's segments: no pixel at or below it is foreground there.
+  std::array<int, kMaxChunks> chunk_lb{};
+  int num_chunks = 0;
+  int band_last = -1;
+  // Fast path: the current row's bracket (row_a, row_b: segment backgrounds of its two tile-centre
+  // rows, row_f the fraction between them), set by PrepareRowThresholds when a chunk needs them.
+  const double* row_a = nullptr;
+  const double* row_b = nullptr;
+  double row_f = 0.0;
+
+  // Windowed detection: the merged windows of the current call.
+  std::array<PixelWindow, limits::kMaxDetectWindows> windows{};
+  int num_windows = 0;
 
   // Per frame.
   int width = 0;
@@ -372,13 +492,16 @@ struct detail::DetectWorkspace {
   double RowBackground(int x) const { return Interpolate(centre_x.data(), row_bg.data(), nx, tile, x); }
 
   // After the mesh is final: the background at every segment centre on every tile row.
+  // (Interpolate's arithmetic, with each segment's bracket found once for all tile rows.)
   void PrepareSegments() {
-    for (int j = 0; j < ny; ++j) {
-      const double* row = mesh_bg.data() + j * nx;
-      for (int k = 0; k < num_segments; ++k) {
-        const int x0 = k * segment_px, x1 = std::min(x0 + segment_px, width);
-        segment_bg[static_cast<std::size_t>(j * num_segments + k)] =
-            Interpolate(centre_x.data(), row, nx, tile, 0.5 * (x0 + x1 - 1));
+    for (int k = 0; k < num_segments; ++k) {
+      const int x0 = k * segment_px, x1 = std::min(x0 + segment_px, width);
+      int i = 0;
+      double f = 0.0;
+      Bracket(centre_x.data(), nx, tile, 0.5 * (x0 + x1 - 1), &i, &f);
+      for (int j = 0; j < ny; ++j) {
+        const double* v = mesh_bg.data() + j * nx + i;
+        segment_bg[static_cast<std::size_t>(j * num_segments + k)] = nx == 1 ? v[0] : v[0] + f * (v[1] - v[0]);
       }
     }
   }
@@ -393,10 +516,63 @@ struct detail::DetectWorkspace {
     const double* a = segment_bg.data() + j * num_segments;
     const double* b = ny == 1 ? a : a + num_segments;
     const double top = full_scale;
-    for (int k = 0; k < num_segments; ++k) {
-      // pixel > t <=> pixel > floor(t) for integer pixels; t is clamped >= 0, so truncate.
-      const double t = a[k] + f * (b[k] - a[k]) + contrast;
-      segment_thr[static_cast<std::size_t>(k)] = static_cast<int>(std::clamp(t, 0.0, top));
+    for (int k = 0; k < num_segments; ++k)
+      segment_thr[static_cast<std::size_t>(k)] = SegmentThresholdOf(a[k], b[k], f, contrast, top);
+  }
+
+  // Fast path, kAdaptive: the bracket of row y, for SegmentThreshold.
+  void PrepareRowThresholds(int y) {
+    int j = 0;
+    Bracket(centre_y.data(), ny, tile, y, &j, &row_f);
+    row_a = segment_bg.data() + j * num_segments;
+    row_b = ny == 1 ? row_a : row_a + num_segments;
+  }
+
+  // Fast path: the threshold of segment k on the row of the last PrepareRowThresholds (kAdaptive)
+  // or the fixed threshold; equal to PrepareRow's segment_thr[k].
+  int SegmentThreshold(int k, bool adaptive) const {
+    if (!adaptive) return segment_thr[0];
+    const auto i = static_cast<std::size_t>(k);
+    return SegmentThresholdOf(row_a[i], row_b[i], row_f, contrast, full_scale);
+  }
+
+  // Fast path, from row y (the first row not yet in a band): the band of rows that share y's pair
+  // of tile-centre rows, and the lowest threshold of each chunk over it. Along a band a segment's
+  // threshold is a monotone function of the row (f grows with y, and each rounding step and the
+  // clamp are monotone), so its lowest value is at the band's first or last row: chunk_lb is a
+  // true lower bound of every threshold PrepareRow would give there.
+  void PrepareBand(int y, bool adaptive) {
+    num_chunks = (width + kChunkPx - 1) / kChunkPx;
+    if (!adaptive) {
+      std::fill_n(chunk_lb.begin(), num_chunks, segment_thr[0]);
+      band_last = height - 1;
+      return;
+    }
+    int j = 0, j_last = 0;
+    double f = 0.0, f_last = 0.0;
+    Bracket(centre_y.data(), ny, tile, y, &j, &f);
+    // Bracket takes the last centre at or above the row (at most ny - 2): the band ends before the
+    // next centre, or at the frame's end.
+    band_last =
+        j + 1 <= ny - 2 ? static_cast<int>(std::ceil(centre_y[static_cast<std::size_t>(j + 1)])) - 1 : height - 1;
+    band_last = std::clamp(band_last, y, height - 1);
+    Bracket(centre_y.data(), ny, tile, band_last, &j_last, &f_last);
+    if (j_last != j) {  // not expected; a one-row band is always right
+      band_last = y;
+      f_last = f;
+    }
+    const double* a = segment_bg.data() + j * num_segments;
+    const double* b = ny == 1 ? a : a + num_segments;
+    const double top = full_scale;
+    constexpr int kPerChunk = kChunkPx / kSegmentPx;
+    for (int c = 0; c < num_chunks; ++c) {
+      int lb = full_scale;
+      for (int k = c * kPerChunk; k < std::min((c + 1) * kPerChunk, num_segments); ++k) {
+        const auto i = static_cast<std::size_t>(k);
+        lb = std::min({lb, SegmentThresholdOf(a[i], b[i], f, contrast, top),
+                       SegmentThresholdOf(a[i], b[i], f_last, contrast, top)});
+      }
+      chunk_lb[static_cast<std::size_t>(c)] = lb;
     }
   }
 };
@@ -421,12 +597,17 @@ class FramePass {
 
   void SetUpFixed();
   void EstimateBackground();
-  DetectStatus Label();
+  // Labels the components inside window r (the whole frame: every row, every column). With
+  // `windowed`, a component touching r's edge inside the frame is rejected.
+  DetectStatus Label(const PixelWindow& r, bool windowed);
 
  private:
   RowT Row(int y) const { return RowT{f_.data + static_cast<std::ptrdiff_t>(y) * f_.stride_bytes}; }
   bool Adaptive() const { return o_.threshold_mode == ThresholdMode::kAdaptive; }
-  int ScanRow(int y, Run* runs) const;
+  template <typename Visit>
+  void ForEachSample(int x0, int x1, int y0, int y1, Visit&& visit) const;
+  int ScanRow(int y, int xa, int xb, Run* runs) const;
+  int ScanRowFast(int y, int xa, int xb, Run* runs) const;
   void Accumulate(const Run& run, int y, Component* c) const;
   void Close(const Component& c);
   void Emit(const Blob& b);
@@ -435,6 +616,8 @@ class FramePass {
   detail::DetectWorkspace& ws_;
   const FrameView& f_;
   BlobList* out_;
+  PixelWindow window_;     // of the current Label
+  bool windowed_ = false;  // Label's `windowed`
 };
 
 template <typename RowT>
@@ -454,10 +637,31 @@ void FramePass<RowT>::SetUpFixed() {
   out_->threshold_min_dn = out_->threshold_max_dn = o_.fixed_threshold_dn;
 }
 
+// Calls visit(v, d) for each background sample of the tile [x0, x1) x [y0, y1): the pixel v of
+// the grid every sample_step_px-th pixel of every sample_step_px-th row, centred in the tile (a
+// partial edge tile still gets one sample per axis), and d = v - its right neighbour (the left
+// one in the last column; 0 in a one-pixel-wide frame), which measures noise without the
+// background's slope.
+template <typename RowT>
+template <typename Visit>
+void FramePass<RowT>::ForEachSample(int x0, int x1, int y0, int y1, Visit&& visit) const {
+  const int step = o_.sample_step_px;
+  const int ox = std::min(step / 2, (x1 - x0 - 1) / 2);
+  const int oy = std::min(step / 2, (y1 - y0 - 1) / 2);
+  for (int y = y0 + oy; y < y1; y += step) {
+    const RowT row = Row(y);
+    int x = x0 + ox;
+    for (const int x_inner = std::min(x1, f_.width - 1); x < x_inner; x += step) visit(row[x], row[x] - row[x + 1]);
+    for (; x < x1; x += step) {
+      const int xn = x + 1 < f_.width ? x + 1 : x - 1;
+      visit(row[x], xn >= 0 ? row[x] - row[xn] : 0);
+    }
+  }
+}
+
 template <typename RowT>
 void FramePass<RowT>::EstimateBackground() {
   const int T = o_.tile_px;
-  const int step = o_.sample_step_px;
   ws_.tile = T;
   ws_.nx = (f_.width + T - 1) / T;
   ws_.ny = (f_.height + T - 1) / T;
@@ -475,25 +679,41 @@ void FramePass<RowT>::EstimateBackground() {
     for (int i = 0; i < nx; ++i) {
       const int x0 = i * T, x1 = std::min(x0 + T, f_.width);
       const int y0 = j * T, y1 = std::min(y0 + T, f_.height);
-      // Sample grid centred in the tile (a partial edge tile still gets one sample per axis).
-      const int ox = std::min(step / 2, (x1 - x0 - 1) / 2);
-      const int oy = std::min(step / 2, (y1 - y0 - 1) / 2);
-      std::size_t n = 0;
-      for (int y = y0 + oy; y < y1; y += step) {
-        const RowT row = Row(y);
-        for (int x = x0 + ox; x < x1; x += step) {
-          // The difference to the next pixel measures noise without the background's slope.
-          const int xn = x + 1 < f_.width ? x + 1 : x - 1;
-          ws_.samples[n] = row[x];
-          ws_.differences[n] = xn >= 0 ? row[x] - row[xn] : 0;
-          ++n;
-        }
-      }
+      // Value ranges: [s_lo, s_hi] of the samples, [-d_abs, d_abs] of the differences.
+      int n = 0, s_lo = ws_.full_scale, s_hi = 0, d_abs = 0;
+      const auto range = [&](int v, int dv) {
+        s_lo = std::min(s_lo, v);
+        s_hi = std::max(s_hi, v);
+        d_abs = std::max(d_abs, std::abs(dv));
+        ++n;
+      };
       double level = 0.0, spread = 0.0, diff_mean = 0.0, diff_rms = 0.0;
-      ClippedMeanRms(ws_.samples.data(), static_cast<int>(n), max_abs, ws_.histogram.data(), ws_.scratch.data(), &level,
-                     &spread);
-      ClippedMeanRms(ws_.differences.data(), static_cast<int>(n), max_abs, ws_.histogram.data(), ws_.scratch.data(),
-                     &diff_mean, &diff_rms);
+      if (!o_.reference_path && RowT::kFullScale == 255) {
+        // Mono8, fast path: histograms filled while sampling; the bins used are cleared after.
+        int* const hs = ws_.mono8_samples.data();
+        int* const hd = ws_.mono8_differences.data() + 255;
+        ForEachSample(x0, x1, y0, y1, [&](int v, int dv) {
+          ++hs[v];
+          ++hd[dv];
+          range(v, dv);
+        });
+        HistogramClippedMeanRms(hs + s_lo, s_hi - s_lo + 1, n, s_lo, &level, &spread);
+        HistogramClippedMeanRms(hd - d_abs, 2 * d_abs + 1, n, -d_abs, &diff_mean, &diff_rms);
+        std::fill(hs + s_lo, hs + s_hi + 1, 0);
+        std::fill(hd - d_abs, hd + d_abs + 1, 0);
+      } else {
+        ForEachSample(x0, x1, y0, y1, [&](int v, int dv) {
+          ws_.samples[static_cast<std::size_t>(n)] = v;
+          ws_.differences[static_cast<std::size_t>(n)] = dv;
+          range(v, dv);
+        });
+        int* const hist = ws_.histogram.data();
+        const bool fast = !o_.reference_path;
+        if (!fast || !HistogramClippedMeanRms(ws_.samples.data(), n, s_lo, s_hi, hist, &level, &spread))
+          ClippedMeanRms(ws_.samples.data(), n, max_abs, hist, ws_.scratch.data(), &level, &spread);
+        if (!fast || !HistogramClippedMeanRms(ws_.differences.data(), n, -d_abs, d_abs, hist, &diff_mean, &diff_rms))
+          ClippedMeanRms(ws_.differences.data(), n, max_abs, hist, ws_.scratch.data(), &diff_mean, &diff_rms);
+      }
       const auto cell = static_cast<std::size_t>(j * nx + i);
       ws_.mesh_bg[cell] = level;
       ws_.mesh_sigma[cell] = diff_rms / std::numbers::sqrt2;  // var(a - b) = 2 var(a)
@@ -510,8 +730,7 @@ void FramePass<RowT>::EstimateBackground() {
         std::size_t k = 0;
         for (int dj = -1; dj <= 1; ++dj)
           for (int di = -1; di <= 1; ++di) w[k++] = ws_.mesh_tmp[static_cast<std::size_t>((j + dj) * nx + (i + di))];
-        std::nth_element(w.begin(), w.begin() + 4, w.end());
-        ws_.mesh_bg[static_cast<std::size_t>(j * nx + i)] = w[4];
+        ws_.mesh_bg[static_cast<std::size_t>(j * nx + i)] = MedianOf9(w);
       }
     }
   }
@@ -539,32 +758,67 @@ void FramePass<RowT>::EstimateBackground() {
 
 // Finds the runs of row y (pixel > threshold of its segment); returns how many
 // (<= (width + 1) / 2). Background is skipped a vector block at a time.
+// The runs of pixels > t in [x, x1) of one row, continuing the run that starts at *start (-1:
+// none open); closed runs are appended to runs[*n].
 template <typename RowT>
-int FramePass<RowT>::ScanRow(int y, Run* runs) const {
-  const RowT row = Row(y);
-  const int W = f_.width;
-  const int L = ws_.segment_px;
-  int n = 0;
-  int start = -1;
-  for (int k = 0; k < ws_.num_segments; ++k) {
-    const int t = ws_.segment_thr[static_cast<std::size_t>(k)];
-    const int x1 = std::min((k + 1) * L, W);
-    int x = k * L;
-    while (x < x1) {
-      if (start < 0) {
-        while (x + RowT::kBlock <= x1 && !row.AnyAbove(x, t)) x += RowT::kBlock;
-        while (x < x1 && row[x] <= t) ++x;
-        if (x < x1) start = x;
-      } else {
-        while (x < x1 && row[x] > t) ++x;
-        if (x < x1) {
-          runs[n++] = Run{start, x - 1, -1};
-          start = -1;
-        }
+void ScanSpan(const RowT& row, int x, int x1, int t, int* start, Run* runs, int* n) {
+  while (x < x1) {
+    if (*start < 0) {
+      while (x + RowT::kBlock <= x1 && !row.AnyAbove(x, t)) x += RowT::kBlock;
+      while (x < x1 && row[x] <= t) ++x;
+      if (x < x1) *start = x;
+    } else {
+      while (x < x1 && row[x] > t) ++x;
+      if (x < x1) {
+        runs[(*n)++] = Run{*start, x - 1, -1};
+        *start = -1;
       }
     }
   }
-  if (start >= 0) runs[n++] = Run{start, W - 1, -1};
+}
+
+// The runs of row y within columns [xa, xb).
+template <typename RowT>
+int FramePass<RowT>::ScanRow(int y, int xa, int xb, Run* runs) const {
+  const RowT row = Row(y);
+  const int L = ws_.segment_px;
+  int n = 0;
+  int start = -1;
+  for (int k = xa / L; k * L < xb; ++k)
+    ScanSpan(row, std::max(k * L, xa), std::min((k + 1) * L, xb), ws_.segment_thr[static_cast<std::size_t>(k)], &start,
+             runs, &n);
+  if (start >= 0) runs[n++] = Run{start, xb - 1, -1};
+  return n;
+}
+
+// ScanRow's runs, the same ones: a whole chunk with no pixel above its lower bound (chunk_lb of
+// the row's band) holds no foreground and ends an open run at its first pixel; any other chunk is
+// scanned segment by segment with the exact thresholds, computed for this row only then.
+template <typename RowT>
+int FramePass<RowT>::ScanRowFast(int y, int xa, int xb, Run* runs) const {
+  const RowT row = Row(y);
+  const int L = ws_.segment_px;
+  int n = 0;
+  int start = -1;
+  bool thresholds_ready = false;
+  for (int c = xa / kChunkPx; c * kChunkPx < xb; ++c) {
+    const int cx0 = std::max(c * kChunkPx, xa), cx1 = std::min((c + 1) * kChunkPx, xb);
+    if (cx1 - cx0 == kChunkPx && !row.AnyAboveChunk(cx0, ws_.chunk_lb[static_cast<std::size_t>(c)])) {
+      if (start >= 0) {
+        runs[n++] = Run{start, cx0 - 1, -1};
+        start = -1;
+      }
+      continue;
+    }
+    if (Adaptive() && !thresholds_ready) {
+      ws_.PrepareRowThresholds(y);
+      thresholds_ready = true;
+    }
+    for (int k = cx0 / L; k * L < cx1; ++k)
+      ScanSpan(row, std::max(k * L, cx0), std::min((k + 1) * L, cx1), ws_.SegmentThreshold(k, Adaptive()), &start, runs,
+               &n);
+  }
+  if (start >= 0) runs[n++] = Run{start, xb - 1, -1};
   return n;
 }
 
@@ -614,6 +868,12 @@ template <typename RowT>
 void FramePass<RowT>::Close(const Component& c) {
   DetectCounters& k = out_->counters;
   ++k.components;
+  const PixelWindow& win = window_;
+  if (windowed_ && ((c.x_min == win.x0 && win.x0 > 0) || (c.y_min == win.y0 && win.y0 > 0) ||
+                    (c.x_max == win.x1 - 1 && win.x1 < f_.width) || (c.y_max == win.y1 - 1 && win.y1 < f_.height))) {
+    ++k.rejected_window_edge;  // may continue outside the window: not the whole component
+    return;
+  }
   if (c.area < o_.min_area_px) {
     ++k.rejected_small;
     return;
@@ -688,19 +948,26 @@ void FramePass<RowT>::Emit(const Blob& b) {
 // Streaming 8-connected labelling, one row at a time. A component is closed (measured and
 // freed) at the end of the first row that does not continue it.
 template <typename RowT>
-DetectStatus FramePass<RowT>::Label() {
+DetectStatus FramePass<RowT>::Label(const PixelWindow& win, bool windowed) {
   detail::DetectWorkspace& w = ws_;
+  window_ = win;
+  windowed_ = windowed;
+  // Every label is free at the start of a window (the previous one closed all of its own).
   w.num_free = 0;
   for (int l = w.max_labels - 1; l >= 0; --l) w.free_labels[static_cast<std::size_t>(w.num_free++)] = l;
   Run* prev = w.runs_a.data();
   Run* cur = w.runs_b.data();
   int n_prev = 0;
 
-  for (int y = 0; y < f_.height; ++y) {
-    if (Adaptive()) w.PrepareRow(y, true);
-    const int n_cur = ScanRow(y, cur);
+  const bool fast = !o_.reference_path;
+  w.band_last = win.y0 - 1;
+  for (int y = win.y0; y < win.y1; ++y) {
+    if (fast && y > w.band_last) w.PrepareBand(y, Adaptive());
+    if (!fast && Adaptive()) w.PrepareRow(y, true);
+    const int n_cur = fast ? ScanRowFast(y, win.x0, win.x1, cur) : ScanRow(y, win.x0, win.x1, cur);
     w.num_merged = 0;
-    if (n_cur > 0 && !Adaptive()) w.PrepareRow(y, false);
+    // The background along the row (Accumulate) only where there are runs.
+    if (n_cur > 0 && (fast || !Adaptive())) w.PrepareRow(y, false);
     int j = 0;  // first previous run that may touch the current one
     for (int r = 0; r < n_cur; ++r) {
       Run& run = cur[r];
@@ -742,8 +1009,8 @@ DetectStatus FramePass<RowT>::Label() {
   }
   for (int k = 0; k < n_prev; ++k) {
     const int root = prev[k].label;  // resolved at the end of the last row
-    if (w.Comp(root).stamp != f_.height) {
-      w.Comp(root).stamp = f_.height;
+    if (w.Comp(root).stamp != win.y1) {
+      w.Comp(root).stamp = win.y1;
       Close(w.Comp(root));
       w.Release(root);
     }
@@ -755,8 +1022,9 @@ int SaturationLevel(const DetectOptions& o, const FrameView& f) {
   return o.saturation_dn > 0 ? o.saturation_dn : f.format == PixelFormat::kMono8 ? 255 : 65535;
 }
 
+// Detection in the whole frame (`windowed` false) or in ws.windows[0, ws.num_windows).
 template <typename RowT>
-DetectStatus DetectTyped(const DetectOptions& o, detail::DetectWorkspace& ws, const FrameView& f,
+DetectStatus DetectTyped(const DetectOptions& o, detail::DetectWorkspace& ws, const FrameView& f, bool windowed,
                          BlobList* out) {
   ws.width = f.width;
   ws.height = f.height;
@@ -768,7 +1036,57 @@ DetectStatus DetectTyped(const DetectOptions& o, detail::DetectWorkspace& ws, co
   } else {
     pass.SetUpFixed();
   }
-  return pass.Label();
+  if (!windowed) return pass.Label(PixelWindow{0, 0, f.width, f.height}, false);
+  for (int i = 0; i < ws.num_windows; ++i) {
+    PixelWindow r = ws.windows[static_cast<std::size_t>(i)];
+    r.y1 = std::min(r.y1, f.height);  // a truncated frame ends above
+    if (r.y0 >= r.y1) continue;
+    const DetectStatus s = pass.Label(r, true);
+    if (s != DetectStatus::kOk) return s;
+  }
+  return DetectStatus::kOk;
+}
+
+// Clips windows to the frame and merges those that overlap or touch (8-connectivity: one pixel
+// apart) into their bounding box, until none do; stores them in ws.windows. Returns how many
+// were dropped (empty after clipping, or beyond kMaxDetectWindows).
+int MergeWindows(const PixelWindow* in, int n, int width, int height, detail::DetectWorkspace& ws) {
+  int dropped = 0, m = 0;
+  for (int i = 0; i < std::max(n, 0); ++i) {
+    if (i >= limits::kMaxDetectWindows) {
+      dropped += n - i;
+      break;
+    }
+    PixelWindow r = in[i];
+    r.x0 = std::max(r.x0, 0);
+    r.y0 = std::max(r.y0, 0);
+    r.x1 = std::min(r.x1, width);
+    r.y1 = std::min(r.y1, height);
+    if (r.x0 >= r.x1 || r.y0 >= r.y1) {
+      ++dropped;
+      continue;
+    }
+    ws.windows[static_cast<std::size_t>(m++)] = r;
+  }
+  // Each merge removes a window: at most m - 1 merges, each found in at most m^2 pairs.
+  const auto near = [](const PixelWindow& a, const PixelWindow& b) {
+    return a.x0 <= b.x1 && b.x0 <= a.x1 && a.y0 <= b.y1 && b.y0 <= a.y1;
+  };
+  for (bool merged = true; merged;) {
+    merged = false;
+    for (int i = 0; i < m && !merged; ++i) {
+      for (int j = i + 1; j < m && !merged; ++j) {
+        PixelWindow& a = ws.windows[static_cast<std::size_t>(i)];
+        const PixelWindow b = ws.windows[static_cast<std::size_t>(j)];
+        if (!near(a, b)) continue;
+        a = PixelWindow{std::min(a.x0, b.x0), std::min(a.y0, b.y0), std::max(a.x1, b.x1), std::max(a.y1, b.y1)};
+        ws.windows[static_cast<std::size_t>(j)] = ws.windows[static_cast<std::size_t>(--m)];
+        merged = true;
+      }
+    }
+  }
+  ws.num_windows = m;
+  return dropped;
 }
 
 bool FrameIsValid(const FrameView& f) {
@@ -833,12 +1151,29 @@ std::uint32_t CellsOfBox(const FrameView& f, int x0, int y0, int x1, int y1) {
   return cells;
 }
 
+// Whether any pixel of row y is >= level (whole 64-pixel chunks by ChunkAbove, then the rest).
+template <typename RowT>
+bool RowReaches(const FrameView& f, int y, int level) {
+  const RowT row{f.data + static_cast<std::ptrdiff_t>(y) * f.stride_bytes};
+  int x = 0;
+  for (; x + kChunkPx <= f.width; x += kChunkPx)
+    if (row.AnyAboveChunk(x, level - 1)) return true;
+  for (; x < f.width; ++x)
+    if (row[x] >= level) return true;
+  return false;
+}
+
 template <typename RowT>
 std::uint32_t SaturatedCells(const FrameView& f, int rows, int saturation_level) {
   constexpr int kHalf = kBlindSampleStepPx / 2;
   std::uint32_t cells = 0;
   for (int y0 = 0; y0 < rows; y0 += kBlindBlockPx) {
     const int y1 = std::min(y0 + kBlindBlockPx, rows) - 1;
+    // A band of blocks whose sampled rows hold no saturated pixel at all has no saturated block.
+    bool any = false;
+    for (int y = std::min(y0 + kHalf, y1); y <= y1 && !any; y += kBlindSampleStepPx)
+      any = RowReaches<RowT>(f, y, saturation_level);
+    if (!any) continue;
     for (int x0 = 0; x0 < f.width; x0 += kBlindBlockPx) {
       const int x1 = std::min(x0 + kBlindBlockPx, f.width) - 1;
       int samples = 0, saturated = 0;
@@ -882,8 +1217,24 @@ bool IsFlat(const FrameView& frame) {
 }
 }  // namespace
 
-DetectStatus BlobDetector::Detect(const FrameView& frame, const CameraIntrinsics* camera,
-                                  BlobList* out) {
+DetectStatus BlobDetector::Detect(const FrameView& frame, const CameraIntrinsics* camera, BlobList* out) {
+  return Run(frame, camera, nullptr, 0, false, out);
+}
+
+DetectStatus BlobDetector::Detect(const FrameView& frame, const CameraIntrinsics* camera, const PixelWindow* windows,
+                                  int num_windows, BlobList* out) {
+  return Run(frame, camera, windows, num_windows, true, out);
+}
+
+PixelWindow DetectionStripe(int width, int height, int index, int stripes, int margin_px) {
+  const int n = std::max(stripes, 1);
+  const int k = ((index % n) + n) % n;
+  const auto row = [&](int i) { return static_cast<int>(static_cast<long>(height) * i / n); };
+  return PixelWindow{0, std::max(row(k) - margin_px, 0), width, std::min(row(k + 1) + margin_px, height)};
+}
+
+DetectStatus BlobDetector::Run(const FrameView& frame, const CameraIntrinsics* camera, const PixelWindow* windows,
+                               int num_windows, bool windowed, BlobList* out) {
   out->count = 0;
   out->camera = frame.camera;
   out->sequence = frame.sequence;
@@ -913,7 +1264,11 @@ DetectStatus BlobDetector::Detect(const FrameView& frame, const CameraIntrinsics
   const int saturation_level = SaturationLevel(options_, frame);
   FrameView written = frame;  // a truncated frame is detected as if it ended where writing stopped
   written.height = mono8 ? WrittenRows<Mono8Row>(frame, saturation_level) : WrittenRows<Mono16Row>(frame, saturation_level);
-  status = mono8 ? DetectTyped<Mono8Row>(options_, *ws_, written, out) : DetectTyped<Mono16Row>(options_, *ws_, written, out);
+  if (windowed)
+    out->counters.windows_dropped =
+        static_cast<std::uint64_t>(MergeWindows(windows, num_windows, frame.width, frame.height, *ws_));
+  status = mono8 ? DetectTyped<Mono8Row>(options_, *ws_, written, windowed, out)
+                 : DetectTyped<Mono16Row>(options_, *ws_, written, windowed, out);
   if (status == DetectStatus::kOk && out->counters.over_blob_limit > 0) status = DetectStatus::kBlobLimit;
   if (status == DetectStatus::kOk && out->count == 0 && IsFlat(frame)) {
     status = DetectStatus::kBlankFrame;

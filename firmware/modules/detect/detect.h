@@ -68,8 +68,11 @@ struct DetectOptions {
   // mesh (interior tiles) removes tiles dominated by a bright object. The background under a
   // pixel is the bilinear interpolation of the mesh between tile centres (extrapolated beyond
   // the outer centres); the threshold follows it, held constant over 16-pixel row segments.
-  int tile_px = 64;          // >= kMaxImageWidth / kMaxBackgroundTilesPerAxis (32)
-  int sample_step_px = 4;    // (tile_px / sample_step_px)^2 <= kMaxBackgroundSamplesPerTile
+  // Until issue 20 item 2: tile_px 64, sample_step_px 4 (320 tiles of 256 samples on 1280x1024);
+  // now 80 tiles of 256 samples, a quarter of the samples and of the per-tile work (README
+  // "Background sampling"; the old values remain valid options).
+  int tile_px = 128;       // >= kMaxImageWidth / kMaxBackgroundTilesPerAxis (32)
+  int sample_step_px = 8;  // (tile_px / sample_step_px)^2 <= kMaxBackgroundSamplesPerTile
   bool mesh_median_filter = true;
   double k_sigma = 6.0;          // threshold above background, in noise sigmas
   double min_contrast_dn = 4.0;  // lower bound of the threshold above background (DN)
@@ -91,6 +94,13 @@ struct DetectOptions {
 
   // --- Output: at most this many blobs, the brightest (largest flux) first.
   int max_blobs = limits::kMaxBlobsPerFrame;
+
+  // --- Implementation (issue 20 item 2). false: the fast path (a row is skipped 64 pixels at a
+  // time against a lower bound of its thresholds, exact thresholds only where a pixel may be
+  // foreground; tile statistics from a histogram). true: the per-pixel path of the first version
+  // (every row's thresholds, statistics by the clipped-sample loops), kept as the reference the
+  // fast path must equal bit for bit (detect_test "FastPathEqualsReference") and for benchmarks.
+  bool reference_path = false;
 
   // True when every field is usable; otherwise *why (optional) names the first bad field in a
   // static string. No heap.
@@ -134,6 +144,9 @@ struct DetectCounters {
   std::uint64_t blank_frames = 0;        // kBlankFrame
   std::uint64_t truncated_frames = 0;    // kTruncatedFrame: lower rows never written
   std::uint64_t saturated_frames = 0;    // frames with a blind cell from a saturated region
+  std::uint64_t rejected_window_edge = 0;  // windowed Detect: touches its window's edge inside the
+                                           // frame (may continue outside: not measured)
+  std::uint64_t windows_dropped = 0;       // windowed Detect: empty, outside the frame or over the limit
 
   DetectCounters& operator+=(const DetectCounters& o);
 };
@@ -177,6 +190,23 @@ struct BlobList {
   DetectCounters counters;  // this frame only
 };
 
+// A rectangle of pixels [x0, x1) x [y0, y1) (windowed detection, issue 20 item 1).
+struct PixelWindow {
+  int x0 = 0;
+  int y0 = 0;
+  int x1 = 0;
+  int y1 = 0;
+};
+
+// Stripe `index` (taken modulo `stripes`) of a frame cut into `stripes` bands of rows of equal
+// height, widened by `margin_px` rows on each side (clipped to the frame), full width. Every row
+// is in stripe index mod stripes; a blob at most margin_px rows tall lies inside the stripe of
+// its top row without touching its edges, so a windowed Detect that includes stripe k of frame
+// set k finds every such blob that does not move within N = stripes frame sets, and one whose
+// image moves less than 2 margin_px - height rows (and less than a stripe) per frame set within
+// 2N - 1 (README "Windowed detection").
+PixelWindow DetectionStripe(int width, int height, int index, int stripes, int margin_px);
+
 class BlobDetector {
  public:
   // Reserves all working memory (about 0.4 MB). `max_labels` sizes the label table; the default
@@ -203,10 +233,24 @@ class BlobDetector {
   // may be half written), as in a frame that ends there: a blob cut by the end is a border blob.
   DetectStatus Detect(const FrameView& frame, const CameraIntrinsics* camera, BlobList* out);
 
+  // Windowed detection (issue 20 item 1): as Detect, but components are found only inside
+  // windows[0, num_windows) (at most limits::kMaxDetectWindows; more, empty ones and the parts
+  // outside the frame are dropped and counted in windows_dropped). Windows that overlap or touch
+  // are merged into their bounding box. The background, noise, thresholds, blind cells and the
+  // truncation and blank tests are the whole frame's, as in Detect; a component that touches
+  // its window's edge inside the frame may continue outside it and is rejected
+  // (rejected_window_edge). So every blob found is the one Detect finds, bit for bit (centroid,
+  // flux, moments, gates; test WindowedEqualsFullFrame); blobs outside the windows are missing.
+  DetectStatus Detect(const FrameView& frame, const CameraIntrinsics* camera, const PixelWindow* windows,
+                      int num_windows, BlobList* out);
+
   const DetectOptions& options() const { return options_; }
   const DetectCounters& counters() const { return counters_; }  // since construction
 
  private:
+  DetectStatus Run(const FrameView& frame, const CameraIntrinsics* camera, const PixelWindow* windows, int num_windows,
+                   bool windowed, BlobList* out);
+
   DetectOptions options_;
   bool options_valid_ = false;
   DetectCounters counters_;

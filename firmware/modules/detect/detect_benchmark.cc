@@ -1,8 +1,10 @@
 // Blob detection on a 1280x1024 mono8 frame with 10 spots and noise (issue 4, benchmarks):
 // the detector (adaptive and fixed threshold) beside the OpenCV baseline measured in the same
-// program: cv::threshold + cv::connectedComponentsWithStats + weighted centroid per component.
+// program: cv::threshold + cv::connectedComponentsWithStats + weighted centroid per component;
+// and beside a memcpy of the frame (issue 20 item 2: adaptive detection within 3x of it).
 #include <benchmark/benchmark.h>
 
+#include <cstring>
 #include <random>
 #include <vector>
 
@@ -57,6 +59,71 @@ void RunDetector(benchmark::State& state, const DetectOptions& options) {
 
 void BM_DetectAdaptive(benchmark::State& state) { RunDetector(state, DetectOptions()); }
 
+// The yardstick of issue 20 item 2: copying the same frame (its rows, stride as in the frame)
+// into a buffer reserved before the loop. Adaptive detection must stay within 3x of this.
+void BM_MemcpyFrame(benchmark::State& state) {
+  const FrameView& view = Frame().view;
+  const std::size_t bytes = static_cast<std::size_t>(view.stride_bytes) * static_cast<std::size_t>(view.height);
+  std::vector<std::uint8_t> copy(bytes);
+  for (auto _ : state) {
+    std::memcpy(copy.data(), view.data, bytes);
+    benchmark::DoNotOptimize(copy.data());
+    benchmark::ClobberMemory();
+  }
+  state.counters["Mpx/s"] =
+      benchmark::Counter(static_cast<double>(view.width) * view.height, benchmark::Counter::kIsIterationInvariantRate);
+}
+
+// Background sampled as before issue 20 item 2 (64-px tiles, every 4th pixel of every 4th row).
+DetectOptions Issue4Sampling() {
+  DetectOptions o;
+  o.tile_px = 64;
+  o.sample_step_px = 4;
+  return o;
+}
+
+// The code before issue 20 item 2, same run: the per-pixel reference path with the sampling of
+// then (it gives that code's BlobList; detect_test FastPathEqualsReference).
+void BM_DetectAdaptiveBefore(benchmark::State& state) {
+  DetectOptions o = Issue4Sampling();
+  o.reference_path = true;
+  RunDetector(state, o);
+}
+
+// The fast path with the sampling of before (the same BlobList as BM_DetectAdaptiveBefore).
+void BM_DetectAdaptiveIssue4Sampling(benchmark::State& state) { RunDetector(state, Issue4Sampling()); }
+
+// The fast path with 64-px tiles at the new step (64 samples a tile).
+void BM_DetectAdaptiveTile64(benchmark::State& state) {
+  DetectOptions o;
+  o.tile_px = 64;
+  RunDetector(state, o);
+}
+
+// Windowed detection while tracking (issue 20 item 1): 33 x 33 px windows around the 10 spots
+// plus one of 8 stripes (1/8 of the rows + 2 x 16 margin rows), default options.
+void BM_DetectWindowed(benchmark::State& state) {
+  const FrameView& view = Frame().view;
+  BlobDetector detector;
+  static BlobList full, out;
+  detector.Detect(view, nullptr, &full);
+  std::vector<PixelWindow> windows;
+  for (int i = 0; i < full.count; ++i) {
+    const auto& b = full.blobs[static_cast<std::size_t>(i)];
+    const int u = static_cast<int>(b.uv_px.x()), v = static_cast<int>(b.uv_px.y());
+    windows.push_back(PixelWindow{u - 16, v - 16, u + 17, v + 17});
+  }
+  windows.push_back(PixelWindow{});
+  int frame_set = 0;
+  for (auto _ : state) {
+    windows.back() = DetectionStripe(view.width, view.height, frame_set++, 8, 16);
+    detector.Detect(view, nullptr, windows.data(), static_cast<int>(windows.size()), &out);
+    benchmark::DoNotOptimize(out.blobs.data());
+    benchmark::ClobberMemory();
+  }
+  state.counters["blobs"] = out.count;
+}
+
 void BM_DetectFixed(benchmark::State& state) {
   DetectOptions o;
   o.threshold_mode = ThresholdMode::kFixed;
@@ -65,7 +132,12 @@ void BM_DetectFixed(benchmark::State& state) {
   RunDetector(state, o);
 }
 
+BENCHMARK(BM_MemcpyFrame)->MeasureProcessCPUTime()->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_DetectAdaptive)->MeasureProcessCPUTime()->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_DetectAdaptiveBefore)->MeasureProcessCPUTime()->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_DetectAdaptiveIssue4Sampling)->MeasureProcessCPUTime()->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_DetectAdaptiveTile64)->MeasureProcessCPUTime()->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_DetectWindowed)->MeasureProcessCPUTime()->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_DetectFixed)->MeasureProcessCPUTime()->Unit(benchmark::kMicrosecond);
 
 #ifdef MFNS_HAVE_OPENCV

@@ -4,6 +4,7 @@
 
 #include <atomic>
 #include <cstdlib>
+#include <cstring>
 #include <new>
 #include <random>
 #include <string>
@@ -886,6 +887,338 @@ TEST(BlobDetector, StreamingLabelsMatchFloodFillOnRandomImages) {
       EXPECT_NEAR(b.flux_dn, ref[match].flux, 1e-9 * ref[match].flux);
     }
   }
+}
+
+// ---- Issue 20 item 2: the fast path (chunk skip against a lower bound of the thresholds, lazy
+// row thresholds, histogram statistics) gives the BlobList of the per-pixel reference path
+// (DetectOptions::reference_path) bit for bit: every blob field, the frame's background, noise,
+// thresholds, blind cells, rows and counters, and the status. Random frames: sizes that are and
+// are not multiples of the 128-px chunk and the 16-px segment, mono8 and mono16 (padded strides,
+// unaligned), flat or sloped backgrounds (to 0.25 DN/px: 160 DN across 640 px, thresholds a few DN above),
+// noise, spots anywhere including across the borders, saturated spots and a bright rectangle,
+// a truncated frame, a tiny label table; adaptive (several tile sizes and sample steps, with and
+// without the mesh median) and fixed thresholds, every centroid weighting.
+void ExpectSameBlobList(const BlobList& a, const BlobList& b, const std::string& where) {
+  ASSERT_EQ(a.count, b.count) << where;
+  for (std::size_t i = 0; i < static_cast<std::size_t>(a.count); ++i) {
+    const Blob& x = a.blobs[i];
+    const Blob& y = b.blobs[i];
+    const std::string at = where + " blob " + std::to_string(i);
+    EXPECT_EQ(x.uv_px.x(), y.uv_px.x()) << at;
+    EXPECT_EQ(x.uv_px.y(), y.uv_px.y()) << at;
+    EXPECT_EQ(x.x_n.x(), y.x_n.x()) << at;
+    EXPECT_EQ(x.x_n.y(), y.x_n.y()) << at;
+    EXPECT_EQ(x.normalised_ok, y.normalised_ok) << at;
+    EXPECT_EQ(x.flux_dn, y.flux_dn) << at;
+    EXPECT_EQ(x.background_dn, y.background_dn) << at;
+    EXPECT_EQ(x.peak_dn, y.peak_dn) << at;
+    EXPECT_EQ(x.area_px, y.area_px) << at;
+    EXPECT_EQ(x.saturated_px, y.saturated_px) << at;
+    EXPECT_EQ(x.saturated, y.saturated) << at;
+    EXPECT_EQ(x.x_min, y.x_min) << at;
+    EXPECT_EQ(x.y_min, y.y_min) << at;
+    EXPECT_EQ(x.x_max, y.x_max) << at;
+    EXPECT_EQ(x.y_max, y.y_max) << at;
+    EXPECT_EQ(x.m_xx, y.m_xx) << at;
+    EXPECT_EQ(x.m_yy, y.m_yy) << at;
+    EXPECT_EQ(x.m_xy, y.m_xy) << at;
+    EXPECT_EQ(x.elongation, y.elongation) << at;
+  }
+  EXPECT_EQ(a.background_dn, b.background_dn) << where;
+  EXPECT_EQ(a.noise_dn, b.noise_dn) << where;
+  EXPECT_EQ(a.contrast_dn, b.contrast_dn) << where;
+  EXPECT_EQ(a.threshold_min_dn, b.threshold_min_dn) << where;
+  EXPECT_EQ(a.threshold_max_dn, b.threshold_max_dn) << where;
+  EXPECT_EQ(a.blind_cells, b.blind_cells) << where;
+  EXPECT_EQ(a.rows_written, b.rows_written) << where;
+  const DetectCounters& p = a.counters;
+  const DetectCounters& q = b.counters;
+  EXPECT_EQ(p.components, q.components) << where;
+  EXPECT_EQ(p.rejected_small, q.rejected_small) << where;
+  EXPECT_EQ(p.rejected_large, q.rejected_large) << where;
+  EXPECT_EQ(p.rejected_border, q.rejected_border) << where;
+  EXPECT_EQ(p.rejected_faint, q.rejected_faint) << where;
+  EXPECT_EQ(p.rejected_saturated, q.rejected_saturated) << where;
+  EXPECT_EQ(p.rejected_elongated, q.rejected_elongated) << where;
+  EXPECT_EQ(p.flagged_saturated, q.flagged_saturated) << where;
+  EXPECT_EQ(p.over_blob_limit, q.over_blob_limit) << where;
+  EXPECT_EQ(p.label_table_full, q.label_table_full) << where;
+  EXPECT_EQ(p.open_discarded, q.open_discarded) << where;
+  EXPECT_EQ(p.blank_frames, q.blank_frames) << where;
+  EXPECT_EQ(p.truncated_frames, q.truncated_frames) << where;
+  EXPECT_EQ(p.saturated_frames, q.saturated_frames) << where;
+}
+
+TEST(BlobDetector, FastPathEqualsReference) {
+  constexpr int kTrials = 60;
+  std::mt19937_64 rng(2012);
+  std::uniform_real_distribution<double> u01(0.0, 1.0);
+  BlobList fast_out, ref_out;
+  int blobs = 0, steep = 0, saturated = 0, border = 0, truncated = 0, full = 0;
+  for (int trial = 0; trial < kTrials; ++trial) {
+    const PixelFormat format = trial % 3 == 2 ? PixelFormat::kMono16 : PixelFormat::kMono8;
+    const bool mono8 = format == PixelFormat::kMono8;
+    const double scale = mono8 ? 1.0 : 40.0;  // mono16 frames: the same scene at 40x the DN
+    const int w = trial % 4 == 0 ? 640 : 100 + static_cast<int>(u01(rng) * 500);
+    const int h = trial % 4 == 0 ? 512 : 60 + static_cast<int>(u01(rng) * 300);
+    SyntheticImage img(w, h);
+    const bool is_steep = trial % 2 == 1;
+    steep += is_steep ? 1 : 0;
+    const double gx = is_steep ? (u01(rng) - 0.5) * 0.5 : 0.0, gy = is_steep ? (u01(rng) - 0.5) * 0.5 : 0.0;
+    img.AddBackground(scale * (60.0 + 30.0 * u01(rng)), scale * gx, scale * gy);
+    const int n_spots = 5 + static_cast<int>(u01(rng) * 30);
+    for (int i = 0; i < n_spots; ++i) {
+      Spot s;
+      // Some spots straddle the border (a quarter of them within 3 px of an edge).
+      const bool edge = u01(rng) < 0.25;
+      s.u = edge ? (u01(rng) < 0.5 ? -1.0 + 4.0 * u01(rng) : w - 3.0 + 4.0 * u01(rng)) : u01(rng) * (w - 1);
+      s.v = edge && u01(rng) < 0.5 ? (u01(rng) < 0.5 ? -1.0 + 4.0 * u01(rng) : h - 3.0 + 4.0 * u01(rng))
+                                   : u01(rng) * (h - 1);
+      border += edge ? 1 : 0;
+      s.sigma_x = 0.8 + 2.0 * u01(rng);
+      s.sigma_y = s.sigma_x * (0.7 + 0.6 * u01(rng));
+      const double peak = u01(rng) < 0.2 ? 400.0 : 8.0 + 150.0 * u01(rng);  // 20 % saturate (> 255)
+      saturated += peak > 255.0 ? 1 : 0;
+      s.flux = scale * peak * 2.0 * std::numbers::pi * s.sigma_x * s.sigma_y;
+      img.AddSpot(s);
+    }
+    if (trial % 5 == 3) {  // a lamp: a saturated rectangle
+      const int x0 = static_cast<int>(u01(rng) * (w - 40)), y0 = static_cast<int>(u01(rng) * (h - 40));
+      img.AddRect(x0, y0, x0 + 39, y0 + 39, scale * 300.0);
+    }
+    img.AddNoise(scale * (0.5 + 3.0 * u01(rng)), rng);
+    FrameBuffer fb = Quantize(img, format, trial % 4, mono8 ? 0 : trial % 2);
+    if (trial % 7 == 6) {  // truncated: the lower 20 rows never written
+      const std::ptrdiff_t offset = fb.view.data - fb.bytes.data();
+      for (int y = h - 20; y < h; ++y)
+        std::memset(fb.bytes.data() + offset + static_cast<std::ptrdiff_t>(y) * fb.view.stride_bytes, 0,
+                    static_cast<std::size_t>(w * BytesPerPixel(format)));
+      ++truncated;
+    }
+
+    DetectOptions o;
+    o.centroid_weights = static_cast<CentroidWeights>(trial % 3);
+    o.saturation_policy = static_cast<SaturationPolicy>((trial / 3) % 3);
+    o.min_area_px = 1 + trial % 3;
+    o.border_margin_px = trial % 4 == 1 ? 2 : 0;
+    switch (trial % 6) {
+      case 0:
+        break;  // defaults
+      case 1:
+        o.tile_px = 64;
+        o.sample_step_px = 4;
+        break;  // before issue 20
+      case 2:
+        o.tile_px = 64;
+        o.sample_step_px = 8;
+        o.mesh_median_filter = false;
+        break;
+      case 3:
+        o.tile_px = 96;
+        o.sample_step_px = 5;
+        o.k_sigma = 3.0;
+        break;  // thresholds in the noise
+      case 4:
+        o.threshold_mode = ThresholdMode::kFixed;
+        o.fixed_threshold_dn = static_cast<int>(scale * (70.0 + 40.0 * u01(rng)));
+        o.fixed_background_dn = scale * 60.0;
+        break;
+      case 5:
+        o.tile_px = 2048;
+        break;  // one tile: a flat mesh
+    }
+    const int labels = trial % 11 == 10 ? 6 : limits::kMaxBlobLabels;  // a tiny table overflows
+    full += labels < limits::kMaxBlobLabels ? 1 : 0;
+    DetectOptions r = o;
+    r.reference_path = true;
+    BlobDetector fast(o, labels), ref(r, labels);
+    const std::string where = "trial " + std::to_string(trial);
+    const DetectStatus sf = fast.Detect(fb.view, nullptr, &fast_out);
+    const DetectStatus sr = ref.Detect(fb.view, nullptr, &ref_out);
+    ASSERT_EQ(sf, sr) << where << ": " << ToString(sf) << " / " << ToString(sr);
+    ExpectSameBlobList(fast_out, ref_out, where);
+    blobs += ref_out.count;
+  }
+  // The frames did what they were drawn for.
+  EXPECT_GT(blobs, 10 * kTrials);
+  EXPECT_GT(steep, 0);
+  EXPECT_GT(saturated, 0);
+  EXPECT_GT(border, 0);
+  EXPECT_GT(truncated, 0);
+  EXPECT_GT(full, 0);
+}
+
+// ---- Issue 20 item 1: windowed detection. Every blob a windowed Detect finds is the one the
+// full-frame Detect finds on the same frame, bit for bit (same background and thresholds: the
+// whole frame's); every full-frame blob lying inside a window, one pixel clear of its edges, is
+// found; a spot a window cuts is rejected and counted, never measured in part. Random frames
+// (mono8/mono16, slopes, noise, spots across the borders), windows around some spots (some
+// cutting through a spot, some overlapping, some off the frame), plus a stripe; no allocation.
+bool Inside(const Blob& b, const PixelWindow& r, int width, int height) {
+  // One pixel clear of the window's edges inside the frame (the frame's own edges may be touched).
+  return (b.x_min > r.x0 || r.x0 <= 0) && (b.y_min > r.y0 || r.y0 <= 0) && (b.x_max < r.x1 - 1 || r.x1 >= width) &&
+         (b.y_max < r.y1 - 1 || r.y1 >= height) && b.x_min >= r.x0 && b.y_min >= r.y0 && b.x_max < r.x1 &&
+         b.y_max < r.y1;
+}
+
+TEST(BlobDetector, WindowedEqualsFullFrame) {
+  std::mt19937_64 rng(4711);
+  std::uniform_real_distribution<double> u01(0.0, 1.0);
+  BlobList full, win;
+  int found = 0, cut = 0, expected_inside = 0, overlapping = 0;
+  std::uint64_t edge_rejections = 0;
+  for (int trial = 0; trial < 30; ++trial) {
+    const PixelFormat format = trial % 3 == 2 ? PixelFormat::kMono16 : PixelFormat::kMono8;
+    const double scale = format == PixelFormat::kMono8 ? 1.0 : 40.0;
+    const int w = 320 + static_cast<int>(u01(rng) * 400), h = 240 + static_cast<int>(u01(rng) * 300);
+    SyntheticImage img(w, h);
+    img.AddBackground(scale * 30.0, scale * (u01(rng) - 0.5) * 0.2, scale * (u01(rng) - 0.5) * 0.2);
+    std::vector<Spot> spots;
+    for (int i = 0; i < 20; ++i) {
+      Spot sp;
+      sp.u = -2.0 + u01(rng) * (w + 3);
+      sp.v = -2.0 + u01(rng) * (h + 3);
+      sp.sigma_x = sp.sigma_y = 1.0 + 1.5 * u01(rng);
+      sp.flux = scale * (40.0 + 300.0 * u01(rng)) * 2.0 * std::numbers::pi * sp.sigma_x * sp.sigma_y;
+      img.AddSpot(sp);
+      spots.push_back(sp);
+    }
+    img.AddNoise(scale * 2.0, rng);
+    const FrameBuffer fb = Quantize(img, format, trial % 3);
+    std::vector<PixelWindow> windows;
+    for (std::size_t i = 0; i < spots.size(); i += 2) {
+      const Spot& sp = spots[i];
+      // Half-size from 2 px (cuts the spot) to 14 px; shifted off centre by up to 3 px.
+      const int half = 2 + static_cast<int>(u01(rng) * 12);
+      const int cx = static_cast<int>(sp.u + 6.0 * (u01(rng) - 0.5)),
+                cy = static_cast<int>(sp.v + 6.0 * (u01(rng) - 0.5));
+      windows.push_back(PixelWindow{cx - half, cy - half, cx + half + 1, cy + half + 1});
+    }
+    windows.push_back(DetectionStripe(w, h, trial, 8, 16));
+    windows.push_back(PixelWindow{w - 30, h - 30, w + 50, h + 50});  // partly off the frame
+    DetectOptions o;
+    o.centroid_weights = static_cast<CentroidWeights>(trial % 3);
+    if (trial % 4 == 3) {
+      o.threshold_mode = ThresholdMode::kFixed;
+      o.fixed_threshold_dn = static_cast<int>(scale * 45.0);
+      o.fixed_background_dn = scale * 30.0;
+    }
+    BlobDetector d(o);
+    const std::string where = "trial " + std::to_string(trial);
+    ASSERT_EQ(d.Detect(fb.view, nullptr, &full), DetectStatus::kOk) << where;
+    const long news_before = g_news.load();
+    const DetectStatus s = d.Detect(fb.view, nullptr, windows.data(), static_cast<int>(windows.size()), &win);
+    EXPECT_EQ(g_news.load(), news_before) << where;
+    ASSERT_TRUE(s == DetectStatus::kOk || s == DetectStatus::kBlankFrame) << where << " " << ToString(s);
+    EXPECT_EQ(win.counters.windows_dropped, 0u) << where;
+    EXPECT_EQ(win.background_dn, full.background_dn) << where;
+    EXPECT_EQ(win.noise_dn, full.noise_dn) << where;
+    edge_rejections += win.counters.rejected_window_edge;
+    // Every windowed blob is a full-frame blob, bit for bit.
+    for (std::size_t i = 0; i < static_cast<std::size_t>(win.count); ++i) {
+      const Blob& b = win.blobs[i];
+      bool same = false;
+      for (std::size_t j = 0; j < static_cast<std::size_t>(full.count) && !same; ++j) {
+        const Blob& f = full.blobs[j];
+        same = f.uv_px == b.uv_px && f.flux_dn == b.flux_dn && f.background_dn == b.background_dn &&
+               f.peak_dn == b.peak_dn && f.area_px == b.area_px && f.m_xx == b.m_xx && f.m_yy == b.m_yy &&
+               f.m_xy == b.m_xy && f.elongation == b.elongation && f.x_min == b.x_min && f.y_max == b.y_max;
+      }
+      EXPECT_TRUE(same) << where << " windowed blob " << i << " at " << b.uv_px.transpose();
+      ++found;
+    }
+    // Every full-frame blob clear inside a window is found.
+    for (std::size_t j = 0; j < static_cast<std::size_t>(full.count); ++j) {
+      const Blob& f = full.blobs[j];
+      bool inside = false;
+      int containing = 0;
+      for (const PixelWindow& r : windows) {
+        const bool in = Inside(f, r, w, h);
+        inside = inside || in;
+        containing += f.x_max >= r.x0 && f.x_min < r.x1 && f.y_max >= r.y0 && f.y_min < r.y1 ? 1 : 0;
+      }
+      overlapping += containing > 1 ? 1 : 0;
+      if (!inside) {
+        ++cut;
+        continue;
+      }
+      ++expected_inside;
+      bool hit = false;
+      for (std::size_t i = 0; i < static_cast<std::size_t>(win.count) && !hit; ++i) hit = win.blobs[i].uv_px == f.uv_px;
+      EXPECT_TRUE(hit) << where << " full-frame blob at " << f.uv_px.transpose() << " inside a window not found";
+    }
+  }
+  EXPECT_GT(found, 100);
+  EXPECT_GT(expected_inside, 100);
+  EXPECT_GT(cut, 10);              // blobs outside the windows or cut by one
+  EXPECT_GT(edge_rejections, 5u);  // windows cutting through spots were rejected, not measured
+  EXPECT_GT(overlapping, 0);
+}
+
+TEST(BlobDetector, WindowsOverTheLimitOrEmptyAreDroppedAndCounted) {
+  SyntheticImage img(200, 100);
+  img.AddBackground(20.0);
+  std::mt19937_64 rng(3);
+  img.AddNoise(2.0, rng);
+  const FrameBuffer fb = Quantize(img, PixelFormat::kMono8);
+  std::vector<PixelWindow> windows(static_cast<std::size_t>(limits::kMaxDetectWindows) + 5,
+                                   PixelWindow{10, 10, 20, 20});
+  windows[0] = PixelWindow{300, 0, 400, 50};  // outside the frame
+  windows[1] = PixelWindow{50, 50, 50, 60};   // empty
+  BlobDetector d;
+  BlobList out;
+  d.Detect(fb.view, nullptr, windows.data(), static_cast<int>(windows.size()), &out);
+  EXPECT_EQ(out.counters.windows_dropped, 7u);
+  EXPECT_EQ(d.counters().windows_dropped, 7u);
+}
+
+// DetectionStripe: N stripes cover every row; a blob at most `margin` rows tall lies inside the
+// stripe of its top row, clear of its edges; and the stated bound, simulated: a static blob is
+// inside the stripe of some frame set among any N consecutive ones, a blob moving by less than
+// 2 margin - height rows per frame set within 2N - 1.
+TEST(DetectionStripe, CoversEveryRowAndBoundsTheTimeToFindABlob) {
+  constexpr int kW = 1280, kH = 1024, kN = 8, kMargin = 24;
+  std::vector<int> covered(kH, 0);
+  for (int k = 0; k < kN; ++k) {
+    const PixelWindow s = DetectionStripe(kW, kH, k, kN, kMargin);
+    EXPECT_EQ(s.x0, 0);
+    EXPECT_EQ(s.x1, kW);
+    for (int y = s.y0; y < s.y1; ++y) covered[static_cast<std::size_t>(y)] = 1;
+    EXPECT_EQ(DetectionStripe(kW, kH, k + 3 * kN, kN, kMargin).y0, s.y0);  // periodic
+  }
+  for (int y = 0; y < kH; ++y) ASSERT_EQ(covered[static_cast<std::size_t>(y)], 1) << y;
+  // Inside stripe k, clear of its inner edges (the windowed Detect's rule).
+  const auto clear = [&](int k, int top, int height) {
+    const PixelWindow s = DetectionStripe(kW, kH, k, kN, kMargin);
+    return top >= s.y0 && top + height <= s.y1 && (top > s.y0 || s.y0 == 0) && (top + height < s.y1 || s.y1 == kH);
+  };
+  for (int height = 1; height <= kMargin; height += 7) {
+    for (int top = 0; top + height <= kH; ++top) {
+      bool any = false;
+      for (int k = 0; k < kN; ++k) any = any || clear(k, top, height);
+      ASSERT_TRUE(any) << "height " << height << " top " << top;
+    }
+  }
+  const int height = 8;
+  int worst_static = 0, worst_moving = 0;
+  for (int speed = -(2 * kMargin - height - 1); speed <= 2 * kMargin - height - 1; speed += 3) {
+    for (int start = 0; start < kH - height; start += 13) {
+      for (int phase = 0; phase < kN; ++phase) {
+        int found_after = -1;
+        for (int t = 0; t < 4 * kN && found_after < 0; ++t) {
+          const int top = start + speed * t;
+          if (top < 0 || top + height > kH) break;  // left the frame
+          if (clear(phase + t, top, height)) found_after = t;
+        }
+        const int last_top = start + speed * (2 * kN - 2);
+        if (last_top < 0 || last_top + height > kH) continue;  // leaves the frame before the bound
+        ASSERT_GE(found_after, 0) << "speed " << speed << " start " << start << " phase " << phase;
+        (speed == 0 ? worst_static : worst_moving) = std::max(speed == 0 ? worst_static : worst_moving, found_after);
+      }
+    }
+  }
+  EXPECT_LE(worst_static, kN - 1);
+  EXPECT_LE(worst_moving, 2 * kN - 2);
 }
 
 // ---- No heap after construction: 100 frames (mono8 and mono16, adaptive and fixed, with

@@ -204,9 +204,10 @@ std::vector<HealthCount> HealthCounts(const fw::NavLoop& loop, const Rig& rig) {
   return out;
 }
 
-fw::NavLoopConfig LoopConfig(const Scenario& s, const std::vector<FrameTruth>& truth, bool known_start) {
+fw::NavLoopConfig LoopConfig(const Scenario& s, const std::vector<FrameTruth>& truth, bool known_start, bool windowed) {
   fw::NavLoopConfig c;  // mfns-navd's defaults
   c.deadline_ms = 1000.0 / s.frame_rate_hz;  // navd: --deadline-ms defaults to the frame period
+  c.windowed_detection = windowed;
   c.has_initial_pose = known_start;
   c.initial_pose = truth.front().pose;
   return c;
@@ -214,13 +215,14 @@ fw::NavLoopConfig LoopConfig(const Scenario& s, const std::vector<FrameTruth>& t
 
 // One run through NavLoop: `scene` holds the frames the fault shows in its span (or null).
 FaultRun RunFault(const Scenario& s, const std::vector<FrameTruth>& truth, const FrameImages& base,
-                  const FrameImages* scene, const FaultSpec& fault, bool known_start) {
+                  const FrameImages* scene, const FaultSpec& fault, bool known_start, bool windowed) {
   BlobParams params(TruthMapRig(s));
   fw::InProcessSource source(s.rig.num_cameras);
   source.Start();
   auto loop = std::make_unique<fw::NavLoop>(params.rig(), &source, nullptr, nullptr, nullptr);
   const char* why = nullptr;
-  if (!loop->Configure(LoopConfig(s, truth, known_start), &why)) throw UserError(std::string("faults: NavLoop: ") + why);
+  if (!loop->Configure(LoopConfig(s, truth, known_start, windowed), &why))
+    throw UserError(std::string("faults: NavLoop: ") + why);
   FaultRun run;
   run.fault = fault;
   std::vector<cv::Mat> corrupt;  // kept until the run ends: a queued frame points into it
@@ -305,9 +307,9 @@ FaultCampaign RunFaultCampaign(const FaultRunOptions& o, const std::vector<Fault
   c.period_s = 1.0 / s.frame_rate_hz;
   for (int k = 0; k < s.rig.num_cameras; ++k) c.camera_names.emplace_back(s.rig.cameras[static_cast<std::size_t>(k)].name.data());
   const FrameImages base = RenderAll(s, truth, progress);
-  c.baseline = RunFault(s, truth, base, nullptr, FaultSpec{"baseline"}, o.known_start);
+  c.baseline = RunFault(s, truth, base, nullptr, FaultSpec{"baseline"}, o.known_start, o.windowed_detection);
   if (cold) {
-    const FaultRun cold_run = RunFault(s, truth, base, nullptr, FaultSpec{"cold"}, false);
+    const FaultRun cold_run = RunFault(s, truth, base, nullptr, FaultSpec{"cold"}, false, o.windowed_detection);
     for (const FaultFrame& f : cold_run.frames)
       if (f.status == fw::NavStatus::kFix) {
         c.cold_first_fix = f.frame;
@@ -323,7 +325,9 @@ FaultCampaign RunFaultCampaign(const FaultRunOptions& o, const std::vector<Fault
         for (int k = 0; k < s.rig.num_cameras; ++k)
           scene[static_cast<std::size_t>(n)][static_cast<std::size_t>(k)] = RenderCameraFrame(fs, truth[static_cast<std::size_t>(n)], k);
     }
-    c.results.push_back(ScoreFault(RunFault(s, truth, base, ChangesScene(f) ? &scene : nullptr, f, o.known_start), c.baseline, c.period_s));
+    c.results.push_back(
+        ScoreFault(RunFault(s, truth, base, ChangesScene(f) ? &scene : nullptr, f, o.known_start, o.windowed_detection),
+                   c.baseline, c.period_s));
     const FaultResult& r = c.results.back();
     if (progress)
       progress(f.name + ": " + std::to_string(r.wrong_fixes) + " wrong fixes, recovery " + std::to_string(r.recovery_sets) +

@@ -65,6 +65,7 @@ struct FaultRunOptions {
   int fault_at = 60;       // first frame set of every fault
   int image_divisor = 4;   // cameras shrunk by this factor (same field of view): faster rendering
   bool known_start = true;  // start at the true pose of frame set 0
+  bool windowed_detection = true;  // NavLoopConfig::windowed_detection (navd's default; issue 20 item 1)
 };
 
 // The issue's faults, each starting at options.fault_at: stall (20 frame sets), unplug, 3 zero,
