@@ -43,13 +43,15 @@ struct NavLoopConfig {
   double reload_sigma_m = 0.01, reload_sigma_rad = 0.01;
   // Windowed detection while tracking (issue 20 item 1; --no-windowed-detection turns it off):
   // with a pose from the last frame set (fix or degraded), each camera's frame is detected only
-  // in windows about the pixels of the beacons projected at that pose (half-size below), plus
+  // in windows about the pixels of the beacons projected at that pose carried one frame set on
+  // at the velocity of the last two (NavLoop::WindowPose: both must be posed, else full frames;
+  // half-size below), plus
   // stripe (frame set mod detection_stripes) of DetectionStripe with stripe_margin_px rows of
   // margin, so that every row is scanned once every detection_stripes frame sets (a blob the map
   // does not predict, a reflection, is found within that many, detect.h). Lost or acquiring,
   // or more beacons predicted in a camera than windows allow: full frames.
   bool windowed_detection = true;
-  int window_half_px = 48;       // the spot (a few px) plus the motion of one frame set (~40 px),
+  int window_half_px = 48;       // the spot (a few px) plus a change of velocity and the poses' noise,
   double window_sigmas = 3.0;    // plus this many image sigmas of the beacon under the pose's
   int max_window_half_px = 256;  // covariance (SolveResult), up to this half-size in all
   int detection_stripes = 8;
@@ -131,6 +133,8 @@ class NavLoop {
   // The windows of camera k for a frame of width x height at `pose` (windowed_detection): the
   // stripe of this frame set and a window about each beacon projected into the frame; 0 when
   // they do not fit in limits::kMaxDetectWindows (detect the full frame).
+  void KeepPoseForWindows(bool any, std::uint64_t t_capture_ns);
+  bool WindowPose(BodyPose* pose) const;
   int PlanWindows(int k, int width, int height, const BodyPose& pose);
   std::uint64_t DropStaleFrames(std::uint32_t* delivered_set);
   bool CheckClock(std::uint64_t* t_capture_ns);
@@ -149,6 +153,9 @@ class NavLoop {
   std::array<BlobDetector, limits::kMaxCameras> detectors_;
   std::array<BlobList, limits::kMaxCameras> lists_{};
   std::array<PixelWindow, limits::kMaxDetectWindows> windows_{};  // one camera's, this frame set
+  int window_poses_ = 0;  // posed frame sets in a row kept (0..2) for WindowPose
+  BodyPose window_last_, window_prev_;
+  std::uint64_t window_last_t_ns_ = 0, window_prev_t_ns_ = 0;
   std::array<BlobObs, limits::kMaxObservations> obs_{};
   std::array<std::uint64_t, limits::kMaxCameras> stamps_{};  // this frame set's, per camera (0: none)
   int num_obs_ = 0;
