@@ -528,6 +528,37 @@ SweepRun Drive(NavLoop* loop, SweepRenderer* sweep, InProcessSource* source, int
   return run;
 }
 
+// Two loops on the same frames: one with windowed detection, one on full frames (issue 20).
+class WindowedAndFull {
+ public:
+  WindowedAndFull(const Rig& rig, NavLoopConfig c) : rig_(rig), windowed_source_(rig.num_cameras), full_source_(rig.num_cameras) {
+    const char* why = nullptr;
+    ok_ = windowed_source_.Start() == SourceStatus::kOk && full_source_.Start() == SourceStatus::kOk &&
+          windowed_->Configure(c, &why);
+    c.windowed_detection = false;
+    ok_ = ok_ && full_->Configure(c, &why);
+  }
+  bool ok() const { return ok_; }
+  // Frame set n of the sweep (already rendered) to both loops, one step each.
+  bool Step(const SweepRenderer& sweep, int n, PoseRecord* windowed, PoseRecord* full) {
+    for (int k = 0; k < rig_.num_cameras; ++k) {
+      const FrameView v =
+          sweep.View(k, 1'000'000'000ull + static_cast<std::uint64_t>(n) * kFrameNs, static_cast<std::uint32_t>(n));
+      if (!windowed_source_.Push(k, v) || !full_source_.Push(k, v)) return false;
+    }
+    return windowed_->Step(windowed) == StepStatus::kOk && full_->Step(full) == StepStatus::kOk;
+  }
+  const NavLoop& windowed() const { return *windowed_; }
+  const NavLoop& full() const { return *full_; }
+
+ private:
+  const Rig& rig_;
+  InProcessSource windowed_source_, full_source_;
+  std::unique_ptr<NavLoop> windowed_ = std::make_unique<NavLoop>(rig_, &windowed_source_, nullptr, nullptr, nullptr);
+  std::unique_ptr<NavLoop> full_ = std::make_unique<NavLoop>(rig_, &full_source_, nullptr, nullptr, nullptr);
+  bool ok_ = false;
+};
+
 // Issue 20 item 1: windowed detection while tracking gives the track of full-frame detection
 // on the same frames: the same status and the same pose, bit for bit, in every frame set of a
 // 400-step sweep, and the same blobs in every camera (beacons enter and leave the cameras' views
@@ -536,18 +567,10 @@ SweepRun Drive(NavLoop* loop, SweepRenderer* sweep, InProcessSource* source, int
 TEST(NavLoop, WindowedDetectionGivesTheFullFrameTrack) {
   const Rig rig = SmallRig();
   SweepRenderer sweep(rig);
-  InProcessSource windowed_source(rig.num_cameras), full_source(rig.num_cameras);
-  ASSERT_EQ(windowed_source.Start(), SourceStatus::kOk);
-  ASSERT_EQ(full_source.Start(), SourceStatus::kOk);
-  auto windowed_loop = std::make_unique<NavLoop>(rig, &windowed_source, nullptr, nullptr, nullptr);
-  auto full_loop = std::make_unique<NavLoop>(rig, &full_source, nullptr, nullptr, nullptr);
-  NavLoop& windowed = *windowed_loop;
-  NavLoop& full = *full_loop;
-  NavLoopConfig c = Config();
-  const char* why = nullptr;
-  ASSERT_TRUE(windowed.Configure(c, &why)) << why;
-  c.windowed_detection = false;
-  ASSERT_TRUE(full.Configure(c, &why)) << why;
+  WindowedAndFull loops(rig, Config());
+  ASSERT_TRUE(loops.ok());
+  const NavLoop& windowed = loops.windowed();
+  const NavLoop& full = loops.full();
   const int sets = static_cast<int>(testing::Trials(400, 120));
   int fixes = 0, entries = 0, after_two_poses = 0;  // frame sets whose previous two had a pose
   bool had_pose = false, had_two = false;
@@ -555,14 +578,7 @@ TEST(NavLoop, WindowedDetectionGivesTheFullFrameTrack) {
   PoseRecord a, b;
   for (int n = 0; n < sets; ++n) {
     sweep.Render(n);
-    for (int k = 0; k < rig.num_cameras; ++k) {
-      const FrameView v =
-          sweep.View(k, 1'000'000'000ull + static_cast<std::uint64_t>(n) * kFrameNs, static_cast<std::uint32_t>(n));
-      ASSERT_TRUE(windowed_source.Push(k, v));
-      ASSERT_TRUE(full_source.Push(k, v));
-    }
-    ASSERT_EQ(windowed.Step(&a), StepStatus::kOk);
-    ASSERT_EQ(full.Step(&b), StepStatus::kOk);
+    ASSERT_TRUE(loops.Step(sweep, n, &a, &b));
     ASSERT_EQ(a.status, b.status) << "frame set " << n;
     fixes += a.status == NavStatus::kFix ? 1 : 0;
     after_two_poses += had_two ? 1 : 0;
@@ -597,30 +613,16 @@ TEST(NavLoop, WindowedDetectionGivesTheFullFrameTrack) {
 TEST(NavLoop, WindowsFollowAFastTurn) {
   const Rig rig = PaperRig();
   SweepRenderer sweep(rig);
-  InProcessSource windowed_source(rig.num_cameras), full_source(rig.num_cameras);
-  ASSERT_EQ(windowed_source.Start(), SourceStatus::kOk);
-  ASSERT_EQ(full_source.Start(), SourceStatus::kOk);
-  auto windowed = std::make_unique<NavLoop>(rig, &windowed_source, nullptr, nullptr, nullptr);
-  auto full = std::make_unique<NavLoop>(rig, &full_source, nullptr, nullptr, nullptr);
   NavLoopConfig c = Config();
   c.has_initial_pose = true;  // (the start: the sweep's first pose, as the dock would give it)
-  const char* why = nullptr;
-  ASSERT_TRUE(windowed->Configure(c, &why)) << why;
-  c.windowed_detection = false;
-  ASSERT_TRUE(full->Configure(c, &why)) << why;
+  WindowedAndFull loops(rig, c);
+  ASSERT_TRUE(loops.ok());
   const int sets = static_cast<int>(testing::Trials(120, 60));
   int posed = 0;
   PoseRecord a, b;
   for (int n = 0; n < sets; ++n) {
     sweep.Render(n, 3.0);
-    for (int k = 0; k < rig.num_cameras; ++k) {
-      const FrameView v =
-          sweep.View(k, 1'000'000'000ull + static_cast<std::uint64_t>(n) * kFrameNs, static_cast<std::uint32_t>(n));
-      ASSERT_TRUE(windowed_source.Push(k, v));
-      ASSERT_TRUE(full_source.Push(k, v));
-    }
-    ASSERT_EQ(windowed->Step(&a), StepStatus::kOk);
-    ASSERT_EQ(full->Step(&b), StepStatus::kOk);
+    ASSERT_TRUE(loops.Step(sweep, n, &a, &b));
     ASSERT_EQ(a.status, b.status) << "frame set " << n;
     posed += a.status != NavStatus::kLost ? 1 : 0;
     if (a.status != NavStatus::kLost) {
@@ -628,7 +630,7 @@ TEST(NavLoop, WindowsFollowAFastTurn) {
     }
   }
   EXPECT_GT(posed, sets / 2);
-  EXPECT_GT(windowed->counters().windowed_frames, static_cast<std::uint64_t>(sets));
+  EXPECT_GT(loops.windowed().counters().windowed_frames, static_cast<std::uint64_t>(sets));
 }
 
 // A spot the map does not predict (a reflection) that appears mid-track, away from every
