@@ -23,7 +23,12 @@ struct Problem {
   const Match* matches;
   int n;
   const std::array<bool, limits::kMaxMatches>* active;
+  const std::array<double, limits::kMaxMatches>* weight;  // per match (BeaconWeights); null: all 1
 };
+
+double WeightOf(const Problem& p, int i) {
+  return p.weight != nullptr ? (*p.weight)[static_cast<std::size_t>(i)] : 1.0;
+}
 
 // rho(s) and the IRLS weight rho'(s) / s of the 2-D residual norm s.
 void Loss(RobustLoss loss, double k, double s, double* rho, double* w) {
@@ -79,7 +84,9 @@ bool Evaluate(const Problem& p, const BodyPose& pose, RobustLoss loss, double k,
     const Eigen::Vector2d r = MeasuredOf(p, i) - uv;
     double rho = 0.0, w = 1.0;
     Loss(loss, k, r.norm(), &rho, &w);
-    *cost += rho;
+    const double wi = WeightOf(p, i);
+    *cost += wi * rho;
+    w *= wi;
     if (H != nullptr) {
       H->noalias() += w * J.transpose() * J;
       g->noalias() += w * J.transpose() * r;
@@ -208,7 +215,7 @@ SolveStatus Finish(const Problem& p, const SolveOptions& o, SolveResult* res) {
     const double s = (MeasuredOf(p, i) - uv).norm();
     sum2 += s * s;
     res->max_residual_px = std::max(res->max_residual_px, s);
-    H.noalias() += J.transpose() * J;
+    H.noalias() += WeightOf(p, i) * J.transpose() * J;
     ++res->num_inliers;
     ++res->inliers_per_camera[static_cast<std::size_t>(p.matches[i].camera)];
   }
@@ -294,6 +301,18 @@ SolveStatus Solve(const Problem& p, std::array<bool, limits::kMaxMatches>* activ
 
 }  // namespace
 
+bool BeaconWeights(const Rig& rig, const Match* matches, int num_matches, const SolveOptions& o,
+                   std::array<double, limits::kMaxMatches>* weight) {
+  if (!rig.has_beacon_sigmas || !(o.beacon_px_per_m > 0.0)) return false;
+  const double s2 = o.sigma_px * o.sigma_px;
+  const double ref = o.beacon_px_per_m * rig.beacon_sigma;
+  for (int i = 0; i < num_matches; ++i) {
+    const double m = o.beacon_px_per_m * rig.beacon_sigmas[static_cast<std::size_t>(matches[i].beacon)];
+    (*weight)[static_cast<std::size_t>(i)] = (s2 + ref * ref) / (s2 + m * m);
+  }
+  return true;
+}
+
 const char* ToString(SolveStatus s) {
   switch (s) {
     case SolveStatus::kOk: return "ok";
@@ -333,6 +352,7 @@ bool SolveOptions::IsValid(const char** why) const {
   else if (min_beacons < 3 || min_beacons > limits::kMaxBeacons) bad = "min_beacons";
   else if (!(max_travel_m > 0.0)) bad = "max_travel_m";
   else if (!(min_rcond > 0.0) || !(min_rcond < 1.0)) bad = "min_rcond";
+  else if (!(beacon_px_per_m >= 0.0) || !std::isfinite(beacon_px_per_m)) bad = "beacon_px_per_m";
   if (why != nullptr) *why = bad != nullptr ? bad : "ok";
   return bad == nullptr;
 }
@@ -357,7 +377,9 @@ SolveStatus SolvePose(const Rig& rig, const BlobObs* blobs, int num_blobs, const
   if (res.status != SolveStatus::kOk) return res.status;
   std::array<bool, limits::kMaxMatches> active{};
   for (int i = 0; i < num_matches; ++i) active[static_cast<std::size_t>(i)] = true;
-  const Problem p{&rig, blobs, matches, num_matches, &active};
+  std::array<double, limits::kMaxMatches> weight;
+  const bool weighted = BeaconWeights(rig, matches, num_matches, options, &weight);
+  const Problem p{&rig, blobs, matches, num_matches, &active, weighted ? &weight : nullptr};
   res.status = Solve(p, &active, initial, options, &res);
   if (res.status != SolveStatus::kOk && res.status != SolveStatus::kNotConverged) {
     for (int i = 0; i < num_matches; ++i) res.inlier[static_cast<std::size_t>(i)] = active[static_cast<std::size_t>(i)];

@@ -70,6 +70,14 @@ struct SolveOptions {
   int min_beacons = 3;         // distinct beacons needed (>= 3)
   double max_travel_m = 5.0;   // farther from `initial` than this: kDiverged
   double min_rcond = 1e-12;    // smallest eigenvalue ratio of the Jacobi-scaled J^T J
+  // Image error per metre of beacon position error (px/m: a focal length over a range; 0: every
+  // observation weighs the same). With rig.has_beacon_sigmas each observation of beacon b is
+  // weighted by BeaconWeights: its own map error beside the centroid noise, relative to the
+  // map's largest (rig.beacon_sigma). So sigma_px^2 (J^T W J)^-1 keeps the meaning of the
+  // unweighted covariance (centroid noise, to be scaled by 1 + (k beacon_sigma / sigma_px)^2
+  // for the whole 1-sigma), while a beacon surveyed better counts more, and one whose sigma
+  // the navigator inflated (beacon health: moved, or a reflection in its place) counts less.
+  double beacon_px_per_m = 0.0;
 
   // True when every field is usable; otherwise *why (optional) names the first bad field in a
   // static string.
@@ -105,6 +113,12 @@ struct SolveResult {
 SolveStatus SolvePose(const Rig& rig, const BlobObs* blobs, int num_blobs, const Match* matches,
                       int num_matches, const BodyPose& initial, const SolveOptions& options,
                       SolveResult* result);
+
+// The weights of the observations `matches` under options.beacon_px_per_m = k (solve.h):
+// w = (sigma_px^2 + (k rig.beacon_sigma)^2) / (sigma_px^2 + (k rig.beacon_sigmas[b])^2), 1 for
+// a beacon at the map's largest sigma. False (weights untouched) without per-beacon sigmas or k.
+bool BeaconWeights(const Rig& rig, const Match* matches, int num_matches, const SolveOptions& options,
+                   std::array<double, limits::kMaxMatches>* weight);
 
 // A counter per failure mode, for health reporting by the caller.
 struct SolveCounters {

@@ -256,6 +256,64 @@ void CheckOutlierRejected(RobustLoss loss) {
   }
 }
 
+// Per-beacon map sigmas (issue 16 item 2): beacons surveyed 20x better than the map's worst
+// weigh more. The observations carry each beacon's own map error as image noise (k sigma_b px
+// beside the centroid noise): the weighted solve's scatter is its covariance scaled to the
+// whole error (1 + (k beacon_sigma / sigma_px)^2, as the navigator publishes it), and smaller
+// than the unweighted solve's. With every beacon at the map's sigma the weights are all 1 and
+// the solve is the unweighted one, bit for bit.
+TEST(SolveTest, PerBeaconSigmasWeighTheSolveAndItsCovariance) {
+  const BodyPose truth = TruePose();
+  Rig rig = EightBeaconRig(truth);
+  rig.beacon_sigma = 1e-3;
+  rig.has_beacon_sigmas = true;
+  for (int b = 0; b < rig.num_beacons; ++b) rig.beacon_sigmas[static_cast<std::size_t>(b)] = b % 2 == 0 ? 5e-5 : 1e-3;
+  SolveOptions weighted;
+  weighted.sigma_px = 0.1;
+  weighted.outlier_threshold_px = 0.0;  // the map errors here reach 6 px: no rejection
+  weighted.beacon_px_per_m = 1600.0;    // px/rad at 1 m
+  SolveOptions plain = weighted;
+  plain.beacon_px_per_m = 0.0;
+  const double k = weighted.beacon_px_per_m * rig.beacon_sigma / weighted.sigma_px;
+  const double scale = 1.0 + k * k;
+  std::mt19937_64 rng(9);
+  std::normal_distribution<double> unit(0.0, 1.0);
+  static Scene s;
+  static SolveResult rw, rp;
+  std::array<Match, limits::kMaxMatches> m{};
+  const int trials = testing::Trials(2000, 600);
+  double nees = 0.0, err2_weighted = 0.0, err2_plain = 0.0;
+  for (int t = 0; t < trials; ++t) {
+    testing::Observe(rig, truth, 0.0, &rng, &s);
+    const int n = TruthMatches(s, &m);
+    for (int i = 0; i < n; ++i) {
+      const Match& mi = m[static_cast<std::size_t>(i)];
+      const double sigma = std::hypot(weighted.sigma_px, weighted.beacon_px_per_m * rig.beacon_sigmas[static_cast<std::size_t>(mi.beacon)]);
+      s.blobs[static_cast<std::size_t>(mi.blob)].uv_px += sigma * Eigen::Vector2d(unit(rng), unit(rng));
+    }
+    ASSERT_EQ(SolvePose(rig, s.blobs.data(), s.num_blobs, m.data(), n, truth, weighted, &rw), SolveStatus::kOk);
+    ASSERT_EQ(SolvePose(rig, s.blobs.data(), s.num_blobs, m.data(), n, truth, plain, &rp), SolveStatus::kOk);
+    const Vec6 ew = PoseError(truth, rw.pose), ep = PoseError(truth, rp.pose);
+    nees += ew.dot((scale * rw.covariance).ldlt().solve(ew));
+    err2_weighted += ew.head<3>().squaredNorm();
+    err2_plain += ep.head<3>().squaredNorm();
+  }
+  nees /= trials;
+  std::printf("weighted NEES %.3f, position RMS weighted %.3f mm, unweighted %.3f mm\n", nees,
+              1e3 * std::sqrt(err2_weighted / trials), 1e3 * std::sqrt(err2_plain / trials));
+  EXPECT_NEAR(nees, 6.0, 0.6);
+  EXPECT_LT(err2_weighted, 0.7 * err2_plain);
+  // Every beacon at the map's sigma: weights 1, the unweighted solve exactly.
+  for (int b = 0; b < rig.num_beacons; ++b) rig.beacon_sigmas[static_cast<std::size_t>(b)] = rig.beacon_sigma;
+  testing::Observe(rig, truth, 0.3, &rng, &s);
+  const int n = TruthMatches(s, &m);
+  const BodyPose start = Perturb(truth, 2.0, 0.02, &rng);
+  ASSERT_EQ(SolvePose(rig, s.blobs.data(), s.num_blobs, m.data(), n, start, weighted, &rw), SolveStatus::kOk);
+  ASSERT_EQ(SolvePose(rig, s.blobs.data(), s.num_blobs, m.data(), n, start, plain, &rp), SolveStatus::kOk);
+  EXPECT_EQ(rw.pose.r_w_wb, rp.pose.r_w_wb);
+  EXPECT_EQ(rw.covariance, rp.covariance);
+}
+
 TEST(SolveTest, OutlierRejectedHuber) { CheckOutlierRejected(RobustLoss::kHuber); }
 TEST(SolveTest, OutlierRejectedCauchy) { CheckOutlierRejected(RobustLoss::kCauchy); }
 
