@@ -78,6 +78,10 @@ inline constexpr int kMaxOutputs = 4;
 // Blobs carried by one blobs datagram (firmware/modules/publish/pose_message.h): the matched
 // ones first; 128 x 12 bytes keeps it near one Ethernet frame.
 inline constexpr int kMaxBlobsInMessage = 128;
+// Beacon health (firmware/modules/health): the last in-view observations of each beacon judged
+// at once, and the beacons one beacon-health datagram carries (one page; 8 pages for 256).
+inline constexpr int kBeaconHealthWindow = 16;
+inline constexpr int kBeaconHealthPerMessage = 32;
 
 // Iterative solvers: every loop has one of these as its bound.
 inline constexpr int kMaxUnprojectIterations = 20;
