@@ -26,6 +26,12 @@ void DispatchDatagram(std::span<const std::uint8_t> d, ViewState* state) {
     else state->CountBadDatagram(s);
     return;
   }
+  if (type == 4) {  // beacon health pages: checked, not shown by the page yet
+    fw::BeaconHealthRecord b;
+    const fw::MessageStatus s = fw::DecodeBeaconHealth(d, &b);
+    if (s != fw::MessageStatus::kOk) state->CountBadDatagram(s);
+    return;
+  }
   if (type == 3) {
     fw::BlobsRecord b;
     const fw::MessageStatus s = fw::DecodeBlobs(d, &b);

@@ -1,4 +1,4 @@
-// libFuzzer target for the pose, health and blobs datagram decoders (firmware/modules/publish/
+// libFuzzer target for the pose, health, blobs and beacon-health datagram decoders (firmware/modules/publish/
 // pose_message.h), which receivers (ground tools, tests, a flight controller bridge) run on
 // whatever arrives on a UDP port: a typed status for any bytes; a datagram that decodes kOk
 // encodes again without fault.
@@ -30,6 +30,13 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     // What decodes encodes to the same bytes (the layout has no slack).
     std::array<std::uint8_t, kMaxBlobsMessageBytes> out{};
     const std::size_t n = EncodeBlobs(blobs, out);
+    if (n != size || !std::equal(out.begin(), out.begin() + static_cast<std::ptrdiff_t>(n), data)) __builtin_trap();
+  }
+  BeaconHealthRecord beacons;
+  if (DecodeBeaconHealth(in, &beacons) == MessageStatus::kOk) {
+    // The same: no slack, so what decodes encodes to the same bytes.
+    std::array<std::uint8_t, kMaxBeaconHealthMessageBytes> out{};
+    const std::size_t n = EncodeBeaconHealth(beacons, out);
     if (n != size || !std::equal(out.begin(), out.begin() + static_cast<std::ptrdiff_t>(n), data)) __builtin_trap();
   }
   return 0;

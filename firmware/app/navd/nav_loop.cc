@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <limits>
 
 #include "common/rotation/rotation.h"
@@ -241,7 +242,7 @@ void NavLoop::Publish(const NavOutput& nav, std::uint64_t t_capture_ns, PoseReco
   }
   r.t_publish_ns = MonotonicNs();
   if (outputs_ != nullptr) outputs_->Pose(r);
-  if (log_ != nullptr && log_->is_open()) log_->Write(r);
+  if (log_ != nullptr && log_->is_open()) log_->Write(r, FlaggedBeacons());
   if (out != nullptr) *out = r;
 }
 
@@ -274,6 +275,60 @@ void FillBlobs(const BlobObs* obs, int num_obs, const std::int16_t* beacon_of_bl
           static_cast<std::uint8_t>(o.camera), beacon_of_blob[i], static_cast<float>(o.uv_px.x()), static_cast<float>(o.uv_px.y())};
     }
   r->truncated = r->num_blobs < num_obs;
+}
+
+void FillBeaconHealth(const BeaconHealth& health, int first, BeaconHealthRecord* r) {
+  r->map_beacons = static_cast<std::uint16_t>(health.num_beacons());
+  r->flagged = static_cast<std::uint16_t>(health.NumFlagged());
+  r->first = static_cast<std::uint16_t>(std::clamp(first, 0, health.num_beacons()));
+  r->num_entries = std::min(limits::kBeaconHealthPerMessage, health.num_beacons() - r->first);
+  for (int i = 0; i < r->num_entries; ++i) {
+    const int b = r->first + i;
+    const BeaconStats& s = health.stats(b);
+    BeaconHealthEntry& e = r->entries[static_cast<std::size_t>(i)];
+    e.beacon = static_cast<std::uint16_t>(b);
+    e.state = static_cast<std::uint8_t>(s.state);
+    e.judged = s.judged;
+    e.in_view = s.in_view;
+    e.seen = s.seen;
+    e.used = s.used;
+    e.rejected = s.rejected;
+    e.mean_residual_px = static_cast<float>(s.MeanResidualPx());
+    e.rms_residual_px = static_cast<float>(s.RmsResidualPx());
+    e.suggested_sigma_mm = static_cast<float>(1e3 * health.SuggestedSigmaM(b));
+  }
+}
+
+// The next page of the beacons' health, after each health message: every beacon within
+// ceil(beacons / kBeaconHealthPerMessage) health periods.
+void NavLoop::PublishBeaconHealth() {
+  const BeaconHealth& health = navigator_.beacon_health();
+  if (health.num_beacons() == 0) return;
+  BeaconHealthRecord& r = beacon_health_record_;
+  r.sequence = beacon_health_sequence_++;
+  r.frame_sets = Saturate32(counters_.frame_sets);
+  r.t_ns = MonotonicNs();
+  FillBeaconHealth(health, beacon_health_first_, &r);
+  outputs_->BeaconHealth(r);
+  beacon_health_first_ += limits::kBeaconHealthPerMessage;
+  if (beacon_health_first_ >= health.num_beacons()) beacon_health_first_ = 0;
+}
+
+// "b:state b:state ..." of the flagged beacons ("" when none), for the log.
+const char* NavLoop::FlaggedBeacons() {
+  const BeaconHealth& health = navigator_.beacon_health();
+  std::size_t at = 0;
+  flagged_text_[0] = '\0';
+  const int beacons = health.NumFlagged() > 0 ? health.num_beacons() : 0;
+  for (int b = 0; b < beacons; ++b) {
+    const BeaconState state = health.stats(b).state;
+    if (state == BeaconState::kOk) continue;
+    const int n = std::snprintf(flagged_text_.data() + at, flagged_text_.size() - at, "%s%d:%s", at > 0 ? " " : "", b,
+                                ToString(state));
+    if (n < 0 || static_cast<std::size_t>(n) >= flagged_text_.size() - at) break;  // cannot happen: sized for all
+    at += static_cast<std::size_t>(n);
+  }
+  return flagged_text_.data();
 }
 
 HealthRecord NavLoop::Health() const {
@@ -466,6 +521,7 @@ StepStatus NavLoop::Step(PoseRecord* out) {
       outputs_->wants_health()) {
     outputs_->Health(Health());
     ++health_sequence_;
+    PublishBeaconHealth();
   }
   return StepStatus::kOk;
 }

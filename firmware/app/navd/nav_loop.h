@@ -99,6 +99,9 @@ struct LoopCounters {
 // message carries; sets r->truncated and r->num_blobs (the header fields are the caller's).
 // NavLoop's blobs datagram, and mfns-view's playback (host/view/frame_blobs.h), build it so.
 void FillBlobs(const BlobObs* obs, int num_obs, const std::int16_t* beacon_of_blob, BlobsRecord* r);
+// One page of beacon health: beacons first .. first + kBeaconHealthPerMessage - 1 (fewer at the
+// map's end); the sequence, frame_sets and t_ns are the caller's.
+void FillBeaconHealth(const BeaconHealth& health, int first, BeaconHealthRecord* r);
 
 class NavLoop {
  public:
@@ -143,6 +146,8 @@ class NavLoop {
   std::uint64_t FramesLost() const;
   void Publish(const NavOutput& nav, std::uint64_t t_capture_ns, PoseRecord* out);
   void PublishBlobs(const NavOutput& nav, int num_obs, std::uint64_t t_capture_ns);
+  void PublishBeaconHealth();
+  const char* FlaggedBeacons();
 
   const Rig* rig_;
   FrameSource* source_;
@@ -173,6 +178,11 @@ class NavLoop {
   std::uint32_t pose_sequence_ = 0, health_sequence_ = 0, blobs_sequence_ = 0;
   BlobsRecord blobs_record_;                                         // PublishBlobs' message
   std::array<std::int16_t, limits::kMaxObservations> beacon_of_blob_{};  // PublishBlobs' scratch
+  BeaconHealthRecord beacon_health_record_;  // PublishBeaconHealth's message
+  std::uint32_t beacon_health_sequence_ = 0;
+  int beacon_health_first_ = 0;              // the next page's first beacon
+  // The log's flagged_beacons cell: "b:state" per flagged beacon, space-separated.
+  std::array<char, limits::kMaxBeacons * 20 + 1> flagged_text_{};
 };
 
 

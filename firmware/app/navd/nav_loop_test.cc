@@ -319,8 +319,8 @@ TEST(NavLoop, NoAllocationAfterStartWithTriggerUdpMavlinkAndLog) {
   ::close(mav_rx);
   EXPECT_EQ(trigger.counters().pulses, static_cast<std::uint64_t>(sets));
   EXPECT_EQ(outputs.counters(0).send_errors, 0u);
-  // A pose and a blobs datagram per frame set, and the health ones.
-  EXPECT_EQ(outputs.counters(0).sent, static_cast<std::uint64_t>(2 * sets + sets / Config().health_every));
+  // A pose and a blobs datagram per frame set, and the health ones (health and a beacon page).
+  EXPECT_EQ(outputs.counters(0).sent, static_cast<std::uint64_t>(2 * sets + 2 * (sets / Config().health_every)));
   EXPECT_GE(received, sets / 2) << "datagrams reached the socket";
   EXPECT_GE(blob_messages, sets / 4) << "blobs datagrams decoded";
   EXPECT_GE(blobs_checked, sets / 8) << "blobs datagrams checked against their frame set's pose";

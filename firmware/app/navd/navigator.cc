@@ -2,6 +2,11 @@
 
 namespace mfns::fw {
 
+namespace {
+// Beacons a pose degraded by its residuals must stand on to judge the beacons by it.
+constexpr int kJudgeDegradedBeacons = 6;
+}  // namespace
+
 NavReason ToNavReason(TrackReason r) {
   switch (r) {
     case TrackReason::kNone: return NavReason::kNone;
@@ -31,6 +36,11 @@ bool Navigator::Init(const Rig& rig, const NavigatorOptions& options, const char
     return false;
   }
   rig_ = rig;
+  // Every beacon carries its own map sigma from here on (the map's one when the rig has none:
+  // the solve's weights are then all 1), so that beacon health can down-weight one.
+  if (!rig_.has_beacon_sigmas) rig_.beacon_sigmas.fill(rig_.beacon_sigma);
+  rig_.has_beacon_sigmas = true;
+  own_sigma_m_ = rig_.beacon_sigmas;
   facing_ = InferFacingResult{};
   if (options.infer_facing && !rig_.has_facing) InferFacing(options.facing, &rig_, &facing_);
   if (!tracker_.Reset(rig_)) {
@@ -54,6 +64,15 @@ bool Navigator::Init(const Rig& rig, const NavigatorOptions& options, const char
   // published one adds the map's error as image noise, so that its 1-sigma is honest.
   const double k = options_.track.MapToCentroidRatio();
   covariance_scale_ = 1.0 + k * k;
+  // The solves weigh each beacon by its own sigma, seen at the same range.
+  const double px_per_m = LargestFocalPx(rig_) / options_.track.gate_depth_m;
+  options_.track.solve.beacon_px_per_m = options_.track.lis.solve.beacon_px_per_m = px_per_m;
+  options_.health.sigma_px = options_.track.solve.sigma_px;
+  if (options_.scale_gates_to_rig) options_.health.search_px *= PixelGateScale(rig_);
+  if (!health_.Reset(rig_, options_.health)) {
+    if (why != nullptr) *why = "beacon health: bad options";
+    return false;
+  }
   return true;
 }
 
@@ -91,6 +110,24 @@ void Navigator::Step(const BlobObs* blobs, int num_blobs, std::uint64_t t_ns, st
   out->num_matches = result_.matches.num_matches;
   for (int i = 0; i < out->num_matches; ++i)
     out->matches[static_cast<std::size_t>(i)] = result_.matches.matches[static_cast<std::size_t>(i)];
+  // Beacons are judged on fixes, and on poses degraded by their residuals that stand on
+  // enough beacons for one bad beacon to stand out (a moved beacon degrades every pose it is in
+  // until it is flagged and down-weighted).
+  if (s == TrackStatus::kFix ||
+      (result_.reason == TrackReason::kLargeResidual && r.num_beacons >= kJudgeDegradedBeacons))
+    JudgeBeacons(blobs, num_blobs, delivered, *out);
+}
+
+// Beacon health on a fix, and the weights of the beacons whose state changed.
+void Navigator::JudgeBeacons(const BlobObs* blobs, int num_blobs, std::uint32_t delivered, const NavOutput& out) {
+  const std::uint32_t cameras = delivered & ((std::uint32_t{1} << limits::kMaxCameras) - 1U);
+  if (health_.Update(rig_, out.pose, out.covariance, blobs, num_blobs, out.matches.data(), out.num_matches, cameras) == 0 ||
+      !options_.down_weight_inconsistent)
+    return;
+  for (int b = 0; b < rig_.num_beacons; ++b) {
+    const auto sb = static_cast<std::size_t>(b);
+    rig_.beacon_sigmas[sb] = std::max(own_sigma_m_[sb], health_.SuggestedSigmaM(b));
+  }
 }
 
 void Navigator::SetInitialPose(const BodyPose& pose, double sigma_m, double sigma_rad) {

@@ -10,6 +10,7 @@
 
 #include "common/rig/infer_facing.h"
 #include "common/rig/rig.h"
+#include "firmware/modules/health/beacon_health.h"
 #include "firmware/modules/identify/tracker.h"
 #include "firmware/modules/publish/pose_message.h"
 #include "firmware/modules/solve/observation.h"
@@ -27,8 +28,15 @@ struct NavigatorOptions {
   // from every direction (beacons not on walls).
   bool infer_facing = true;
   InferFacingOptions facing;
+  // Beacon health after every fix (firmware/modules/health): its search radius is scaled with
+  // the pixel gates, its centroid noise is the solve's. A beacon it finds inconsistent is
+  // down-weighted: its map sigma, in the navigator's rig, becomes what its residuals show
+  // (at least its own), so that the solve weighs it by that (SolveOptions::beacon_px_per_m);
+  // back to its own when it clears. False: counted and reported, never down-weighted.
+  BeaconHealthOptions health;
+  bool down_weight_inconsistent = true;
   bool IsValid(const char** why = nullptr) const {
-    return track.IsValid(why) && (!infer_facing || facing.IsValid(why));
+    return track.IsValid(why) && (!infer_facing || facing.IsValid(why)) && health.IsValid(why);
   }
 };
 
@@ -75,6 +83,7 @@ class Navigator {
   // The rig in use, and how many beacons got an inferred facing at Init (none when it had some).
   const Rig& rig() const { return rig_; }
   const InferFacingResult& inferred_facing() const { return facing_; }
+  const BeaconHealth& beacon_health() const { return health_; }
 
  private:
   NavigatorOptions options_;
@@ -88,6 +97,9 @@ class Navigator {
   bool have_last_ = false;
   BodyPose last_pose_;
   double covariance_scale_ = 1.0;  // published covariance / the solve's (map error)
+  BeaconHealth health_;
+  std::array<double, limits::kMaxBeacons> own_sigma_m_{};  // each beacon's map sigma at Init
+  void JudgeBeacons(const BlobObs* blobs, int num_blobs, std::uint32_t delivered, const NavOutput& out);
 };
 
 }  // namespace mfns::fw

@@ -10,7 +10,7 @@ namespace mfns::fw {
 namespace {
 
 constexpr std::array<std::uint8_t, 4> kMagic = {'M', 'F', 'N', 'P'};
-constexpr std::uint8_t kTypePose = 1, kTypeHealth = 2, kTypeBlobs = 3;
+constexpr std::uint8_t kTypePose = 1, kTypeHealth = 2, kTypeBlobs = 3, kTypeBeaconHealth = 4;
 constexpr std::size_t kCameraHealthBytes = 28, kCameraHealthV1Bytes = 20;
 static_assert(48 + 3 * 8 + 4 * 8 + 3 * 4 + 4 + 21 * 4 + 4 == kPoseMessageBytes, "pose layout");
 static_assert(56 + limits::kMaxCameras * kCameraHealthBytes + 3 * 4 + 4 == kHealthMessageBytes, "health layout");
@@ -259,6 +259,83 @@ MessageStatus DecodeBlobs(std::span<const std::uint8_t> in, BlobsRecord* r) {
     b.u_px = rd.F32();
     b.v_px = rd.F32();
     if (b.camera >= out.num_cameras || b.beacon < -1 || !std::isfinite(b.u_px) || !std::isfinite(b.v_px))
+      return MessageStatus::kBadField;
+  }
+  *r = out;
+  return MessageStatus::kOk;
+}
+
+std::size_t EncodeBeaconHealth(const BeaconHealthRecord& r, std::span<std::uint8_t, kMaxBeaconHealthMessageBytes> out) {
+  const int n = std::clamp(r.num_entries, 0, limits::kBeaconHealthPerMessage);
+  const std::size_t size = kBeaconHealthHeaderBytes + kBeaconHealthEntryBytes * static_cast<std::size_t>(n) + 4;
+  const std::span<std::uint8_t> msg = std::span<std::uint8_t>(out).first(size);
+  wire::ByteWriter w(msg);
+  Header(w, kBeaconHealthMessageVersion, kTypeBeaconHealth, size);
+  w.U32(r.sequence);
+  w.U32(r.frame_sets);
+  w.U64(r.t_ns);
+  w.U16(r.map_beacons);
+  w.U16(r.flagged);
+  w.U16(r.first);
+  w.U16(static_cast<std::uint16_t>(n));
+  for (int i = 0; i < n; ++i) {
+    const BeaconHealthEntry& e = r.entries[static_cast<std::size_t>(i)];
+    w.U16(e.beacon);
+    w.U8(e.state);
+    w.U8(e.judged ? 1 : 0);
+    for (const std::uint32_t c : {e.in_view, e.seen, e.used, e.rejected}) w.U32(c);
+    for (const float f : {e.mean_residual_px, e.rms_residual_px, e.suggested_sigma_mm}) w.F32(f);
+  }
+  Seal(msg);
+  return size;
+}
+
+namespace {
+
+// A decoded entry that cannot come from an encoder of BeaconHealth's counters.
+bool BadEntry(const BeaconHealthEntry& e, std::uint32_t want_beacon, std::uint8_t judged) {
+  const bool finite = std::isfinite(e.mean_residual_px) && std::isfinite(e.rms_residual_px) &&
+                      std::isfinite(e.suggested_sigma_mm);
+  return e.beacon != want_beacon || e.state >= static_cast<std::uint8_t>(3) || judged > 1 || e.seen > e.in_view ||
+         static_cast<std::uint64_t>(e.used) + e.rejected != e.seen || !finite || e.mean_residual_px < 0.0f ||
+         e.rms_residual_px < 0.0f || e.suggested_sigma_mm < 0.0f;
+}
+
+}  // namespace
+
+MessageStatus DecodeBeaconHealth(std::span<const std::uint8_t> in, BeaconHealthRecord* r) {
+  // The size follows from the count: read it (when there is one) before the header check.
+  const std::size_t n = in.size() >= kBeaconHealthHeaderBytes ? wire::LoadLe(in, 30, 2) : 0;
+  if (n > static_cast<std::size_t>(limits::kBeaconHealthPerMessage)) return MessageStatus::kBadSize;
+  const MessageStatus s = Check(in, kBeaconHealthMessageVersion, kTypeBeaconHealth,
+                                kBeaconHealthHeaderBytes + kBeaconHealthEntryBytes * n + 4);
+  if (s != MessageStatus::kOk) return s;
+  BeaconHealthRecord out;
+  wire::ByteReader rd(in.subspan(8));
+  out.sequence = rd.U32();
+  out.frame_sets = rd.U32();
+  out.t_ns = rd.U64();
+  out.map_beacons = rd.U16();
+  out.flagged = rd.U16();
+  out.first = rd.U16();
+  out.num_entries = rd.U16();
+  if (out.map_beacons > limits::kMaxBeacons || out.flagged > out.map_beacons ||
+      static_cast<std::size_t>(out.first) + n > out.map_beacons)
+    return MessageStatus::kBadField;
+  for (int i = 0; i < out.num_entries; ++i) {
+    BeaconHealthEntry& e = out.entries[static_cast<std::size_t>(i)];
+    e.beacon = rd.U16();
+    e.state = rd.U8();
+    const std::uint8_t judged = rd.U8();
+    e.judged = judged == 1;
+    e.in_view = rd.U32();
+    e.seen = rd.U32();
+    e.used = rd.U32();
+    e.rejected = rd.U32();
+    e.mean_residual_px = rd.F32();
+    e.rms_residual_px = rd.F32();
+    e.suggested_sigma_mm = rd.F32();
+    if (BadEntry(e, static_cast<std::uint32_t>(out.first) + static_cast<std::uint32_t>(i), judged))
       return MessageStatus::kBadField;
   }
   *r = out;

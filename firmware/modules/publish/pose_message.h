@@ -41,6 +41,17 @@
 //       f32 u_px, f32 v_px (distorted image centroid)
 //   28 + 12 n  u32 CRC-32 of the bytes before it
 //   The matched blobs come first, then the others, in the frame set's blob order.
+//
+//   BeaconHealthMessage v1 (type 4, 32 + 32 n bytes, n <= limits::kBeaconHealthPerMessage; one
+//   page of the map's beacons, sent after each health message, the pages in turn; issue 16)
+//   0   magic, version = 1, type = 4, u16 size (as above)
+//   8   u32 sequence   12 u32 frame_sets   16 u64 t_ns (as the health message's)
+//   24  u16 map_beacons   26 u16 flagged (beacons not ok, whole map)   28 u16 first   30 u16 n
+//   32  n x 32 bytes, beacons first .. first + n - 1: u16 beacon, u8 state (BeaconState: 0 ok,
+//       1 inconsistent, 2 missing), u8 judged (0/1), u32 in_view, u32 seen, u32 used,
+//       u32 rejected, f32 mean residual (px), f32 RMS residual (px), f32 the map sigma its
+//       residuals suggest (mm; 0 unless inconsistent)
+//   32 + 32 n  u32 CRC-32 of the bytes before it
 #pragma once
 
 #include <Eigen/Core>
@@ -83,6 +94,11 @@ inline constexpr std::size_t kBlobsMessageEntryBytes = 12;
 inline constexpr std::size_t kMaxBlobsMessageBytes =
     kBlobsMessageHeaderBytes + kBlobsMessageEntryBytes * limits::kMaxBlobsInMessage + 4;
 inline constexpr std::uint8_t kBlobsMessageVersion = 1;
+inline constexpr std::size_t kBeaconHealthHeaderBytes = 32;
+inline constexpr std::size_t kBeaconHealthEntryBytes = 32;
+inline constexpr std::size_t kMaxBeaconHealthMessageBytes =
+    kBeaconHealthHeaderBytes + kBeaconHealthEntryBytes * limits::kBeaconHealthPerMessage + 4;
+inline constexpr std::uint8_t kBeaconHealthMessageVersion = 1;
 inline constexpr std::uint8_t kPoseMessageVersion = 1;
 inline constexpr std::uint8_t kHealthMessageVersion = 2;
 
@@ -152,6 +168,27 @@ struct BlobsRecord {
   std::array<BlobEntry, limits::kMaxBlobsInMessage> blobs{};
 };
 
+// One beacon's health as the beacon-health message carries it (firmware/modules/health).
+struct BeaconHealthEntry {
+  std::uint16_t beacon = 0;
+  std::uint8_t state = 0;  // BeaconState
+  bool judged = false;
+  std::uint32_t in_view = 0, seen = 0, used = 0, rejected = 0;
+  float mean_residual_px = 0.0f, rms_residual_px = 0.0f, suggested_sigma_mm = 0.0f;
+};
+
+// One page of the map's beacons (BeaconHealthMessage).
+struct BeaconHealthRecord {
+  std::uint32_t sequence = 0;
+  std::uint32_t frame_sets = 0;
+  std::uint64_t t_ns = 0;
+  std::uint16_t map_beacons = 0;
+  std::uint16_t flagged = 0;
+  std::uint16_t first = 0;
+  int num_entries = 0;  // 0..limits::kBeaconHealthPerMessage
+  std::array<BeaconHealthEntry, limits::kBeaconHealthPerMessage> entries{};
+};
+
 enum class MessageStatus : unsigned char {
   kOk = 0, kTruncated, kBadMagic, kBadVersion, kBadType, kBadSize, kBadCrc,
   kBadField,  // a field out of its range (a blob's camera, beacon or centroid)
@@ -165,6 +202,9 @@ void EncodeHealth(const HealthRecord& r, std::span<std::uint8_t, kHealthMessageB
 // Writes the blobs message of r (num_blobs clamped to 0..kMaxBlobsInMessage) into out;
 // returns its size.
 std::size_t EncodeBlobs(const BlobsRecord& r, std::span<std::uint8_t, kMaxBlobsMessageBytes> out);
+// Writes the beacon-health message of r (num_entries clamped to 0..kBeaconHealthPerMessage)
+// into out; returns its size.
+std::size_t EncodeBeaconHealth(const BeaconHealthRecord& r, std::span<std::uint8_t, kMaxBeaconHealthMessageBytes> out);
 // Decoders for receivers and tests: check magic, version, type, size and CRC. DecodeHealth
 // also takes a v1 message (the fields v1 lacks are zero).
 MessageStatus DecodePose(std::span<const std::uint8_t> in, PoseRecord* r);
@@ -172,5 +212,9 @@ MessageStatus DecodeHealth(std::span<const std::uint8_t> in, HealthRecord* r);
 // Also checks every blob: camera < num_cameras <= kMaxCameras, beacon >= -1, finite centroid
 // (else kBadField).
 MessageStatus DecodeBlobs(std::span<const std::uint8_t> in, BlobsRecord* r);
+// Also checks every entry: its beacon is first + its index, < map_beacons <= kMaxBeacons, state
+// < 3, judged 0/1, seen <= in_view, used + rejected == seen, finite non-negative residuals and
+// sigma; flagged <= map_beacons (else kBadField).
+MessageStatus DecodeBeaconHealth(std::span<const std::uint8_t> in, BeaconHealthRecord* r);
 
 }  // namespace mfns::fw

@@ -260,6 +260,103 @@ TEST(BlobsMessage, RejectsEveryCorruptionAndFieldsOutOfRange) {
   EXPECT_EQ(DecodeBlobs(pose, &r), MessageStatus::kBadType);
 }
 
+BeaconHealthRecord SampleBeaconHealth(int n) {
+  BeaconHealthRecord r;
+  r.sequence = 4;
+  r.frame_sets = 950;
+  r.t_ns = 123456789012ULL;
+  r.map_beacons = 256;
+  r.flagged = 2;
+  r.first = 224;
+  r.num_entries = n;
+  for (int i = 0; i < n; ++i) {
+    BeaconHealthEntry& e = r.entries[static_cast<std::size_t>(i)];
+    e.beacon = static_cast<std::uint16_t>(224 + i);
+    e.state = static_cast<std::uint8_t>(i % 3);
+    e.judged = i % 2 == 0;
+    e.in_view = 100u + static_cast<std::uint32_t>(i);
+    e.used = 50u + static_cast<std::uint32_t>(i);
+    e.rejected = 3u;
+    e.seen = e.used + e.rejected;
+    e.mean_residual_px = 0.125f * static_cast<float>(i);
+    e.rms_residual_px = 0.25f * static_cast<float>(i);
+    e.suggested_sigma_mm = e.state == 1 ? 5.5f : 0.0f;
+  }
+  return r;
+}
+
+TEST(BeaconHealthMessage, RoundTripAndLayout) {
+  for (const int n : {0, 1, 13, limits::kBeaconHealthPerMessage}) {
+    const BeaconHealthRecord in = SampleBeaconHealth(n);
+    std::array<std::uint8_t, kMaxBeaconHealthMessageBytes> bytes{};
+    const std::size_t size = EncodeBeaconHealth(in, bytes);
+    ASSERT_EQ(size, 36u + 32u * static_cast<std::size_t>(n));
+    EXPECT_EQ(bytes[5], 4);
+    EXPECT_EQ(bytes[6] | bytes[7] << 8, static_cast<int>(size));
+    BeaconHealthRecord out;
+    ASSERT_EQ(DecodeBeaconHealth(std::span<const std::uint8_t>(bytes.data(), size), &out), MessageStatus::kOk) << n;
+    EXPECT_EQ(out.sequence, in.sequence);
+    EXPECT_EQ(out.frame_sets, in.frame_sets);
+    EXPECT_EQ(out.t_ns, in.t_ns);
+    EXPECT_EQ(out.map_beacons, in.map_beacons);
+    EXPECT_EQ(out.flagged, in.flagged);
+    EXPECT_EQ(out.first, in.first);
+    ASSERT_EQ(out.num_entries, n);
+    for (int i = 0; i < n; ++i) {
+      const BeaconHealthEntry &a = in.entries[static_cast<std::size_t>(i)], &b = out.entries[static_cast<std::size_t>(i)];
+      EXPECT_EQ(a.beacon, b.beacon);
+      EXPECT_EQ(a.state, b.state);
+      EXPECT_EQ(a.judged, b.judged);
+      EXPECT_EQ(a.in_view, b.in_view);
+      EXPECT_EQ(a.seen, b.seen);
+      EXPECT_EQ(a.used, b.used);
+      EXPECT_EQ(a.rejected, b.rejected);
+      EXPECT_EQ(a.mean_residual_px, b.mean_residual_px);
+      EXPECT_EQ(a.rms_residual_px, b.rms_residual_px);
+      EXPECT_EQ(a.suggested_sigma_mm, b.suggested_sigma_mm);
+    }
+  }
+}
+
+TEST(BeaconHealthMessage, RejectsEveryCorruptionAndFieldsOutOfRange) {
+  std::array<std::uint8_t, kMaxBeaconHealthMessageBytes> bytes{};
+  const std::size_t size = EncodeBeaconHealth(SampleBeaconHealth(3), bytes);
+  BeaconHealthRecord r;
+  for (std::size_t n = 0; n < size; ++n)
+    EXPECT_NE(DecodeBeaconHealth(std::span<const std::uint8_t>(bytes.data(), n), &r), MessageStatus::kOk) << n;
+  EXPECT_EQ(DecodeBeaconHealth(std::span<const std::uint8_t>(bytes.data(), size + 1), &r), MessageStatus::kBadSize);
+  for (std::size_t i = 0; i < size; ++i)
+    for (int bit = 0; bit < 8; ++bit) {
+      auto bad = bytes;
+      bad[i] ^= static_cast<std::uint8_t>(1u << bit);
+      EXPECT_NE(DecodeBeaconHealth(std::span<const std::uint8_t>(bad.data(), size), &r), MessageStatus::kOk) << i << ":" << bit;
+    }
+  // Fields out of range with a valid CRC: beyond the map, a page past its end, a beacon out of
+  // order, a state past missing, seen > in view, used + rejected != seen, a negative or NaN
+  // residual, more flagged than beacons.
+  for (int c = 0; c < 9; ++c) {
+    BeaconHealthRecord b = SampleBeaconHealth(2);
+    BeaconHealthEntry& e = b.entries[1];
+    if (c == 0) b.map_beacons = limits::kMaxBeacons + 1;
+    if (c == 1) b.first = 255;
+    if (c == 2) e.beacon = 7;
+    if (c == 3) e.state = 3;
+    if (c == 4) e.seen = e.in_view + 1;
+    if (c == 5) e.rejected += 1;
+    if (c == 6) e.rms_residual_px = -1.0f;
+    if (c == 7) e.mean_residual_px = std::numeric_limits<float>::quiet_NaN();
+    if (c == 8) b.flagged = 300;
+    const std::size_t n = EncodeBeaconHealth(b, bytes);
+    EXPECT_EQ(DecodeBeaconHealth(std::span<const std::uint8_t>(bytes.data(), n), &r), MessageStatus::kBadField) << c;
+  }
+  const std::size_t n = EncodeBeaconHealth(SampleBeaconHealth(1), bytes);
+  bytes[30] = 33;  // n = 33 > kBeaconHealthPerMessage, before any size arithmetic
+  EXPECT_EQ(DecodeBeaconHealth(std::span<const std::uint8_t>(bytes.data(), n), &r), MessageStatus::kBadSize);
+  std::array<std::uint8_t, kPoseMessageBytes> pose{};
+  EncodePose(PoseRecord{}, pose);
+  EXPECT_EQ(DecodeBeaconHealth(pose, &r), MessageStatus::kBadType);
+}
+
 TEST(UdpPublisher, DeliversDatagramsOnLoopback) {
   const int rx = ::socket(AF_INET, SOCK_DGRAM, 0);
   ASSERT_GE(rx, 0);
@@ -321,14 +418,18 @@ TEST(PoseLog, WritesTheDesignCsvAndRenamesOnClose) {
   r.residual_rms_px = 0.25f;
   r.reason = NavReason::kCameraDown;
   ASSERT_EQ(log.Write(r), PublishStatus::kOk);
+  ASSERT_EQ(log.Write(r, "7:inconsistent 40:missing"), PublishStatus::kOk);
   EXPECT_FALSE(std::filesystem::exists(path));  // only the .partial until Close
   ASSERT_EQ(log.Close(), PublishStatus::kOk);
   std::ifstream in(path);
   std::string header, row;
   std::getline(in, header);
   std::getline(in, row);
-  EXPECT_EQ(header, "frame,t_ns,status,x_mm,y_mm,z_mm,roll_deg,pitch_deg,yaw_deg,n_beacons,rms_px,reason");
-  EXPECT_EQ(row, "12,1053763441,fix,1.0000,-2.0000,3.5000,1.000000,2.000000,30.000000,4,0.2500,camera down");
+  EXPECT_EQ(header, "frame,t_ns,status,x_mm,y_mm,z_mm,roll_deg,pitch_deg,yaw_deg,n_beacons,rms_px,reason,flagged_beacons");
+  EXPECT_EQ(row, "12,1053763441,fix,1.0000,-2.0000,3.5000,1.000000,2.000000,30.000000,4,0.2500,camera down,");
+  std::getline(in, row);
+  EXPECT_EQ(row, "12,1053763441,fix,1.0000,-2.0000,3.5000,1.000000,2.000000,30.000000,4,0.2500,camera down,"
+                 "7:inconsistent 40:missing");
   EXPECT_FALSE(std::filesystem::exists(path + ".partial"));
   EXPECT_EQ(log.Open((tmpl + "/missing/x.csv").c_str()), PublishStatus::kFileError);
   std::filesystem::remove_all(tmpl);

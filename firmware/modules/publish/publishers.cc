@@ -152,12 +152,18 @@ void Outputs::Health(const HealthRecord& h) {
 }
 
 void Outputs::Blobs(const BlobsRecord& r) {
-  std::size_t size = 0;
+  if (wants_health()) SendMfns(std::span<const std::uint8_t>(blobs_bytes_.data(), EncodeBlobs(r, blobs_bytes_)));
+}
+
+void Outputs::BeaconHealth(const BeaconHealthRecord& r) {
+  if (wants_health())
+    SendMfns(std::span<const std::uint8_t>(beacon_health_bytes_.data(), EncodeBeaconHealth(r, beacon_health_bytes_)));
+}
+
+void Outputs::SendMfns(std::span<const std::uint8_t> datagram) {
   for (int i = 0; i < count_; ++i) {
     Slot& slot = slots_[static_cast<std::size_t>(i)];
-    if (slot.protocol != OutputProtocol::kMfns) continue;
-    if (size == 0) size = EncodeBlobs(r, blobs_bytes_);
-    slot.udp.Send(std::span<const std::uint8_t>(blobs_bytes_.data(), size));
+    if (slot.protocol == OutputProtocol::kMfns) slot.udp.Send(datagram);
   }
 }
 
@@ -187,13 +193,13 @@ PublishStatus PoseLog::Open(const char* path) {
   file_ = std::fopen(partial_, "w");
   if (file_ == nullptr) return Fail();
   std::setvbuf(file_, buffer_, _IOFBF, sizeof(buffer_));  // our buffer: no heap in stdio
-  if (std::fputs("frame,t_ns,status,x_mm,y_mm,z_mm,roll_deg,pitch_deg,yaw_deg,n_beacons,rms_px,reason\n", file_) < 0) {
+  if (std::fputs("frame,t_ns,status,x_mm,y_mm,z_mm,roll_deg,pitch_deg,yaw_deg,n_beacons,rms_px,reason,flagged_beacons\n", file_) < 0) {
     return Fail();
   }
   return PublishStatus::kOk;
 }
 
-PublishStatus PoseLog::Write(const PoseRecord& r) {
+PublishStatus PoseLog::Write(const PoseRecord& r, const char* flagged_beacons) {
   if (file_ == nullptr) return PublishStatus::kNotOpen;
   // After a failure the file ends in a cut row: appending would bury it mid-file.
   if (failed()) return Fail();
@@ -201,10 +207,11 @@ PublishStatus PoseLog::Write(const PoseRecord& r) {
   EulerAngles e = MatrixToEuler(r.q_w_b.toRotationMatrix().transpose());  // of C_b_w
   if (!r.q_w_b.coeffs().allFinite()) e.phi = e.theta = e.psi = std::numeric_limits<double>::quiet_NaN();  // no pose
   errno = 0;
-  const int n = std::fprintf(file_, "%u,%llu,%s,%.4f,%.4f,%.4f,%.6f,%.6f,%.6f,%u,%.4f,%s\n", r.frame_set,
+  const int n = std::fprintf(file_, "%u,%llu,%s,%.4f,%.4f,%.4f,%.6f,%.6f,%.6f,%u,%.4f,%s,%s\n", r.frame_set,
                              static_cast<unsigned long long>(r.t_capture_ns), ToString(r.status), p_mm.x(), p_mm.y(),
                              p_mm.z(), RadToDeg(e.phi), RadToDeg(e.theta), RadToDeg(e.psi), r.num_beacons,
-                             static_cast<double>(r.residual_rms_px), ToString(r.reason));
+                             static_cast<double>(r.residual_rms_px), ToString(r.reason),
+                             flagged_beacons != nullptr ? flagged_beacons : "");
   if (n < 0 || std::fflush(file_) != 0) return Fail();
   ++counters_.log_rows;
   return PublishStatus::kOk;

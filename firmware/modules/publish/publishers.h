@@ -79,6 +79,8 @@ class Outputs {
   void Health(const HealthRecord& h);
   // The frame set's blobs and identities (BlobsMessage) to every MFNS output (viewers).
   void Blobs(const BlobsRecord& r);
+  // One page of the beacons' health (BeaconHealthMessage) to every MFNS output.
+  void BeaconHealth(const BeaconHealthRecord& r);
   bool wants_health() const;  // an MFNS output is open
   int count() const { return count_; }
   OutputProtocol protocol(int i) const { return slots_[static_cast<std::size_t>(i)].protocol; }
@@ -96,11 +98,14 @@ class Outputs {
   std::array<std::uint8_t, kPoseMessageBytes> pose_bytes_{};
   std::array<std::uint8_t, kHealthMessageBytes> health_bytes_{};
   std::array<std::uint8_t, kMaxBlobsMessageBytes> blobs_bytes_{};
+  std::array<std::uint8_t, kMaxBeaconHealthMessageBytes> beacon_health_bytes_{};
+  void SendMfns(std::span<const std::uint8_t> datagram);  // to every MFNS output
 };
 
 // The poses CSV (DESIGN.md): frame,t_ns,status,x_mm,y_mm,z_mm,roll_deg,pitch_deg,yaw_deg,
-// n_beacons,rms_px, plus an extension column `reason` (NavReason's text; readers find columns
-// by name, README "Extensions"). Rows go to "<path>.partial" and are flushed per frame set (a crash keeps
+// n_beacons,rms_px, plus the extension columns `reason` (NavReason's text) and
+// `flagged_beacons` (the beacons beacon health flags at that frame set, "12:inconsistent
+// 40:missing", empty when none; readers find columns by name, README "Extensions"). Rows go to "<path>.partial" and are flushed per frame set (a crash keeps
 // what was logged). Close renames it to <path> only when every write, flush, fsync and the close
 // succeeded, so <path> only ever holds a complete log and a failed run never replaces a good
 // one: after a failure (a full disk: the last row may be cut mid-number) later rows are dropped
@@ -115,7 +120,7 @@ class PoseLog {
 
   PublishStatus Open(const char* path);
   // kFileError when this row or an earlier one could not be written (the row is dropped).
-  PublishStatus Write(const PoseRecord& r);
+  PublishStatus Write(const PoseRecord& r, const char* flagged_beacons = "");
   // Finishes the log: kOk only when <path> now holds every row; kFileError otherwise (nothing
   // renamed; first_error() says why).
   PublishStatus Close();

@@ -152,9 +152,10 @@ BeaconSet ActiveBeacons(const Problem& p) {
 }
 
 // Residual norms of every match at `pose` (-1 when not projectable); returns the active one
-// with the largest residual (-1 if none).
+// with the largest weighted residual sqrt(w) |r| (-1 if none).
 int Residuals(const Problem& p, const BodyPose& pose, SolveResult* res) {
   int worst = -1;
+  double worst_weighted = 0.0;
   for (int i = 0; i < p.n; ++i) {
     const auto si = static_cast<std::size_t>(i);
     Eigen::Vector2d uv;
@@ -162,9 +163,11 @@ int Residuals(const Problem& p, const BodyPose& pose, SolveResult* res) {
                                ? (MeasuredOf(p, i) - uv).norm()
                                : -1.0;
     if (!(*p.active)[si]) continue;
-    if (worst < 0 || res->residual_px[si] > res->residual_px[static_cast<std::size_t>(worst)] ||
-        res->residual_px[si] < 0.0)
+    const double weighted = res->residual_px[si] * std::sqrt(WeightOf(p, i));
+    if (worst < 0 || weighted > worst_weighted || res->residual_px[si] < 0.0) {
       worst = i;
+      worst_weighted = res->residual_px[si] < 0.0 ? 1e300 : weighted;
+    }
   }
   return worst;
 }
@@ -212,7 +215,7 @@ SolveStatus Finish(const Problem& p, const SolveOptions& o, SolveResult* res) {
     Eigen::Matrix<double, 2, 6> J;
     if (ProjectBeacon(CameraOf(p, i), res->pose, BeaconOf(p, i), &uv, &J) != ProjectStatus::kOk)
       return SolveStatus::kNonFinite;  // cannot happen: every run ends at a projectable pose
-    const double s = (MeasuredOf(p, i) - uv).norm();
+    const double s = (MeasuredOf(p, i) - uv).norm() * std::sqrt(WeightOf(p, i));
     sum2 += s * s;
     res->max_residual_px = std::max(res->max_residual_px, s);
     H.noalias() += WeightOf(p, i) * J.transpose() * J;
@@ -277,7 +280,7 @@ SolveStatus Solve(const Problem& p, std::array<bool, limits::kMaxMatches>* activ
     for (int round = 0;; ++round) {
       const int worst = Residuals(p, res->pose, res);
       if (worst < 0) return SolveStatus::kTooFewObservations;
-      const double s = res->residual_px[static_cast<std::size_t>(worst)];
+      const double s = res->residual_px[static_cast<std::size_t>(worst)] * std::sqrt(WeightOf(p, worst));
       if (s >= 0.0 && s <= o.outlier_threshold_px) break;
       if (round >= o.max_outlier_rounds) return SolveStatus::kTooManyOutliers;
       (*active)[static_cast<std::size_t>(worst)] = false;

@@ -77,6 +77,9 @@ struct SolveOptions {
   // unweighted covariance (centroid noise, to be scaled by 1 + (k beacon_sigma / sigma_px)^2
   // for the whole 1-sigma), while a beacon surveyed better counts more, and one whose sigma
   // the navigator inflated (beacon health: moved, or a reflection in its place) counts less.
+  // The residual statistics (rms_px, max_residual_px, cost) and the outlier test are then of
+  // the weighted residuals sqrt(w) |r|: each residual against its own beacon's noise, in the
+  // units of the map's largest (so 2 cost / (sigma_px^2 + (k beacon_sigma)^2) is a chi-square).
   double beacon_px_per_m = 0.0;
 
   // True when every field is usable; otherwise *why (optional) names the first bad field in a
@@ -97,9 +100,11 @@ struct SolveResult {
   int num_inliers = 0;      // observations (2 equations each)
   int num_beacons = 0;      // distinct beacons among the inliers
   std::array<int, limits::kMaxCameras> inliers_per_camera{};
-  double rms_px = 0.0;           // sqrt(mean |r|^2) over the inliers (r the 2-D residual)
-  double max_residual_px = 0.0;  // largest inlier residual norm
-  double cost = 0.0;             // final 0.5 * sum |r|^2 over the inliers, px^2
+  // Of the residuals r (2-D) weighted by sqrt(w) (SolveOptions::beacon_px_per_m; w = 1 without
+  // per-beacon weights):
+  double rms_px = 0.0;           // sqrt(mean w |r|^2) over the inliers
+  double max_residual_px = 0.0;  // largest inlier sqrt(w) |r|
+  double cost = 0.0;             // final 0.5 * sum w |r|^2 over the inliers, px^2
   // Per match (same order as the input): residual norm at the final pose (-1: not
   // projectable) and whether it is an inlier.
   std::array<double, limits::kMaxMatches> residual_px{};
