@@ -41,6 +41,10 @@ CLI::App* AddRigCommand(CLI::App& app, RigCommandOptions* o, std::string* genera
   cmd->add_flag("--compare", o->compare,
                 "Also run every other method on the same corners and write compare.csv (errors against the dataset's "
                 "truth)");
+  cmd->add_flag("--cross-validate", o->cross_validate,
+                "ml: also calibrate two halves of the images apart (each camera's images alternating) and check their "
+                "difference against their covariances (chi-square per camera); on failure only report.html and "
+                "crossval.csv are written, exit 1");
   return cmd;
 }
 
@@ -115,7 +119,10 @@ RigMethod ValidateRigCommand(const RigCommandOptions& o) {
   if (!(o.angle_sigma_arcsec > 0)) throw UserError("--angle-sigma-arcsec must be positive");
   if (o.jobs < 1 || o.jobs > 64) throw UserError("--jobs must be 1..64");
   if (!o.mount_mm.empty() && o.mount_mm.size() != 3) throw UserError("--mount-mm: expected 3 numbers X Y Z");
-  return ParseRigMethod(o.method);
+  const RigMethod method = ParseRigMethod(o.method);
+  if (o.cross_validate && (method != RigMethod::kMl || o.no_covariance))
+    throw UserError("--cross-validate needs --method ml with its covariance (not --no-covariance)");
+  return method;
 }
 
 CalibrationTarget ValidateIntrinsicsCommand(const IntrinsicsCommandOptions& o) {

@@ -34,6 +34,7 @@ struct RigCommandOptions {
   bool generation_set = false;
   bool no_covariance = false;
   bool compare = false;  // also run the other methods on the same corners; compare.csv against the truth
+  bool cross_validate = false;  // two halves calibrated apart and compared (uncertainty/cross_validation.h)
   // Corners from a CSV (camera,image,corner,u_px,v_px: the dataset's corners.csv format, e.g.
   // from another detector) instead of detecting them; and the corners used, written out.
   std::string corners_csv;
@@ -90,7 +91,8 @@ void ParseCalibCommandLine(CLI::App& app, int argc, char** argv, CalibCommandLin
 
 // The checks each command makes on its options before it reads or writes anything (issue 14; the
 // commands call them first, host_cli_fuzz after each parse): UserError, one line naming the option.
-// `rig`: --out, --huber-px, --angle-sigma-arcsec, --jobs, --mount-mm and --method (returned).
+// `rig`: --out, --huber-px, --angle-sigma-arcsec, --jobs, --mount-mm and --method (returned);
+// --cross-validate only with --method ml and its covariance.
 RigMethod ValidateRigCommand(const RigCommandOptions& o);
 // `intrinsics`: --out, --target (returned, parsed) and the images.
 CalibrationTarget ValidateIntrinsicsCommand(const IntrinsicsCommandOptions& o);

@@ -213,14 +213,21 @@ RigCalibration RunRigCommand(const RigCommandOptions& o, std::ostream& log) {
   RigCalibration rig = SolveRig(in, stage, ro);
   rig.notes.insert(rig.notes.begin(), mount_note);
   if (o.compare) Compare(in, stage, ro, rig, ds, o.out_dir, log);
+  CrossValidation cv;
+  if (o.cross_validate) {
+    cv = CrossValidateRig(in, ro);
+    log << FormatCrossValidation(cv);
+  }
 
   ReportContext ctx;
   ctx.dataset = o.dataset;
-  ctx.command_line = "mfns-calib rig " + o.dataset + " --out " + o.out_dir + " --method " + o.method;
+  ctx.command_line = "mfns-calib rig " + o.dataset + " --out " + o.out_dir + " --method " + o.method +
+                     (o.cross_validate ? " --cross-validate" : "");
   ctx.rig_id = !o.rig_id.empty() ? o.rig_id : ds.truth.has_rig ? std::string(ds.truth.rig.rig_id.data()) : "mfns-calibrated";
   ctx.generation = o.generation_set ? o.generation : NowSeconds();
   ctx.truth_rig = ds.truth.has_rig ? &ds.truth.rig : nullptr;
   ctx.truth_mount = ds.truth.has_mount ? &ds.truth.mount : nullptr;
+  ctx.cross_validation = o.cross_validate ? &cv : nullptr;
   WriteRigOutputs(o.out_dir, rig, in, ctx);
   PrintSummary(rig, ds, log);
   log << "mfns-calib rig: wrote rig.yaml, calibration.bin, camchain.yaml, camera-*.yaml, report.html in " << o.out_dir

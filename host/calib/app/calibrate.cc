@@ -2,12 +2,13 @@
 
 #include <Eigen/Eigenvalues>
 #include <algorithm>
+#include <array>
 #include <atomic>
 #include <cmath>
 #include <mutex>
+#include <opencv2/core.hpp>
 #include <ostream>
 #include <sstream>
-#include <opencv2/core.hpp>
 #include <thread>
 
 #include "common/rotation/rotation.h"
@@ -281,6 +282,31 @@ RigCalibration SolveRig(const CalibInput& input, const IntrinsicsStage& st, cons
   }
   rig.notes.insert(rig.notes.begin(), st.notes.begin(), st.notes.end());
   return rig;
+}
+
+CrossValidation CrossValidateRig(const CalibInput& in, const RigOptions& o) {
+  if (o.method != RigMethod::kMl || !o.covariance)
+    throw UserError("--cross-validate needs --method ml with its covariance");
+  const std::vector<int> halves = CrossValidationHalves(in);
+  std::array<RigCalibration, 2> rigs;
+  std::array<CalibInput, 2> inputs;
+  for (int h = 0; h < 2; ++h) {
+    inputs[static_cast<std::size_t>(h)] = HalfInput(in, halves, h);
+    if (o.progress != nullptr)
+      *o.progress << "cross-validation: calibrating half " << h << " ("
+                  << inputs[static_cast<std::size_t>(h)].views.size() << " images)\n";
+    try {
+      rigs[static_cast<std::size_t>(h)] = CalibrateRig(&inputs[static_cast<std::size_t>(h)], o);
+    } catch (const UserError& e) {
+      throw UserError("--cross-validate: half " + std::to_string(h) + ": " + e.what());
+    }
+  }
+  CrossValidation cv = CompareHalves(rigs[0], rigs[1]);
+  for (std::size_t h = 0; h < 2; ++h) {
+    cv.views[h] = static_cast<int>(inputs[h].views.size());
+    for (const ViewObservation& v : inputs[h].views) ++cv.cameras[static_cast<std::size_t>(v.camera)].images[h];
+  }
+  return cv;
 }
 
 }  // namespace mfns::host

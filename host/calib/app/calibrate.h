@@ -11,6 +11,7 @@
 #include "host/calib/core/dataset.h"
 #include "host/calib/core/kinematics.h"
 #include "host/calib/detect/target_detector.h"
+#include "host/calib/uncertainty/cross_validation.h"
 #include "host/calib/zhang/zhang.h"
 
 namespace mfns::host {
@@ -46,5 +47,11 @@ RigCalibration SolveRig(const CalibInput& in, const IntrinsicsStage& stage, cons
 
 // PrepareViews then SolveRig (in may be pruned and relabelled).
 RigCalibration CalibrateRig(CalibInput* in, const RigOptions& options);
+
+// `mfns-calib rig --cross-validate` (uncertainty/cross_validation.h): `in` (prepared views, as
+// SolveRig takes them) split into its two halves, each calibrated alone by CalibrateRig with
+// `options` (method ml: the comparison needs the covariance), then compared. UserError when a
+// half cannot be calibrated (e.g. a camera with fewer than 3 images in it).
+CrossValidation CrossValidateRig(const CalibInput& in, const RigOptions& options);
 
 }  // namespace mfns::host

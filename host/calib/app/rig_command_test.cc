@@ -22,6 +22,7 @@
 #include "common/rotation/rotation.h"
 #include "host/calib/core/dataset.h"
 #include "host/calib/report/compare.h"
+#include "host/calib/uncertainty/cross_validation.h"
 #include "host/core/xml_check_test_util.h"
 #include "host/testing/synth_calib.h"
 #include "host/rigio/rig_yaml.h"
@@ -259,10 +260,11 @@ TEST_F(RigCommandTest, MlWritesEveryOutputReadably) {
     EXPECT_GE(fs["views"].size(), 7u);
   }
 
-  // report.html: one scatter, histogram and per-view chart per camera, the angle chart, the
-  // truth table.
+  // report.html: one scatter, histogram, per-view chart and projection-uncertainty map per
+  // camera, the angle chart, the truth table.
   const std::string html = ReadFile(out / "report.html");
-  EXPECT_EQ(Count(html, "<svg"), 10);
+  EXPECT_EQ(Count(html, "<svg"), 13);
+  EXPECT_EQ(Count(html, "<rect class=\"heat\""), 3 * 32 * 24);
   EXPECT_GT(Count(html, "class=\"res-turntable\""), 100);
   EXPECT_GE(rig.angles.size(), 12u);  // 15 turntable images, a few may be skipped
   EXPECT_EQ(Count(html, "class=\"angle-main\""), static_cast<int>(rig.angles.size()));
@@ -484,6 +486,52 @@ TEST_F(RigCommandTest, FailedRunNeverReplacesAGoodRigYaml) {
   EXPECT_EQ(ReadFile(out / "rig.yaml"), good);
   for (const fs::directory_entry& e : fs::directory_iterator(out))  // no temp file left behind
     EXPECT_EQ(e.path().filename().string().find(".tmp"), std::string::npos) << e.path();
+}
+
+// --cross-validate through the tool, on synthetic corners of the dataset's scene at 0.1 px
+// (--corners): good corners pass (crossval.csv, the report's section, rig.yaml written); with
+// camera x turned 0.5 deg in the second half's turntable images the tool exits 1 with one
+// line, writes the diagnosis (report.html, crossval.csv) and keeps the good rig.yaml.
+TEST_F(RigCommandTest, CrossValidateWritesItsVerdictAndAFailureKeepsTheRig) {
+  const CalibInput good = SynthCorners(*scene_, 0.1, 5);
+  const std::vector<int> halves = CrossValidationHalves(good);
+  SynthScene moved = *scene_;
+  const RigCamera& x = scene_->rig.cameras[0];
+  const Eigen::Matrix3d C_k_b = x.C_k_b * ExpSO3(Eigen::Vector3d(DegToRad(0.5), 0.0, 0.0));
+  for (std::size_t i = 0; i < moved.images.size(); ++i) {
+    SynthImage& im = moved.images[i];
+    if (im.camera == 0 && im.kind == ImageKind::kTurntable && halves[i] == 1)
+      im.T_w_k = CameraInWorld(BodyInWorld(moved.mount, im.main_true, im.aux_true), C_k_b, x.r_b_bk);
+  }
+  WriteText(*root_ / "cv-good.csv", FormatCornersCsv(good));
+  WriteText(*root_ / "cv-moved.csv", FormatCornersCsv(SynthCorners(moved, 0.1, 5)));
+  const fs::path out = *root_ / "cv", err = *root_ / "cv-stderr.txt";
+  const auto run = [&](const std::string& corners) {
+    const std::string cmd = "bin/mfns-calib rig " + (*root_ / "data").string() + " --out " + out.string() +
+                            " --cross-validate --generation 1 --corners " + (*root_ / corners).string() + " 2> " +
+                            err.string();
+    const int rc = std::system(cmd.c_str());
+    return WIFEXITED(rc) ? WEXITSTATUS(rc) : -1;
+  };
+  ASSERT_EQ(run("cv-good.csv"), 0) << ReadFile(err);
+  EXPECT_NE(ReadFile(err).find("cross-validation: PASS"), std::string::npos) << ReadFile(err);
+  const std::string good_rig = ReadFile(out / "rig.yaml");
+  EXPECT_EQ(Count(ReadFile(out / "crossval.csv"), ",yes\n"), 3) << ReadFile(out / "crossval.csv");
+  EXPECT_NE(ReadFile(out / "report.html").find("<h2>Cross-validation</h2>\n<p class=\"pass\"><b>PASS"),
+            std::string::npos);
+
+  ASSERT_EQ(run("cv-moved.csv"), 1) << ReadFile(err);
+  const std::string e = ReadFile(err);
+  const std::string last = e.substr(e.rfind('\n', e.size() - 2) + 1);
+  EXPECT_EQ(last.rfind("mfns-calib: cross-validation failed (camera x: chi2 ", 0), 0u) << last;
+  EXPECT_NE(last.find("rig.yaml and calibration.bin not written"), std::string::npos) << last;
+  EXPECT_EQ(ReadFile(out / "rig.yaml"), good_rig);
+  const std::string csv = ReadFile(out / "crossval.csv");
+  const std::size_t x_row = csv.find("\nx,");
+  ASSERT_NE(x_row, std::string::npos) << csv;
+  EXPECT_EQ(csv.substr(csv.find('\n', x_row + 1) - 3, 3), ",no") << csv;  // camera x fails, alone
+  EXPECT_EQ(Count(csv, ",no\n"), 1) << csv;
+  EXPECT_NE(ReadFile(out / "report.html").find("<b>FAIL</b>"), std::string::npos);
 }
 
 TEST_F(RigCommandTest, UserErrorsAreOneLine) {

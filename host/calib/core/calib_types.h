@@ -80,6 +80,14 @@ struct AngleResult {
   double main_sigma = 0.0, aux_sigma = 0.0;
 };
 
+// A camera's calibrated state as the covariances order it: the intrinsics (CameraParam order:
+// px, then the dimensionless kc), the small rotation phi of C_b_k about the body axes
+// (C_b_k <- Exp(phi) C_b_k, rad) and r_b_bk (m).
+inline constexpr int kStateRotation = kNumCameraParams;
+inline constexpr int kStatePosition = kNumCameraParams + 3;
+inline constexpr int kCameraStateSize = kNumCameraParams + 6;
+using CameraStateCovariance = Eigen::Matrix<double, kCameraStateSize, kCameraStateSize>;
+
 struct CameraResult {
   std::string name;
   CameraIntrinsics intrinsics;
@@ -90,6 +98,9 @@ struct CameraResult {
   Eigen::Vector3d sigma_rotation = Eigen::Vector3d::Zero();  // rad, small rotations about body axes
   Eigen::Vector3d sigma_euler = Eigen::Vector3d::Zero();     // rad, of C_k_b's 2-1-3 Euler angles
   Eigen::Vector3d sigma_r_b_bk = Eigen::Vector3d::Zero();    // m
+  // Joint covariance of the camera state (order above); rows and columns of fixed parameters
+  // are zero, and all of it when the method gives no covariance (paper, opencv-handeye).
+  CameraStateCovariance covariance = CameraStateCovariance::Zero();
   double rms_px = 0.0;  // over all of the camera's residuals
 };
 

@@ -3,6 +3,7 @@
 #include <ceres/ceres.h>
 
 #include <Eigen/Geometry>
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <memory>
@@ -256,6 +257,27 @@ std::vector<double> EstimateSigma(const CalibInput& in, const Layout& layout, co
   return sigma;
 }
 
+// Camera k's joint covariance (CameraResult::covariance) from the tangent-space covariance of
+// its intrinsics, q_b_k and r_b_bk blocks: the intrinsics' tangent is their free entries, and
+// EigenQuaternionManifold's tangent delta rotates by 2 delta.
+CameraStateCovariance CameraCovariance(const ceres::Covariance& cov, const Params& p, std::size_t k,
+                                       const std::vector<int>& fixed) {
+  std::vector<int> state;  // tangent index -> state index
+  for (int i = 0; i < kNumCameraParams; ++i)
+    if (std::find(fixed.begin(), fixed.end(), i) == fixed.end()) state.push_back(i);
+  for (int i = 0; i < 6; ++i) state.push_back(kStateRotation + i);
+  const int n = static_cast<int>(state.size());
+  Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> t(n, n);
+  cov.GetCovarianceMatrixInTangentSpace({p.intr[k].data(), p.q_b_k[k].data(), p.r_b_bk[k].data()}, t.data());
+  Eigen::VectorXd scale = Eigen::VectorXd::Ones(n);
+  scale.segment<3>(n - 6).setConstant(2.0);
+  t = scale.asDiagonal() * t * scale.asDiagonal();
+  CameraStateCovariance out = CameraStateCovariance::Zero();
+  for (int a = 0; a < n; ++a)
+    for (int b = 0; b < n; ++b) out(state[static_cast<std::size_t>(a)], state[static_cast<std::size_t>(b)]) = t(a, b);
+  return out;
+}
+
 }  // namespace
 
 Eigen::Vector3d EulerSigma(const Eigen::Matrix3d& C_k_b, const Eigen::Matrix3d& cov_phi_b) {
@@ -449,6 +471,10 @@ RigCalibration SolveJointMl(const CalibInput& in, const MlStart& start, const Ml
     if (layout.has_turntable[k]) {
       blocks.emplace_back(p.q_b_k[k].data(), p.q_b_k[k].data());
       blocks.emplace_back(p.r_b_bk[k].data(), p.r_b_bk[k].data());
+      // The cross terms: the camera's joint covariance (CameraResult::covariance).
+      blocks.emplace_back(p.intr[k].data(), p.q_b_k[k].data());
+      blocks.emplace_back(p.intr[k].data(), p.r_b_bk[k].data());
+      blocks.emplace_back(p.q_b_k[k].data(), p.r_b_bk[k].data());
     }
   }
   if (layout.any_turntable) {
@@ -472,7 +498,9 @@ RigCalibration SolveJointMl(const CalibInput& in, const MlStart& start, const Ml
     Eigen::Matrix<double, kNumCameraParams, kNumCameraParams> ci;
     cov.GetCovarianceBlock(p.intr[k].data(), p.intr[k].data(), ci.data());
     c.sigma_intrinsics = ci.diagonal().cwiseMax(0.0).cwiseSqrt();
+    c.covariance.topLeftCorner<kNumCameraParams, kNumCameraParams>() = ci;
     if (!layout.has_turntable[k]) continue;
+    c.covariance = CameraCovariance(cov, p, k, FixedIntrinsics(o));
     const Eigen::Matrix3d cr = rot_cov(p.q_b_k[k].data());
     c.sigma_rotation = cr.diagonal().cwiseMax(0.0).cwiseSqrt();
     c.sigma_euler = EulerSigma(c.C_k_b, cr);

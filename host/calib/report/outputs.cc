@@ -1,5 +1,6 @@
 #include "host/calib/report/outputs.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
@@ -12,6 +13,7 @@
 #include "common/rotation/rotation.h"
 #include "host/calib/report/compare.h"
 #include "host/calib/report/svg.h"
+#include "host/calib/uncertainty/projection_uncertainty.h"
 #include "host/core/svg_writer.h"
 #include "host/rigio/rig_yaml.h"
 #include "host/util/atomic_file.h"
@@ -43,6 +45,68 @@ const char* kParamNames[kNumCameraParams] = {"alpha_x (px)", "alpha_y (px)", "sk
 std::string PlusMinus(double v, double s, int prec = 6) {
   return General(v, prec) +
          (s > 0 ? " &plusmn; " + General(s, 3) : std::string(" <span class=\"fixed\">(fixed or no sigma)</span>"));
+}
+
+// Grid of the projection-uncertainty maps: cells about 40 px on a 1280-px image.
+constexpr int kUncertaintyCols = 32, kUncertaintyRows = 24;
+
+// Per camera: the 1-sigma of a reprojected ray over the image from the intrinsics' covariance
+// (uncertainty/projection_uncertainty.h), as a heat map, and its value at the centre and the
+// worst cell.
+std::string ProjectionUncertaintyHtml(const RigCalibration& rig) {
+  std::ostringstream h;
+  h << "<h2>Projection uncertainty</h2>\n";
+  h << "<p>1-sigma (px, worst direction) of the pixel at which a fixed ray in the camera frame lands, from the "
+       "intrinsics' covariance: unproject with the estimate, project with intrinsics drawn from their covariance "
+       "(first order). Divide by alpha for the ray's angle.</p>\n<div class=\"charts\">\n";
+  bool any = false;
+  for (const CameraResult& c : rig.cameras) {
+    const IntrinsicsCovariance cov = c.covariance.topLeftCorner<kNumCameraParams, kNumCameraParams>();
+    if (cov.isZero(0.0)) continue;
+    any = true;
+    const ProjectionSigmaGrid g = ProjectionSigmaMap(c.intrinsics, cov, kUncertaintyCols, kUncertaintyRows);
+    const HeatmapGrid grid{g.cols, g.rows, static_cast<double>(c.intrinsics.width),
+                           static_cast<double>(c.intrinsics.height), g.sigma_px};
+    const Eigen::Vector2d centre(c.intrinsics.u0, c.intrinsics.v0);
+    double worst = 0;
+    for (double v : g.sigma_px)
+      if (std::isfinite(v)) worst = std::max(worst, v);
+    h << HeatmapSvg(grid,
+                    "camera " + c.name + ": projection 1-sigma (centre " +
+                        General(ProjectionSigmaPx(c.intrinsics, cov, centre), 2) + ", worst " + General(worst, 2) +
+                        " px)",
+                    "px");
+  }
+  if (!any) h << "<p>No covariance (method " << XmlEscape(rig.method) << ").</p>";
+  h << "</div>\n";
+  return h.str();
+}
+
+std::string Chi2Cell(const ChiSquareBlock& b) {
+  return "<td>" + General(b.chi2, 3) + " / " + std::to_string(b.dof) + "</td>";
+}
+
+// The cross-validation (uncertainty/cross_validation.h): one row per camera, the verdict.
+std::string CrossValidationHtml(const CrossValidation& cv) {
+  std::ostringstream h;
+  h << "<h2>Cross-validation</h2>\n<p class=\"" << (cv.pass ? "pass" : "bad") << "\"><b>" << (cv.pass ? "PASS" : "FAIL")
+    << "</b>: two halves of " << cv.views[0] << " and " << cv.views[1]
+    << " images (each camera's turntable and free images alternating) calibrated apart; each camera's difference "
+       "against the sum of the halves' covariances. A camera fails below p = "
+    << General(kCrossValidationMinPValue, 2) << "."
+    << (cv.pass ? "" : " rig.yaml, calibration.bin and the other outputs were not written.") << "</p>\n";
+  h << "<table><tr><th class=\"l\">camera</th><th>images</th><th>C_k_b difference (deg)</th><th>expected (deg)</th>"
+       "<th>r_b_bk difference (mm)</th><th>expected (mm)</th><th>chi2 / dof intrinsics</th><th>rotation</th>"
+       "<th>position</th><th>chi2 / dof all</th><th>p</th><th class=\"l\">verdict</th></tr>\n";
+  for (const CameraCrossValidation& c : cv.cameras)
+    h << "<tr><td class=\"l\">" << XmlEscape(c.name) << "</td><td>" << c.images[0] << " + " << c.images[1]
+      << "</td><td>" << General(c.rotation_deg, 3) << "</td><td>" << General(c.rotation_sigma_deg, 3) << "</td><td>"
+      << General(c.position_mm, 3) << "</td><td>" << General(c.position_sigma_mm, 3) << "</td>"
+      << Chi2Cell(c.intrinsics) << Chi2Cell(c.rotation) << Chi2Cell(c.position) << Chi2Cell(c.all) << "<td>"
+      << General(c.all.p_value, 3) << "</td><td class=\"l" << (c.pass ? "" : " bad") << "\">"
+      << (c.pass ? "pass" : "FAIL") << "</td></tr>\n";
+  h << "</table>\n";
+  return h.str();
 }
 
 }  // namespace
@@ -142,7 +206,8 @@ std::string ReportPageHead(const std::string& title, const std::string& extra_cs
 
 std::string FormatReportHtml(const RigCalibration& rig, const CalibInput& in, const ReportContext& ctx) {
   std::ostringstream h;
-  h << ReportPageHead(ctx.title, ".fixed{color:#888;font-size:smaller}.charts{display:flex;flex-wrap:wrap;gap:8px}");
+  h << ReportPageHead(
+      ctx.title, ".fixed{color:#888;font-size:smaller}.charts{display:flex;flex-wrap:wrap;gap:8px}.pass{color:#070}");
   h << "<h1>" << XmlEscape(ctx.title) << "</h1>\n<table>";
   int n_tt = 0, n_free = 0, n_corners = 0;
   for (const ViewObservation& v : in.views) {
@@ -163,6 +228,7 @@ std::string FormatReportHtml(const RigCalibration& rig, const CalibInput& in, co
   h << "</table>\n<h2>Notes</h2><ul>";
   for (const std::string& n : rig.notes) h << "<li>" << XmlEscape(n) << "</li>";
   h << "</ul>\n";
+  if (ctx.cross_validation != nullptr) h << CrossValidationHtml(*ctx.cross_validation);
 
   // Parameters.
   h << "<h2>Parameters (1-sigma)</h2>\n<table><tr><th class=\"l\">parameter</th>";
@@ -235,6 +301,8 @@ std::string FormatReportHtml(const RigCalibration& rig, const CalibInput& in, co
     }
     h << "</table>\n";
   }
+
+  h << ProjectionUncertaintyHtml(rig);
 
   // Residuals per camera.
   h << "<h2>Residuals per camera</h2>\n";
@@ -346,11 +414,20 @@ void WriteRigOutputs(const std::filesystem::path& out_dir, const RigCalibration&
   }
   files.emplace_back("report.html", FormatReportHtml(rig, in, ctx));
   files.emplace_back("rig.yaml", FormatRigYaml(out));  // last
+  const CrossValidation* cv = ctx.cross_validation;
+  if (cv != nullptr) {
+    files.insert(files.end() - 1, {"crossval.csv", FormatCrossValidationCsv(*cv)});
+    if (!cv->pass)  // the diagnosis only: a rig whose halves disagree replaces nothing
+      std::erase_if(files, [](const auto& f) { return f.first != "report.html" && f.first != "crossval.csv"; });
+  }
 
   std::error_code ec;
   std::filesystem::create_directories(out_dir, ec);
   if (!std::filesystem::is_directory(out_dir)) throw UserError(out_dir.string() + ": cannot create the output directory");
   for (const auto& [name, contents] : files) WriteFileAtomic(out_dir / name, contents);
+  if (cv != nullptr && !cv->pass)
+    throw UserError("cross-validation failed (" + FailedCameras(*cv) +
+                    "): rig.yaml and calibration.bin not written; see " + (out_dir / "report.html").string());
 }
 
 }  // namespace mfns::host

@@ -10,7 +10,10 @@
 //                       k3), their sigma, RMS, per-view RMS, T_cam_body
 //   report.html         self-contained: parameter table with sigma, residual scatter and
 //                       histogram per camera, per-view RMS, turntable-angle residuals, skipped
-//                       images and why, notes; against the truth when the dataset has one
+//                       images and why, notes; against the truth when the dataset has one; the
+//                       projection uncertainty per camera (a heat map, when there is a
+//                       covariance) and the cross-validation (when run)
+//   crossval.csv        the cross-validation per camera (when run; cross_validation.h)
 #pragma once
 
 #include <cstdint>
@@ -21,6 +24,7 @@
 #include "common/rig/rig.h"
 #include "host/calib/core/calib_types.h"
 #include "host/calib/core/kinematics.h"
+#include "host/calib/uncertainty/cross_validation.h"
 
 namespace mfns::host {
 
@@ -32,6 +36,7 @@ struct ReportContext {
   std::uint64_t generation = 0;
   const Rig* truth_rig = nullptr;               // simulation truth, when known
   const TurntableMount* truth_mount = nullptr;
+  const CrossValidation* cross_validation = nullptr;  // --cross-validate's result, when run
 };
 
 // The head of a report page up to <body>: doctype, title (escaped) and the reports' shared style
@@ -53,6 +58,8 @@ std::string FormatReportHtml(const RigCalibration& rig, const CalibInput& in, co
 // Writes every file above into out_dir (created if missing). Throws UserError. Everything is
 // formatted and the rig validated before the first write, and rig.yaml is written last, so a
 // failed run never replaces a previous rig.yaml (other files are each replaced atomically).
+// A failed cross-validation writes only report.html and crossval.csv (the diagnosis), then
+// throws: a rig whose halves disagree never replaces rig.yaml, calibration.bin or the others.
 void WriteRigOutputs(const std::filesystem::path& out_dir, const RigCalibration& rig, const CalibInput& in,
                      const ReportContext& ctx);
 

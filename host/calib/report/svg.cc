@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 
 #include "host/core/svg_writer.h"
 
@@ -82,6 +83,20 @@ class Frame {
  private:
   Axis x_, y_;
 };
+
+// A perceptually ordered colour for t in [0, 1] (viridis' end points and three between).
+std::string HeatColour(double t) {
+  static const double kStops[5][3] = {{68, 1, 84}, {59, 82, 139}, {33, 145, 140}, {94, 201, 98}, {253, 231, 37}};
+  t = std::clamp(t, 0.0, 1.0) * 4.0;
+  const int i = std::min(3, static_cast<int>(t));
+  const double f = t - i;
+  char buf[8];
+  int rgb[3];
+  for (int c = 0; c < 3; ++c)
+    rgb[c] = static_cast<int>(std::lround(kStops[i][c] + f * (kStops[i + 1][c] - kStops[i][c])));
+  std::snprintf(buf, sizeof buf, "#%02x%02x%02x", rgb[0], rgb[1], rgb[2]);
+  return buf;
+}
 
 }  // namespace
 
@@ -180,6 +195,66 @@ std::string BarSvg(const std::vector<std::string>& labels, const std::vector<dou
                 labels[i])
           .Raw("\n");
   }
+  o.Close("svg").Raw("\n");
+  return o.str();
+}
+
+std::string HeatmapSvg(const HeatmapGrid& g, const std::string& title, const std::string& unit) {
+  double hi = 0;
+  for (double v : g.values)
+    if (std::isfinite(v)) hi = std::max(hi, v);
+  const Axis scale = NiceAxis(0.0, hi > 0 ? hi : 1.0);
+  // The image keeps its aspect inside the plot area; the colour bar sits right of it.
+  const double area_w = kW - kLeft - kRight - 70, area_h = kH - kTop - kBottom;
+  const double aspect = g.height > 0 ? g.width / g.height : 1.0;
+  const double img_w = std::min(area_w, area_h * aspect), img_h = img_w / aspect;
+  const double cw = img_w / std::max(1, g.cols), ch = img_h / std::max(1, g.rows);
+  SvgWriter o;
+  o.OpenSvg({{"class", "chart"},
+             {"width", General(kW)},
+             {"height", General(kH)},
+             {"viewBox", "0 0 " + General(kW) + " " + General(kH)}})
+      .Raw("\n");
+  o.Empty("rect", {{"x", "0"}, {"y", "0"}, {"width", General(kW)}, {"height", General(kH)}, {"fill", "white"}})
+      .Raw("\n");
+  o.Element("text", {{"x", General(kW / 2)}, {"y", "18"}, {"text-anchor", "middle"}, {"font-size", "13"}}, title)
+      .Raw("\n");
+  for (int r = 0; r < g.rows; ++r)
+    for (int c = 0; c < g.cols; ++c) {
+      const double v = g.values[static_cast<std::size_t>(r * g.cols + c)];
+      o.Empty("rect", {{"class", "heat"},
+                       {"x", Fmt(kLeft + c * cw)},
+                       {"y", Fmt(kTop + r * ch)},
+                       {"width", Fmt(cw + 0.3)},
+                       {"height", Fmt(ch + 0.3)},
+                       {"fill", std::isfinite(v) ? HeatColour(v / scale.hi) : "#cccccc"}});
+    }
+  o.Raw("\n");
+  o.Empty("rect", {{"x", Fmt(kLeft)},
+                   {"y", Fmt(kTop)},
+                   {"width", Fmt(img_w)},
+                   {"height", Fmt(img_h)},
+                   {"fill", "none"},
+                   {"stroke", "#444"}})
+      .Raw("\n");
+  o.Element(
+       "text",
+       {{"x", Fmt(kLeft + img_w / 2)}, {"y", Fmt(kTop + img_h + 14)}, {"text-anchor", "middle"}, {"font-size", "10"}},
+       General(g.width, 5) + " x " + General(g.height, 5) + " px")
+      .Raw("\n");
+  // Colour bar: 32 steps from 0 to the top tick, labelled at the ticks.
+  const double bx = kLeft + img_w + 24, steps = 32;
+  for (int i = 0; i < steps; ++i)
+    o.Empty("rect", {{"class", "scale"},
+                     {"x", Fmt(bx)},
+                     {"y", Fmt(kTop + img_h * (1 - (i + 1) / steps))},
+                     {"width", "12"},
+                     {"height", Fmt(img_h / steps + 0.3)},
+                     {"fill", HeatColour((i + 0.5) / steps)}});
+  for (double t : scale.ticks)
+    o.Element("text", {{"x", Fmt(bx + 16)}, {"y", Fmt(kTop + img_h * (1 - t / scale.hi) + 4)}, {"font-size", "10"}},
+              Num(t));
+  o.Element("text", {{"x", Fmt(bx)}, {"y", Fmt(kTop - 6)}, {"font-size", "10"}}, unit).Raw("\n");
   o.Close("svg").Raw("\n");
   return o.str();
 }

@@ -1,5 +1,5 @@
-// Small self-contained SVG charts for report.html: scatter (several series), histogram and bar
-// chart on linear axes with ticks and labels. Standalone SVG 1.1 elements, inlined in HTML,
+// Small self-contained SVG charts for report.html: scatter (several series), histogram, bar
+// chart and heat map on linear axes with ticks and labels. Standalone SVG 1.1 elements, inlined in HTML,
 // written with host/core/svg_writer.h.
 #pragma once
 
@@ -32,5 +32,16 @@ std::string HistogramSvg(const std::vector<double>& values, int bins, const std:
 std::string BarSvg(const std::vector<std::string>& labels, const std::vector<double>& values, const std::string& title,
                    const std::string& y_label);
 
+// A scalar field over an image (e.g. projection uncertainty): cols x rows cells, row-major
+// from the top-left, covering a width x height image.
+struct HeatmapGrid {
+  int cols = 0, rows = 0;
+  double width = 0, height = 0;  // the image's size, for the aspect and the caption
+  std::vector<double> values;
+};
+// One <rect class="heat"> per cell coloured on a scale from 0 to the largest finite value
+// (non-finite cells grey), the image's aspect kept, and a colour bar (<rect class="scale">)
+// labelled in `unit`.
+std::string HeatmapSvg(const HeatmapGrid& grid, const std::string& title, const std::string& unit);
 
 }  // namespace mfns::host

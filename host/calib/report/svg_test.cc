@@ -43,5 +43,20 @@ TEST(CalibReportSvg, HistogramHasABarPerBinAndBarsTitleEachImage) {
   EXPECT_NE(b.find("<title>a&amp;b: 0</title>"), std::string::npos) << "a non-finite value draws as 0";
 }
 
+TEST(CalibReportSvg, HeatmapHasACellPerValueColouredOnItsScale) {
+  HeatmapGrid g{4, 3, 1280, 1024, {0.0, 0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9, 1.0, NAN}};
+  const std::string svg = HeatmapSvg(g, "camera <x>: sigma", "px");
+  const XmlSummary x = CheckXml(svg);
+  ASSERT_TRUE(x.ok) << x.error;
+  EXPECT_EQ(Count(svg, "<rect class=\"heat\""), 12);
+  EXPECT_EQ(Count(svg, "<rect class=\"scale\""), 32);
+  // The scale runs from 0 (viridis' dark purple) to the top tick, 1 here (its yellow); NaN is grey.
+  EXPECT_EQ(Count(svg, "fill=\"#440154\""), 1);
+  EXPECT_EQ(Count(svg, "fill=\"#fde725\""), 1);
+  EXPECT_EQ(Count(svg, "fill=\"#cccccc\""), 1);
+  EXPECT_NE(svg.find(">camera &lt;x&gt;: sigma<"), std::string::npos);
+  EXPECT_NE(svg.find(">1280 x 1024 px<"), std::string::npos);
+}
+
 }  // namespace
 }  // namespace mfns::host
