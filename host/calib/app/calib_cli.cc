@@ -18,7 +18,10 @@ CLI::App* AddRigCommand(CLI::App& app, RigCommandOptions* o, std::string* genera
   cmd->add_option("--method", o->method, "ml (joint maximum likelihood), paper (CPC, Appendix A) or opencv-handeye")
       ->capture_default_str();
   cmd->add_flag("--free-k3", o->free_k3, "Estimate kc5 (k3); default fixed at 0 as the paper's Table 2");
-  cmd->add_option("--huber-px", o->huber_px, "ml: Huber loss scale in px (0: plain least squares)")->capture_default_str();
+  cmd->add_option("--huber-px", o->huber_px,
+                  "ml: Huber loss from this many px, or from 4 x the camera's pixel sigma when smaller (0: plain least "
+                  "squares)")
+      ->capture_default_str();
   cmd->add_option("--mount-mm", o->mount_mm,
                   "Body origin in the platform frame r_p_pb X Y Z in mm (the measured mount; default: truth.yaml's, "
                   "else 0 0 0)")

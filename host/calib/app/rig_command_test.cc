@@ -260,11 +260,11 @@ TEST_F(RigCommandTest, MlWritesEveryOutputReadably) {
     EXPECT_GE(fs["views"].size(), 7u);
   }
 
-  // report.html: one scatter, histogram, per-view chart and projection-uncertainty map per
-  // camera, the angle chart, the truth table.
+  // report.html: one scatter, histogram, per-view chart and two projection-uncertainty maps
+  // (body- and camera-frame ray) per camera, the angle chart, the truth table.
   const std::string html = ReadFile(out / "report.html");
-  EXPECT_EQ(Count(html, "<svg"), 13);
-  EXPECT_EQ(Count(html, "<rect class=\"heat\""), 3 * 32 * 24);
+  EXPECT_EQ(Count(html, "<svg"), 16);
+  EXPECT_EQ(Count(html, "<rect class=\"heat\""), 6 * 32 * 24);
   EXPECT_GT(Count(html, "class=\"res-turntable\""), 100);
   EXPECT_GE(rig.angles.size(), 12u);  // 15 turntable images, a few may be skipped
   EXPECT_EQ(Count(html, "class=\"angle-main\""), static_cast<int>(rig.angles.size()));

@@ -102,6 +102,21 @@ struct CameraResult {
   // are zero, and all of it when the method gives no covariance (paper, opencv-handeye).
   CameraStateCovariance covariance = CameraStateCovariance::Zero();
   double rms_px = 0.0;  // over all of the camera's residuals
+  // ml: the per-axis corner noise estimated from the residuals (sqrt(sum r^2 / dof), outliers
+  // left out, dof = residual components - parameters; the weights and so the covariance use
+  // it) and the number of outlier corners; 0 for methods without it.
+  double pixel_sigma = 0.0;  // px
+  double pixel_sigma_dof = 0.0;
+  int outliers = 0;
+};
+
+// A corner whose residual is far beyond its camera's noise (ml: |residual| > 5 pixel_sigma;
+// its weight is cut by the robust loss).
+struct OutlierCorner {
+  int view = 0;                                        // index into CalibInput::views
+  int id = 0;                                          // corner id
+  Eigen::Vector2d residual = Eigen::Vector2d::Zero();  // predicted - observed (px)
+  double sigmas = 0.0;                                 // |residual| / pixel_sigma
 };
 
 struct RigCalibration {
@@ -115,6 +130,7 @@ struct RigCalibration {
   Eigen::Vector3d r_p_pb = Eigen::Vector3d::Zero();
   std::vector<ViewResidual> residuals;
   std::vector<AngleResult> angles;
+  std::vector<OutlierCorner> outliers;  // ml; largest first
   double rms_px = 0.0;
   std::vector<std::string> notes;  // what was fixed and why, warnings
 };

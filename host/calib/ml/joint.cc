@@ -185,7 +185,9 @@ void BuildProblem(const CalibInput& in, const Layout& layout, const MlOptions& o
     }
     for (const CornerObs& c : view.corners) {
       const Eigen::Vector3d& P = in.target_points[static_cast<std::size_t>(c.id)];
-      ceres::LossFunction* loss = o.huber_px > 0 ? new ceres::HuberLoss(o.huber_px * inv_sigma) : nullptr;
+      // Whitened residuals: the loss's scale is in sigmas.
+      ceres::LossFunction* loss =
+          o.huber_px > 0 ? new ceres::HuberLoss(std::min(o.huber_px * inv_sigma, o.robust_sigmas)) : nullptr;
       if (view.kind == ImageKind::kTurntable) {
         problem->AddResidualBlock(new ceres::AutoDiffCostFunction<TurntableCorner, 2, kNumCameraParams, 4, 3, 4, 3, 2>(
                                       new TurntableCorner{P, c.uv, inv_sigma, in.C_p_b, in.r_p_pb}),
@@ -231,9 +233,11 @@ std::vector<ViewResidual> Residuals(const CalibInput& in, const Params& p) {
 
 // Per-axis pixel sigma per camera from the residuals: sqrt(sum r^2 / (2 N - p)), with p the
 // camera's own parameters (intrinsics, rig, free poses) and its share of the turntable's.
-// Residuals beyond 5 sigma (outliers the Huber loss already discounts) are left out.
+// Residuals beyond outlier_sigmas (outliers the Huber loss already discounts) are left out.
+// *dof (optional): the degrees of freedom per camera.
 std::vector<double> EstimateSigma(const CalibInput& in, const Layout& layout, const MlOptions& o,
-                                  const std::vector<ViewResidual>& res, const std::vector<double>& previous) {
+                                  const std::vector<ViewResidual>& res, const std::vector<double>& previous,
+                                  std::vector<double>* dof_out = nullptr) {
   const std::size_t K = in.cameras.size();
   std::vector<double> sum2(K, 0.0), dof(K, 0.0);
   int cams_tt = 0;
@@ -247,14 +251,32 @@ std::vector<double> EstimateSigma(const CalibInput& in, const Layout& layout, co
     const std::size_t k = static_cast<std::size_t>(view.camera);
     if (view.kind == ImageKind::kFree) dof[k] -= 6.0;
     for (const Eigen::Vector2d& e : r.residual) {
-      if (!e.allFinite() || e.norm() > 5.0 * std::sqrt(2.0) * previous[k]) continue;
+      if (!e.allFinite() || e.norm() > o.outlier_sigmas * previous[k]) continue;
       sum2[k] += e.squaredNorm();
       dof[k] += 2.0;
     }
   }
   std::vector<double> sigma(K);
   for (std::size_t k = 0; k < K; ++k) sigma[k] = dof[k] > 0 ? std::max(1e-4, std::sqrt(sum2[k] / dof[k])) : previous[k];
+  if (dof_out != nullptr) *dof_out = dof;
   return sigma;
+}
+
+// The corners beyond outlier_sigmas x their camera's sigma, largest first; counted per camera.
+std::vector<OutlierCorner> FindOutliers(const CalibInput& in, const MlOptions& o, const std::vector<ViewResidual>& res,
+                                        const std::vector<double>& sigma, RigCalibration* rig) {
+  std::vector<OutlierCorner> out;
+  for (const ViewResidual& r : res) {
+    const std::size_t k = static_cast<std::size_t>(in.views[static_cast<std::size_t>(r.view)].camera);
+    for (std::size_t i = 0; i < r.residual.size(); ++i) {
+      const double z = r.residual[i].norm() / sigma[k];
+      if (!(z > o.outlier_sigmas)) continue;  // NaN (behind the camera) is not counted here
+      out.push_back({r.view, r.ids[i], r.residual[i], z});
+      ++rig->cameras[k].outliers;
+    }
+  }
+  std::sort(out.begin(), out.end(), [](const OutlierCorner& a, const OutlierCorner& b) { return a.sigmas > b.sigmas; });
+  return out;
 }
 
 // Camera k's joint covariance (CameraResult::covariance) from the tangent-space covariance of
@@ -385,7 +407,7 @@ RigCalibration SolveJointMl(const CalibInput& in, const MlStart& start, const Ml
     p.r_w_wk.push_back(ToArray(start.view_T_w_k[v].r));
   }
 
-  std::vector<double> sigma = start.sigma_px;
+  std::vector<double> sigma = start.sigma_px, dof(K, 0.0);
   ceres::Solver::Summary summary;
   for (int pass = 1; pass <= std::max(1, o.reweight_passes); ++pass) {
     ceres::Problem problem;
@@ -403,7 +425,7 @@ RigCalibration SolveJointMl(const CalibInput& in, const MlStart& start, const Ml
     ceres::Solve(so, &problem, &summary);
     if (summary.termination_type == ceres::FAILURE || !std::isfinite(summary.final_cost))
       throw UserError("ml: Ceres failed: " + summary.message);
-    const std::vector<double> next = EstimateSigma(in, layout, o, Residuals(in, p), sigma);
+    const std::vector<double> next = EstimateSigma(in, layout, o, Residuals(in, p), sigma, &dof);
     double change = 0;
     for (std::size_t k = 0; k < K; ++k) change = std::max(change, std::abs(next[k] / sigma[k] - 1.0));
     if (o.progress != nullptr) {
@@ -448,12 +470,24 @@ RigCalibration SolveJointMl(const CalibInput& in, const MlStart& start, const Ml
     rig.angles.push_back(a);
   }
   SetResidualRms(in, &rig);
+  for (std::size_t k = 0; k < K; ++k) {
+    rig.cameras[k].pixel_sigma = sigma[k];
+    rig.cameras[k].pixel_sigma_dof = dof[k];
+  }
+  rig.outliers = FindOutliers(in, o, rig.residuals, sigma, &rig);
+  if (o.progress != nullptr)
+    for (const CameraResult& c : rig.cameras)
+      *o.progress << "ml: camera " << c.name << ": pixel sigma " << c.pixel_sigma << " px from the residuals ("
+                  << c.pixel_sigma_dof << " dof), " << c.outliers << " outlier corners beyond " << o.outlier_sigmas
+                  << " sigma (down-weighted)\n";
   {
     std::ostringstream note;
     note << "ml: gauge fixed: C_p_b and r_p_pb (the mount); skew " << (o.fix_skew ? "fixed at 0" : "free") << ", kc5 "
          << (o.fix_k3 ? "fixed at 0" : "free") << "; pixel sigma per camera";
     for (std::size_t k = 0; k < K; ++k) note << " " << in.cameras[k].name << "=" << sigma[k];
-    note << " px; Huber " << o.huber_px << " px; " << summary.BriefReport();
+    note << " px (from the residuals); Huber loss at min(" << o.huber_px << " px, " << o.robust_sigmas
+         << " pixel sigma); " << rig.outliers.size() << " outlier corners beyond " << o.outlier_sigmas << " sigma; "
+         << summary.BriefReport();
     rig.notes.push_back(note.str());
   }
   if (!o.covariance) return rig;

@@ -6,8 +6,11 @@
 // per turntable image its true (main, aux) angles with a Gaussian prior at the commanded
 // values (1-sigma CalibInput::angle_sigma, 8 arcsec); per free (hand-held) image a free camera
 // pose. Residuals: the reprojection error of each corner divided by its camera's pixel sigma
-// (re-estimated from the residuals: sqrt(sum r^2 / (2 N - p)), so the prior and the images
-// weigh as their noise says), under a Huber loss of huber_px; plus the angle priors.
+// (re-estimated from the residuals: sqrt(sum r^2 / (2 N - p)) without the outliers, so the
+// prior and the images weigh as their noise says), under a Huber loss at min(huber_px,
+// robust_sigmas x the camera's pixel sigma); plus the angle priors. A corner beyond
+// outlier_sigmas x its camera's sigma is an outlier: left out of the sigma estimate, its pull
+// bounded by the Huber loss, and listed (RigCalibration::outliers, CameraResult::outliers).
 //
 // Gauge (docs/calib-dataset.md): C_p_b and r_p_pb are fixed at CalibInput's values. Images
 // cannot separate r_p_pb from a common shift of every camera's r_b_bk (they see only
@@ -32,7 +35,9 @@ namespace mfns::host {
 struct MlOptions {
   bool fix_k3 = true;
   bool fix_skew = true;
-  double huber_px = 1.0;
+  double huber_px = 1.0;        // 0: plain least squares
+  double robust_sigmas = 4.0;   // the Huber loss starts here (in the camera's pixel sigmas) when below huber_px
+  double outlier_sigmas = 5.0;  // |residual| beyond this many pixel sigmas: an outlier corner
   int max_iterations = 100;
   int reweight_passes = 3;   // solve, re-estimate pixel sigma, solve again (at most this many)
   bool covariance = true;

@@ -50,35 +50,59 @@ std::string PlusMinus(double v, double s, int prec = 6) {
 // Grid of the projection-uncertainty maps: cells about 40 px on a 1280-px image.
 constexpr int kUncertaintyCols = 32, kUncertaintyRows = 24;
 
-// Per camera: the 1-sigma of a reprojected ray over the image from the intrinsics' covariance
-// (uncertainty/projection_uncertainty.h), as a heat map, and its value at the centre and the
-// worst cell.
+// One heat map of a camera's projection uncertainty with its value at the principal point and
+// the worst cell in the title.
+std::string ProjectionSigmaSvg(const CameraResult& c, RayFrame frame) {
+  const ProjectionSigmaGrid g = ProjectionSigmaMap(c, frame, kUncertaintyCols, kUncertaintyRows);
+  const HeatmapGrid grid{g.cols, g.rows, static_cast<double>(c.intrinsics.width),
+                         static_cast<double>(c.intrinsics.height), g.sigma_px};
+  double worst = 0;
+  for (double v : g.sigma_px)
+    if (std::isfinite(v)) worst = std::max(worst, v);
+  const double centre = ProjectionSigmaPx(c, frame, {c.intrinsics.u0, c.intrinsics.v0});
+  return HeatmapSvg(grid,
+                    "camera " + c.name + (frame == RayFrame::kBody ? ", body-frame ray" : ", camera-frame ray") +
+                        ": centre " + General(centre, 2) + ", worst " + General(worst, 2) + " px",
+                    "px");
+}
+
+// Per camera with a covariance: the 1-sigma of a reprojected ray over the image
+// (uncertainty/projection_uncertainty.h), the ray fixed in the body frame and in the camera frame.
 std::string ProjectionUncertaintyHtml(const RigCalibration& rig) {
   std::ostringstream h;
   h << "<h2>Projection uncertainty</h2>\n";
-  h << "<p>1-sigma (px, worst direction) of the pixel at which a fixed ray in the camera frame lands, from the "
-       "intrinsics' covariance: unproject with the estimate, project with intrinsics drawn from their covariance "
-       "(first order). Divide by alpha for the ray's angle.</p>\n<div class=\"charts\">\n";
+  h << "<p>1-sigma (px, worst direction) of the pixel at which a fixed ray lands, first order: unproject with the "
+       "estimate, project with the parameters drawn from their covariance. Body-frame ray: intrinsics and C_k_b "
+       "jointly (the rays the flyer navigates with). Camera-frame ray: the intrinsics alone (mrcal's single-camera "
+       "map); larger, since the principal point and C_k_b are correlated. Divide by alpha for the ray's angle "
+       "(rad).</p>\n<div class=\"charts\">\n";
   bool any = false;
-  for (const CameraResult& c : rig.cameras) {
-    const IntrinsicsCovariance cov = c.covariance.topLeftCorner<kNumCameraParams, kNumCameraParams>();
-    if (cov.isZero(0.0)) continue;
-    any = true;
-    const ProjectionSigmaGrid g = ProjectionSigmaMap(c.intrinsics, cov, kUncertaintyCols, kUncertaintyRows);
-    const HeatmapGrid grid{g.cols, g.rows, static_cast<double>(c.intrinsics.width),
-                           static_cast<double>(c.intrinsics.height), g.sigma_px};
-    const Eigen::Vector2d centre(c.intrinsics.u0, c.intrinsics.v0);
-    double worst = 0;
-    for (double v : g.sigma_px)
-      if (std::isfinite(v)) worst = std::max(worst, v);
-    h << HeatmapSvg(grid,
-                    "camera " + c.name + ": projection 1-sigma (centre " +
-                        General(ProjectionSigmaPx(c.intrinsics, cov, centre), 2) + ", worst " + General(worst, 2) +
-                        " px)",
-                    "px");
-  }
+  for (RayFrame frame : {RayFrame::kBody, RayFrame::kCamera})
+    for (const CameraResult& c : rig.cameras) {
+      if (c.covariance.isZero(0.0)) continue;
+      any = true;
+      h << ProjectionSigmaSvg(c, frame);
+    }
   if (!any) h << "<p>No covariance (method " << XmlEscape(rig.method) << ").</p>";
   h << "</div>\n";
+  return h.str();
+}
+
+// The outlier corners (ml), largest first, at most 50 rows.
+std::string OutliersHtml(const RigCalibration& rig, const CalibInput& in) {
+  std::ostringstream h;
+  h << "<h3>Outlier corners</h3><p>" << rig.outliers.size()
+    << " corners lie beyond 5 sigma of their camera's noise; the Huber loss bounds their pull. Many in one image "
+       "mean a bad image or detection.</p>\n<table><tr><th class=\"l\">camera/image</th><th>corner</th>"
+       "<th>residual (px)</th><th>sigmas</th></tr>";
+  for (std::size_t i = 0; i < rig.outliers.size() && i < 50; ++i) {
+    const OutlierCorner& o = rig.outliers[i];
+    const ViewObservation& v = in.views[static_cast<std::size_t>(o.view)];
+    h << "<tr><td class=\"l\">" << XmlEscape(in.cameras[static_cast<std::size_t>(v.camera)].name + "/" + v.image)
+      << "</td><td>" << o.id << "</td><td>(" << Fixed(o.residual.x(), 3) << ", " << Fixed(o.residual.y(), 3)
+      << ")</td><td>" << Fixed(o.sigmas, 1) << "</td></tr>";
+  }
+  h << "</table>\n";
   return h.str();
 }
 
@@ -262,7 +286,18 @@ std::string FormatReportHtml(const RigCalibration& rig, const CalibInput& in, co
   }
   h << "<tr><td class=\"l\">RMS (px)</td>";
   for (const CameraResult& c : rig.cameras) h << "<td>" << General(c.rms_px, 4) << "</td>";
-  h << "</tr></table>\n";
+  h << "</tr>\n";
+  if (rig.method == "ml") {
+    h << "<tr><td class=\"l\">pixel sigma from the residuals (px, dof)</td>";
+    for (const CameraResult& c : rig.cameras)
+      h << "<td>" << General(c.pixel_sigma, 4) << " (" << General(c.pixel_sigma_dof, 6) << ")</td>";
+    h << "</tr>\n<tr><td class=\"l\">outlier corners (down-weighted)</td>";
+    for (const CameraResult& c : rig.cameras)
+      h << "<td" << (c.outliers > 0 ? " class=\"bad\"" : "") << ">" << c.outliers << "</td>";
+    h << "</tr>\n";
+  }
+  h << "</table>\n";
+  if (!rig.outliers.empty()) h << OutliersHtml(rig, in);
 
   h << "<h3>Turntable and mount</h3><table><tr><th class=\"l\">parameter</th><th>value</th><th>1-sigma</th></tr>";
   {

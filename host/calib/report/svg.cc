@@ -227,7 +227,8 @@ std::string HeatmapSvg(const HeatmapGrid& g, const std::string& title, const std
                        {"y", Fmt(kTop + r * ch)},
                        {"width", Fmt(cw + 0.3)},
                        {"height", Fmt(ch + 0.3)},
-                       {"fill", std::isfinite(v) ? HeatColour(v / scale.hi) : "#cccccc"}});
+                       {"fill", std::isfinite(v) ? HeatColour(v / scale.hi) : "#cccccc"},
+                       {"shape-rendering", "crispEdges"}});
     }
   o.Raw("\n");
   o.Empty("rect", {{"x", Fmt(kLeft)},
