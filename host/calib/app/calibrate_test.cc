@@ -66,10 +66,7 @@ TEST(MlCalibration, FourSeedsWithinThreeSigmaAndBetterThanPaper) {
 // without the outliers. Plain least squares (--huber-px 0) on the same corners moves it 3.8
 // times further (measured 1.5-2.3 sigma).
 TEST(MlCalibration, OutlierCornersAreReportedAndDownWeighted) {
-  SynthOptions so;
-  so.seed = 5;
-  so.turntable_images = 7;
-  so.free_images = 6;
+  const SynthOptions so{.seed = 5, .turntable_images = 7, .free_images = 6};
   const SynthScene scene = MakeSynthScene(so);
   CalibInput clean = SynthCorners(scene, 0.05, so.seed), dirty = clean;
   std::mt19937_64 rng(7);

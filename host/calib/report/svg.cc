@@ -34,6 +34,17 @@ Axis NiceAxis(double lo, double hi, int target = 5) {
 std::string Num(double v) { return General(v, 4); }
 std::string Fmt(double v) { return Fixed(v, 2); }
 
+// A chart's <svg> root, white background and title.
+void OpenChart(SvgWriter& w, const std::string& title) {
+  w.OpenSvg({{"class", "chart"}, {"width", General(kW)}, {"height", General(kH)},
+             {"viewBox", "0 0 " + General(kW) + " " + General(kH)}})
+      .Raw("\n");
+  w.Empty("rect", {{"x", "0"}, {"y", "0"}, {"width", General(kW)}, {"height", General(kH)}, {"fill", "white"}})
+      .Raw("\n");
+  w.Element("text", {{"x", General(kW / 2)}, {"y", "18"}, {"text-anchor", "middle"}, {"font-size", "13"}}, title)
+      .Raw("\n");
+}
+
 class Frame {
  public:
   Frame(const Axis& x, const Axis& y) : x_(x), y_(y) {}
@@ -43,13 +54,7 @@ class Frame {
   // The chart's <svg>, background, title, grid with tick labels, plot frame and axis labels.
   void Open(SvgWriter& w, const std::string& title, const std::string& xl, const std::string& yl,
             bool x_ticks = true) const {
-    w.OpenSvg({{"class", "chart"}, {"width", General(kW)}, {"height", General(kH)},
-               {"viewBox", "0 0 " + General(kW) + " " + General(kH)}})
-        .Raw("\n");
-    w.Empty("rect", {{"x", "0"}, {"y", "0"}, {"width", General(kW)}, {"height", General(kH)}, {"fill", "white"}})
-        .Raw("\n");
-    w.Element("text", {{"x", General(kW / 2)}, {"y", "18"}, {"text-anchor", "middle"}, {"font-size", "13"}}, title)
-        .Raw("\n");
+    OpenChart(w, title);
     for (double t : y_.ticks) {
       w.Empty("line", {{"x1", Fmt(kLeft)}, {"x2", Fmt(kW - kRight)}, {"y1", Fmt(Y(t))}, {"y2", Fmt(Y(t))},
                        {"stroke", "#ddd"}});
@@ -210,15 +215,7 @@ std::string HeatmapSvg(const HeatmapGrid& g, const std::string& title, const std
   const double img_w = std::min(area_w, area_h * aspect), img_h = img_w / aspect;
   const double cw = img_w / std::max(1, g.cols), ch = img_h / std::max(1, g.rows);
   SvgWriter o;
-  o.OpenSvg({{"class", "chart"},
-             {"width", General(kW)},
-             {"height", General(kH)},
-             {"viewBox", "0 0 " + General(kW) + " " + General(kH)}})
-      .Raw("\n");
-  o.Empty("rect", {{"x", "0"}, {"y", "0"}, {"width", General(kW)}, {"height", General(kH)}, {"fill", "white"}})
-      .Raw("\n");
-  o.Element("text", {{"x", General(kW / 2)}, {"y", "18"}, {"text-anchor", "middle"}, {"font-size", "13"}}, title)
-      .Raw("\n");
+  OpenChart(o, title);
   for (int r = 0; r < g.rows; ++r)
     for (int c = 0; c < g.cols; ++c) {
       const double v = g.values[static_cast<std::size_t>(r * g.cols + c)];

@@ -121,10 +121,7 @@ TEST(CrossValidateRig, GoodDataOfTwoRigsPasses) {
   for (int rig = 0; rig < 2; ++rig) {
     Seeds t;
     for (int seed = 1; seed <= 3; ++seed) {
-      SynthOptions so;
-      so.seed = static_cast<std::uint64_t>(seed);
-      so.turntable_images = 10;
-      so.free_images = 8;
+      const SynthOptions so{.seed = static_cast<std::uint64_t>(seed), .turntable_images = 10, .free_images = 8};
       const SynthScene scene = rig == 0 ? MakeSynthScene(so) : WideAngleTwoCameraScene(so);
       AddCrossValidation(SynthCorners(scene, 0.1, so.seed), &t);
     }
@@ -138,10 +135,7 @@ TEST(CrossValidateRig, GoodDataOfTwoRigsPasses) {
 // 0.1 px), or shifted 2 mm (at 0.02 px, the refined corners' order: at 0.1 px a half's position
 // sigma is ~0.6 mm and 2 mm is within the noise). x fails, the others pass.
 TEST(CrossValidateRig, ACameraMovedBetweenTheHalvesFails) {
-  SynthOptions so;
-  so.seed = 4;
-  so.turntable_images = 10;
-  so.free_images = 8;
+  const SynthOptions so{.seed = 4, .turntable_images = 10, .free_images = 8};
   const SynthScene scene = MakeSynthScene(so);
   const std::vector<int> halves = CrossValidationHalves(SynthCorners(scene, 0.0, so.seed));
   const RigCamera& x = scene.rig.cameras[0];
