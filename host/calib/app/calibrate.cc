@@ -290,13 +290,12 @@ CrossValidation CrossValidateRig(const CalibInput& in, const RigOptions& o) {
   const std::vector<int> halves = CrossValidationHalves(in);
   std::array<RigCalibration, 2> rigs;
   std::array<CalibInput, 2> inputs;
-  for (int h = 0; h < 2; ++h) {
-    inputs[static_cast<std::size_t>(h)] = HalfInput(in, halves, h);
+  for (std::size_t h = 0; h < 2; ++h) {
+    inputs[h] = HalfInput(in, halves, static_cast<int>(h));
     if (o.progress != nullptr)
-      *o.progress << "cross-validation: calibrating half " << h << " ("
-                  << inputs[static_cast<std::size_t>(h)].views.size() << " images)\n";
+      *o.progress << "cross-validation: calibrating half " << h << " (" << inputs[h].views.size() << " images)\n";
     try {
-      rigs[static_cast<std::size_t>(h)] = CalibrateRig(&inputs[static_cast<std::size_t>(h)], o);
+      rigs[h] = CalibrateRig(&inputs[h], o);
     } catch (const UserError& e) {
       throw UserError("--cross-validate: half " + std::to_string(h) + ": " + e.what());
     }
