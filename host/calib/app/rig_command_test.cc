@@ -155,6 +155,15 @@ TEST(CalibCommandLine, RunTimeChecksNameTheOptionInOneLine) {
   r.method = "paper";
   r.mount_mm = {1.0, 2.0};
   EXPECT_EQ(error([&] { ValidateRigCommand(r); }), "--mount-mm: expected 3 numbers X Y Z");
+  r.mount_mm.clear();
+  r.cross_validate = true;  // needs ml's covariance: paper has none, and --no-covariance drops it
+  EXPECT_EQ(error([&] { ValidateRigCommand(r); }),
+            "--cross-validate needs --method ml with its covariance (not --no-covariance)");
+  r.method = "ml";
+  EXPECT_EQ(ValidateRigCommand(r), RigMethod::kMl);
+  r.no_covariance = true;
+  EXPECT_EQ(error([&] { ValidateRigCommand(r); }),
+            "--cross-validate needs --method ml with its covariance (not --no-covariance)");
   IntrinsicsCommandOptions i;
   i.out_dir = r.out_dir;
   i.images = {"a.pgm"};
