@@ -147,7 +147,9 @@ struct LisResult {
   bool confirmed = false;         // ended early on a confirmed pose
   // Every distinct pose consistent with the blobs, best first. Complete when the search was
   // neither cut nor overflowed, so that the true pose is among them (barring a missed P3P
-  // root, about 1e-4 of triples).
+  // root, about 1e-4 of triples) - except where the fourth-blob test applies (no prior, a map
+  // of >= fourth_blob_min_beacons): there the list holds the poses that also explain a fourth
+  // blob, and a view of three beacons has the truth in none (docs/acquisition.md, session 21).
   int num_consistent = 0;
   std::array<BodyPose, limits::kMaxLisCandidates> consistent_poses{};
   std::array<double, limits::kMaxLisCandidates> consistent_scores{};
