@@ -317,14 +317,19 @@ bool LostInSpace::ExplainsAFourth(const BodyPose& pose, int t_i, int t_j, int t_
 void LostInSpace::Score(const BodyPose& pose, const LisOptions& o, LisResult* result) {
   ++result->poses_scored;
   // In a large map a three-beacon pose is never a fix and its exact twins are too many to
-  // follow: a pose that explains no fourth blob is not worth the full reprojection.
+  // follow: a pose that explains no fourth blob is not worth the full reprojection. Unless two
+  // blobs of every triple are anchored (a cold search after a gap with two beacons tracked
+  // through it): a triple then holds ~N beacon triples, and its three-beacon poses are few
+  // enough to reproject and list (docs/acquisition.md, session 21).
   const double nb = rig_->num_beacons;
-  const bool fourth_test = !PosePrior() && rig_->num_beacons >= o.fourth_blob_min_beacons;
+  const bool pairs_anchored = anchors_per_triple_ >= 2;
+  const bool fourth_test = !PosePrior() && !pairs_anchored && rig_->num_beacons >= o.fourth_blob_min_beacons;
   if (fourth_test) result->cost += kCostFourthPerBeaconBlob * nb * num_sel_;
   if (fourth_test && !ExplainsAFourth(pose, cur_i_, cur_j_, cur_k_, fourth_cos_sq_)) return;
-  // Under a prior no fourth-blob test filters the poses: their full reprojection is work the
-  // budget counts (a frame set's time would otherwise grow with the map; seen: 22 ms).
-  if (PosePrior()) ++result->work;
+  // Under a prior (or two anchors) no fourth-blob test filters the poses: their full
+  // reprojection is work the budget counts (a frame set's time would otherwise grow with the
+  // map; seen: 22 ms).
+  if (!fourth_test) ++result->work;
   result->cost += kCostReprojectionPerBeacon * nb;
   matcher_.MatchPose(pose, o.hypothesis_match, &match_scratch_);
   // Too few beacons, or refuted even allowing for the raw pose's error at the margins.

@@ -104,6 +104,7 @@ struct LisOptions {
   // never be complete, nor a three-beacon pose a fix). Not under a prior: near a followed pose
   // the three-beacon poses are few, and with three beacons in view they are all there is
   // (without it, a track in a large map was never re-identified with three beacons in view).
+  // Nor when two blobs of every triple are anchored (LisPrior::anchors): ~N beacon triples each.
   int fourth_blob_min_beacons = 32;
   // Each blob triple is also searched with beacons paired as if within this depth of the
   // cameras, a cheaper work item visited earlier (<= 0: no such items; see SetRange).
@@ -133,8 +134,9 @@ struct LisResult {
   double second_score = 0.0;      // of the next consistent pose (-inf if none)
   int hypotheses = 0;             // P3P solves spent
   int work = 0;                   // budget units spent: P3P solves (cross_camera_work each on a
-                                  // cross-camera triple), plus under a prior one per
-                                  // pose fully reprojected (no fourth-blob test there)
+                                  // cross-camera triple), plus under a prior (or two
+                                  // anchors per triple) one per pose fully reprojected (no
+                                  // fourth-blob test there)
   // The search's CPU cost in units of one same-camera P3P hypothesis (~0.6 us on the host):
   // its hypotheses' work, each scored pose's fourth-blob test (beacons x blobs), each full
   // reprojection (beacons) and refinement, by a model fitted to the measured time of whole
@@ -147,9 +149,10 @@ struct LisResult {
   bool confirmed = false;         // ended early on a confirmed pose
   // Every distinct pose consistent with the blobs, best first. Complete when the search was
   // neither cut nor overflowed, so that the true pose is among them (barring a missed P3P
-  // root, about 1e-4 of triples) - except where the fourth-blob test applies (no prior, a map
-  // of >= fourth_blob_min_beacons): there the list holds the poses that also explain a fourth
-  // blob, and a view of three beacons has the truth in none (docs/acquisition.md, session 21).
+  // root, about 1e-4 of triples) - except where the fourth-blob test applies (no prior poses
+  // nor two anchors per triple, a map of >= fourth_blob_min_beacons): there the list holds
+  // the poses that also explain a fourth blob, and a view of three beacons has the truth in
+  // none (docs/acquisition.md, session 21).
   int num_consistent = 0;
   std::array<BodyPose, limits::kMaxLisCandidates> consistent_poses{};
   std::array<double, limits::kMaxLisCandidates> consistent_scores{};
@@ -165,7 +168,8 @@ struct LisAnchor {
 
 // Optional prior for Identify: only poses within max_m / max_rad of one of `poses` are
 // considered (the tracker passes the poses it still follows). Raw P3P poses get raw_slack_m /
-// raw_slack_rad more, for their noise.
+// raw_slack_rad more, for their noise. No poses (num_poses 0) with anchors: a search anywhere
+// that keeps the anchors (the tracker's cold search after a gap).
 struct LisPrior {
   const BodyPose* poses = nullptr;
   int num_poses = 0;

@@ -907,7 +907,10 @@ void Tracker::Charge(double cost) { lis_budget_left_ -= std::max(1.0, cost); }
 // Lost-in-space with no prior, spread over frame sets (LostInSpace::Begin/Continue): a search
 // begun on an earlier frame set goes on with this frame set's budget until it ends or grows
 // older than cold_search_s; then one begins on this frame set. *old: the result is of the
-// frame set at cold_t_ns_, not this one.
+// frame set at cold_t_ns_, not this one. Blobs that continue the image tracks of beacons of an
+// accepted pose, however old, anchor it as they do a seeded search: with two, a view of three
+// beacons gets a complete list within a frame set's budget in a 64-beacon map, where the plain
+// search lists none (LostInSpaceTest.AnAnchorCompletesTwoPlusOneColdSearches).
 LisStatus Tracker::ColdSearch(const BlobObs* blobs, int num_blobs, std::uint64_t t_ns, const TrackOptions& o,
                               bool* old) {
   *old = false;
@@ -918,7 +921,10 @@ LisStatus Tracker::ColdSearch(const BlobObs* blobs, int num_blobs, std::uint64_t
   if (!lis_.searching() || steadier || Seconds(t_ns, cold_t_ns_) > o.cold_search_s || t_ns < cold_t_ns_) {
     cold_t_ns_ = t_ns;
     cold_steady_ = steady;
-    const LisStatus s = lis_.Begin(blobs, num_blobs, o.lis, &lis_res_, nullptr, cameras_, steady_);
+    cold_prior_ = LisPrior{};
+    AnchorContinuingBlobs(o, &cold_prior_);
+    const LisStatus s = lis_.Begin(blobs, num_blobs, o.lis, &lis_res_, cold_prior_.num_anchors > 0 ? &cold_prior_ : nullptr,
+                                   cameras_, steady_);
     if (s != LisStatus::kSearching) return s;
   }
   *old = cold_t_ns_ != t_ns;

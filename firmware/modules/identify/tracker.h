@@ -293,7 +293,7 @@ struct TrackCounters {
   std::uint32_t chain_restarts = 0;    // an unseeded acquisition's survivor outscored: restarted
   std::uint32_t ambiguity_continued = 0;  // an ambiguous beacon given the blob that continues its track
   std::uint32_t continuity_refuted = 0;   // a followed pose that names a continuing blob another beacon
-  std::uint32_t anchored_searches = 0;    // lost-in-space searches near a pose with continuing blobs anchored
+  std::uint32_t anchored_searches = 0;    // lost-in-space searches (near a pose, or cold) with continuing blobs anchored
   std::uint32_t unsteady_refused = 0;     // an acquired three-beacon pose on a blob that is not steady
   std::uint32_t residual_refused = 0;     // a stand-alone LIS fix or acquired pose: residuals beyond the noise
   SolveCounters solve;
@@ -419,6 +419,7 @@ class Tracker {
   static constexpr int kMaxAnchors = 5;
   std::array<LisAnchor, kMaxAnchors> anchors_{};  // continuing blobs as anchors (AnchorContinuingBlobs)
   int cold_steady_ = 0;  // steady blobs when the cold search in progress began
+  LisPrior cold_prior_;  // the cold search's anchors (no poses; AnchorContinuingBlobs)
   double lis_budget_left_ = 0.0;  // LisResult::cost left to this frame set
   std::uint64_t cold_t_ns_ = 0;  // the frame set of the cold search in progress
   MatchSet set_;
