@@ -141,7 +141,7 @@ TEST(BeaconHealthTest, ADeadBeaconIsMissingUntilItIsLitAgain) {
   f.station.truth.beacons_w[dead] = Eigen::Vector3d(100.0, 0.0, 0.0);  // out of every view
   for (int t = 0; t < 300; ++t) f.Step();
   EXPECT_EQ(f.health.stats(dead).state, BeaconState::kMissing);
-  EXPECT_GE(f.health.stats(dead).in_view, 20u);
+  EXPECT_GE(f.health.stats(dead).in_view, static_cast<std::uint32_t>(Options().min_observations));  // judged
   EXPECT_EQ(f.health.stats(dead).seen, 0u);
   EXPECT_EQ(f.health.NumFlagged(), 1);
   f.station.truth.beacons_w[dead] = lit;
