@@ -204,6 +204,9 @@ struct SweepCam {
   uint32_t seq[kMaxSets];   // the sequence number and stamp of its capture
   uint64_t t_ns[kMaxSets];
   int unknown;              // captures equal to none of the queued frame sets
+  int has_buffers;          // navd's capture buffers exist (QUERYBUF answered at the last look)
+  int waiting;              // captures seen that navd has not dequeued yet (DONE flag)
+  int poll_error;           // the last poll of the capture said POLLERR (not streaming)
   const unsigned char* cap_maps[32];  // the capturing process's buffers, mapped read-only here
   size_t cap_lengths[32];
 };
@@ -253,18 +256,27 @@ static int Shown(struct SweepCam* c) {
 // process's buffers: QUERYBUF and mmap are allowed on any file handle (vb2 reserves only
 // REQBUFS, QBUF, DQBUF and STREAMON to the queue's owner), and a buffer filled since carries a
 // later stamp and its sequence number. Each is then compared, pixel for pixel, with the frame
-// sets in the output buffers: the frame set the capture took. The buffer is read within a
-// capture period of its filling; the driver refills it only after navd has dequeued and queued
-// it again, and three others before it.
+// sets in the output buffers: the frame set the capture took. The stamp lasts only until navd
+// queues the buffer again (vb2 zeroes a capture buffer's timestamp at QBUF): the window is
+// navd's DQBUF, detection and QBUF of that camera, a few ms. Sweep() therefore waits in poll()
+// on the capture nodes too, and wakes when the driver hands a buffer over, before navd (on the
+// same CPU, below this process's SCHED_FIFO) can dequeue it.
 static int NewCaptures(struct SweepCam* c, unsigned w, unsigned h, int* newest_set) {
   int fresh = 0;
   uint64_t newest = c->last_ns;
   *newest_set = -1;
+  c->has_buffers = 0;
+  c->waiting = 0;
   for (unsigned i = 0; i < 32; ++i) {
     struct v4l2_buffer b = Buffer(V4L2_BUF_TYPE_VIDEO_CAPTURE, i);
     if (ioctl(c->cap, VIDIOC_QUERYBUF, &b) < 0) break;  // no (more) buffers: not streaming yet
+    c->has_buffers = 1;
     const uint64_t t = (uint64_t)b.timestamp.tv_sec * 1000000000ull + (uint64_t)b.timestamp.tv_usec * 1000ull;
-    if (t <= c->last_ns) continue;
+    if (t <= c->last_ns) {
+      c->waiting += t != 0 && (b.flags & V4L2_BUF_FLAG_DONE) != 0;
+      continue;
+    }
+    c->waiting += (b.flags & V4L2_BUF_FLAG_DONE) != 0;
     ++fresh;
     if (c->cap_maps[i] == NULL) {
       void* m = mmap(NULL, b.length, PROT_READ, MAP_SHARED, c->cap, b.m.offset);
@@ -292,6 +304,32 @@ static int NewCaptures(struct SweepCam* c, unsigned w, unsigned h, int* newest_s
   }
   c->last_ns = newest;
   return fresh;
+}
+
+// Sleeps until a capture node has a buffer for navd (POLLIN: vb2 lets any handle poll) or 4 ms
+// have passed (the outputs' releases, cameras not polled). A camera is polled only while navd's
+// buffers exist (a poll of a queue without buffers would start vb2's read emulation on this
+// handle and take the camera from navd), not when the last poll said POLLERR (streaming
+// stopped or not started: it would return at once; polled again after one timeout), and not
+// while a capture already seen waits for navd's DQBUF (poll would return at once until then;
+// looked at every 1 ms instead, well within navd's DQBUF, detection and QBUF of the next one).
+static void WaitForCaptures(struct SweepCam* cams, int ncams) {
+  struct pollfd p[kMaxCams];
+  int which[kMaxCams], np = 0, waiting = 0;
+  for (int k = 0; k < ncams; ++k) {
+    struct SweepCam* c = &cams[k];
+    waiting += c->waiting > 0;
+    if (c->has_buffers && !c->waiting && !c->poll_error) {
+      p[np].fd = c->cap;
+      p[np].events = POLLIN;
+      p[np].revents = 0;
+      which[np++] = k;
+    }
+    c->poll_error = 0;
+  }
+  if (poll(p, (nfds_t)np, waiting ? 1 : 4) <= 0) return;
+  for (int i = 0; i < np; ++i)
+    if (p[i].revents & (POLLERR | POLLHUP | POLLNVAL)) cams[which[i]].poll_error = 1;
 }
 
 static int Sweep(int argc, char** argv) {
@@ -342,6 +380,7 @@ static int Sweep(int argc, char** argv) {
   printf(" ms\n");
   fflush(stdout);
   while (!g_stop) {
+    WaitForCaptures(cams, ncams);
     for (int k = 0; k < ncams; ++k) {
       struct SweepCam* c = &cams[k];
       if (Shown(c) != 0) return 1;
@@ -354,7 +393,6 @@ static int Sweep(int argc, char** argv) {
         ++c->next;
       }
     }
-    usleep(4000);
   }
   // Done: what each capture took, and the capture node back at 60 Hz for whoever comes next.
   int ok = 1;
@@ -384,8 +422,12 @@ static int Sweep(int argc, char** argv) {
     close(c->out);
     for (int i = 0; i < 32; ++i)
       if (c->cap_maps[i] != NULL) munmap((void*)c->cap_maps[i], c->cap_lengths[i]);
-    if (SetTimings(c->cap, "S_DV_TIMINGS capture (back to 60 Hz)") != 0) ok = 0;
+    // A fresh handle: should a poll after navd's exit have started vb2's read emulation on
+    // this one (see WaitForCaptures), closing it ends that, and the timings can be set.
     close(c->cap);
+    c->cap = open(c->cap_path, O_RDWR | O_NONBLOCK);
+    if (c->cap < 0 || SetTimings(c->cap, "S_DV_TIMINGS capture (back to 60 Hz)") != 0) ok = 0;
+    if (c->cap >= 0) close(c->cap);
   }
   return ok ? 0 : 1;
 }
