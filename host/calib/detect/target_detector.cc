@@ -10,6 +10,7 @@
 #include <opencv2/calib3d.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "host/util/image_memory.h"
 #include "host/util/user_error.h"
 
 namespace mfns::host {
@@ -228,6 +229,7 @@ DetectResult DetectTarget(const cv::Mat& image, const CalibrationTarget& target,
     r.reason = "not a mono8 or mono16 image";
     return r;
   }
+  KeepImageBuffers();  // OpenCV's detectors allocate and free big blocks per image (image_memory.h)
   const cv::Mat mono8 = ToMono8(image);
   return target.type() == TargetType::kCheckerboard ? DetectCheckerboard(image, mono8, target.checkerboard(), options)
                                                     : DetectAprilGrid(mono8, target.aprilgrid(), options);
