@@ -1,5 +1,7 @@
 #include "firmware/app/navd/navigator.h"
 
+#include "firmware/modules/solve/calibration_covariance.h"
+
 namespace mfns::fw {
 
 namespace {
@@ -116,6 +118,13 @@ void Navigator::Step(const BlobObs* blobs, int num_blobs, std::uint64_t t_ns, st
   if (s == TrackStatus::kFix ||
       (result_.reason == TrackReason::kLargeResidual && r.num_beacons >= kJudgeDegradedBeacons))
     JudgeBeacons(blobs, num_blobs, delivered, *out);
+  // The calibration's part after the judging: a miscalibrated camera shifts the pose, which
+  // absorbs most of it, so the residuals are judged against the pose's own noise as before.
+  Eigen::Matrix<double, 6, 6> calibration;
+  if (options_.fold_calibration_sigma && rig_.has_sigma && r.has_covariance &&
+      CalibrationCovariance(rig_, blobs, num_blobs, out->matches.data(), out->num_matches, out->pose, options_.track.solve,
+                            &calibration))
+    out->covariance += calibration;
 }
 
 // Beacon health on a fix, and the weights of the beacons whose state changed.

@@ -35,6 +35,11 @@ struct NavigatorOptions {
   // back to its own when it clears. False: counted and reported, never down-weighted.
   BeaconHealthOptions health;
   bool down_weight_inconsistent = true;
+  // With the calibration's 1-sigma in the rig (Rig::has_sigma, from the parameter blob), the
+  // published covariance adds the pose error it causes (CalibrationCovariance: each camera
+  // parameter propagated through the solve at its solution, the parameters independent).
+  // The tracker's fix/degraded bounds stay on centroid noise and map error.
+  bool fold_calibration_sigma = true;
   bool IsValid(const char** why = nullptr) const {
     return track.IsValid(why) && (!infer_facing || facing.IsValid(why)) && health.IsValid(why);
   }
@@ -42,7 +47,9 @@ struct NavigatorOptions {
 
 // covariance: of the pose, for the image noise sigma_px plus the beacon map's error
 // (BeaconMapErrorPx at the gates' depth) as if it were image noise: with a 0.4 mm survey the
-// map's ~1.3 px dominates 0.1-0.15 px of centroid noise.
+// map's ~1.3 px dominates 0.1-0.15 px of centroid noise; plus, when the rig carries the
+// calibration's 1-sigma, the pose error that calibration error causes
+// (NavigatorOptions::fold_calibration_sigma).
 struct NavOutput {
   NavStatus status = NavStatus::kLost;
   NavReason reason = NavReason::kNoFrames;

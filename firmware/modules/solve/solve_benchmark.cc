@@ -14,6 +14,7 @@
 
 #include "common/rig/paper_rig.h"
 #include "common/rotation/rotation.h"
+#include "firmware/modules/solve/calibration_covariance.h"
 #include "firmware/modules/solve/solve.h"
 #include "firmware/modules/solve/synthetic_scene.h"
 
@@ -80,6 +81,22 @@ BENCHMARK_CAPTURE(SolveJoint, 10obs_4_3_3, std::array<int, 3>{4, 3, 3});
 BENCHMARK_CAPTURE(SolveJoint, 4obs_one_camera, std::array<int, 3>{4, 0, 0});
 BENCHMARK_CAPTURE(SolveJoint, 6obs_one_camera, std::array<int, 3>{6, 0, 0});
 BENCHMARK_CAPTURE(SolveJoint, 10obs_one_camera, std::array<int, 3>{10, 0, 0});
+
+// The calibration's covariance navd adds to a published pose (calibration_covariance.h), at the
+// solved pose of the same scene: the paper rig carries Table 2's 1-sigma for every camera.
+void CalibrationCovarianceAtFix(benchmark::State& state, std::array<int, 3> split) {
+  const Bench& b = MakeBench(split);
+  SolveResult r;
+  SolvePose(b.rig, b.scene.blobs.data(), b.scene.num_blobs, b.matches.data(), b.n, b.start, SolveOptions{}, &r);
+  Eigen::Matrix<double, 6, 6> cov;
+  for (auto _ : state) {
+    CalibrationCovariance(b.rig, b.scene.blobs.data(), b.scene.num_blobs, b.matches.data(), b.n, r.pose, SolveOptions{}, &cov);
+    benchmark::DoNotOptimize(cov.data());
+  }
+  state.counters["observations"] = b.n;
+}
+BENCHMARK_CAPTURE(CalibrationCovarianceAtFix, 6obs_2_2_2, std::array<int, 3>{2, 2, 2});
+BENCHMARK_CAPTURE(CalibrationCovarianceAtFix, 10obs_4_3_3, std::array<int, 3>{4, 3, 3});
 
 #ifdef MFNS_HAVE_OPENCV
 // OpenCV on camera x's points alone: its pose is the camera's (world -> camera x).
