@@ -97,15 +97,19 @@ bool CalibrationCovariance(const Rig& rig, const BlobObs* blobs, int num_blobs, 
         if (matches[i].camera != k) continue;
         const auto si = static_cast<std::size_t>(i);
         Eigen::Vector2d a;
-        if (ProjectBeacon(moved, pose, rig.beacons_w[static_cast<std::size_t>(matches[i].beacon)], &a) != ProjectStatus::kOk)
+        if (ProjectBeacon(moved, pose, rig.beacons_w[static_cast<std::size_t>(matches[i].beacon)], &a) != ProjectStatus::kOk) {
+          cov->setZero();  // the contract: false leaves zero, not a partial sum
           return false;
+        }
         g += jtw[si] * ((a - uv0[si]) / h);
       }
       const Vector6d d_pose = ldlt.solve(g);  // the sign is immaterial to the covariance
       *cov += (s * s) * d_pose * d_pose.transpose();
     }
   }
-  return cov->allFinite() || (cov->setZero(), false);
+  if (cov->allFinite()) return true;
+  cov->setZero();
+  return false;
 }
 
 }  // namespace mfns::fw
