@@ -85,6 +85,9 @@ CLI::App* AddSurveyCommand(CLI::App& app, SurveyCommandOptions* o, std::string* 
   cmd->add_option("--rig-id", o->rig_id, "Rig id of the outputs (default: the input rig's)");
   cmd->add_option("--generation", *generation, "calibration.bin's generation (default: UTC seconds now)");
   cmd->add_option("--jobs", o->jobs, "Threads of the adjustment")->capture_default_str();
+  cmd->add_flag("--refine-cameras", o->refine_cameras,
+                "Also refine each camera's mounting (C_k_b, r_b_bk; intrinsics held): with the rig's calibration "
+                "sigma as prior, else in the frame of the first camera seen, which is held");
   return cmd;
 }
 

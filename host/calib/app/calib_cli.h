@@ -63,6 +63,7 @@ struct SurveyCommandOptions {
   std::uint64_t generation = 0;       // calibration.bin's; default UTC seconds now
   bool generation_set = false;
   int jobs = 2;
+  bool refine_cameras = false;        // also refine each camera's mounting (SurveyOptions)
   std::string command_line;  // for report.html (the tool sets it)
 };
 

@@ -9,6 +9,8 @@
 #include <ostream>
 #include <string>
 
+#include "common/camera/camera.h"
+#include "common/rotation/rotation.h"
 #include "host/util/user_error.h"
 
 namespace mfns::host {
@@ -29,41 +31,96 @@ bool SurveyOptions::IsValid(const char** why) const {
 namespace {
 
 // The image of a beacon through the navigation model (common/rig ProjectBeacon, eq. 2) at the
-// pose Retract(ref, delta). The parameter is the pose perturbation of rig.h from a reference
-// pose held outside Ceres; its Jacobian is the model's perturbation Jacobian, exact at
-// delta = 0: the solve is repeated with each delta folded into its reference until the deltas
-// vanish (so the optimum and the covariance, taken at delta = 0, are exact).
-class BeaconImageCost final : public ceres::SizedCostFunction<2, 6, 3> {
+// pose Retract(ref, delta), and (with a camera block) the camera's mounting perturbed as
+// SurveyCamera says. Parameters are perturbations from references held outside Ceres; their
+// Jacobians are exact at zero, so the solve is repeated with each perturbation folded into its
+// reference until they vanish (the optimum and the covariance, taken at zero, are exact).
+// Blocks: pose delta (6), beacon (3), [camera delta (6): dtheta_k, dr_b].
+class BeaconImageCost final : public ceres::CostFunction {
  public:
-  BeaconImageCost(const RigCamera& cam, const BodyPose* ref, const Eigen::Vector2d& uv, double inv_sigma)
-      : cam_(cam), ref_(ref), uv_(uv), inv_sigma_(inv_sigma) {}
+  BeaconImageCost(const RigCamera& cam, const BodyPose& ref, const Eigen::Vector2d& uv, double inv_sigma,
+                  bool camera_block)
+      : cam_(cam), ref_(ref), uv_(uv), inv_sigma_(inv_sigma), camera_block_(camera_block) {
+    set_num_residuals(2);
+    mutable_parameter_block_sizes()->push_back(6);
+    mutable_parameter_block_sizes()->push_back(3);
+    if (camera_block) mutable_parameter_block_sizes()->push_back(6);
+  }
 
   bool Evaluate(double const* const* params, double* residuals, double** jacobians) const override {
-    const PoseDelta delta = Eigen::Map<const PoseDelta>(params[0]);
+    const BodyPose pose = Retract(ref_, Eigen::Map<const PoseDelta>(params[0]));
     const Eigen::Vector3d P_w = Eigen::Map<const Eigen::Vector3d>(params[1]);
+    RigCamera cam = cam_;
+    if (camera_block_) {
+      cam.C_k_b = ExpSO3(Eigen::Map<const Eigen::Vector3d>(params[2])) * cam_.C_k_b;
+      cam.r_b_bk = cam_.r_b_bk + Eigen::Map<const Eigen::Vector3d>(params[2] + 3);
+    }
+    const Eigen::Matrix3d C_b_w = pose.C_w_b.transpose();
+    const Eigen::Vector3d p_b = C_b_w * (P_w - pose.r_w_wb);
+    const Eigen::Vector3d p_k = cam.C_k_b * (p_b - cam.r_b_bk);
     Eigen::Vector2d uv;
-    Eigen::Matrix<double, 2, 6> J_pose;
-    Eigen::Matrix<double, 2, 3> J_P;
-    if (ProjectBeacon(cam_, Retract(*ref_, delta), P_w, &uv, &J_pose, &J_P) != ProjectStatus::kOk) return false;
+    Eigen::Matrix<double, 2, 3> J_uv_pk;
+    if (Project(cam.intrinsics, p_k, &uv, &J_uv_pk) != ProjectStatus::kOk) return false;
     Eigen::Map<Eigen::Vector2d> res(residuals);
     res = (uv - uv_) * inv_sigma_;
-    if (jacobians != nullptr && jacobians[0] != nullptr) {
+    if (jacobians == nullptr) return true;
+    const Eigen::Matrix<double, 2, 3> J_uv_pb = J_uv_pk * cam.C_k_b * inv_sigma_;
+    if (jacobians[0] != nullptr) {  // as ProjectBeacon: dp_b = -C_b_w dr_w + [p_b]x dtheta_b
       Eigen::Map<Eigen::Matrix<double, 2, 6, Eigen::RowMajor>> j(jacobians[0]);
-      j = J_pose * inv_sigma_;
+      j.leftCols<3>() = -J_uv_pb * C_b_w;
+      j.rightCols<3>() = J_uv_pb * Skew(p_b);
     }
-    if (jacobians != nullptr && jacobians[1] != nullptr) {
+    if (jacobians[1] != nullptr) {
       Eigen::Map<Eigen::Matrix<double, 2, 3, Eigen::RowMajor>> j(jacobians[1]);
-      j = J_P * inv_sigma_;
+      j = J_uv_pb * C_b_w;
+    }
+    if (camera_block_ && jacobians[2] != nullptr) {  // dp_k = -[p_k]x dtheta_k - C_k_b dr_b
+      Eigen::Map<Eigen::Matrix<double, 2, 6, Eigen::RowMajor>> j(jacobians[2]);
+      j.leftCols<3>() = -J_uv_pk * Skew(p_k) * inv_sigma_;
+      j.rightCols<3>() = -J_uv_pb;
     }
     return true;
   }
 
  private:
   const RigCamera cam_;
-  const BodyPose* ref_;
+  const BodyPose ref_;
   const Eigen::Vector2d uv_;
   const double inv_sigma_;
+  const bool camera_block_;
 };
+
+// A camera's calibrated mounting as a Gaussian prior: its total change from the given one
+// (reference and perturbation), whitened by the calibration's covariance (sqrt_info: the
+// inverse of its Cholesky factor, in the perturbation's coordinates).
+struct CameraPrior {
+  Eigen::Matrix3d C_ref_given;  // C_k_b(reference) C_k_b(given)^T
+  Eigen::Vector3d r_ref_minus_given;
+  Eigen::Matrix<double, 6, 6> sqrt_info;
+  bool operator()(const double* d, double* res) const {
+    const Eigen::Vector3d dtheta = Eigen::Map<const Eigen::Vector3d>(d);
+    Eigen::Matrix<double, 6, 1> change;
+    change.head<3>() = LogSO3(ExpSO3(dtheta) * C_ref_given);
+    change.tail<3>() = r_ref_minus_given + Eigen::Map<const Eigen::Vector3d>(d + 3);
+    Eigen::Map<Eigen::Matrix<double, 6, 1>> r(res);
+    r = sqrt_info * change;
+    return true;
+  }
+};
+
+// The calibration's covariance of camera k's mounting in the perturbation's coordinates: the
+// rig file's Euler-angle sigmas carried to dtheta_k through d dtheta / d euler (central
+// differences), the position's as given. A zero sigma counts as 1e-9 (known exactly).
+Eigen::Matrix<double, 6, 6> CalibrationCovariance6(const Rig& rig, int k) {
+  const auto sk = static_cast<std::size_t>(k);
+  const RigCameraSigma& sg = rig.sigma[sk];
+  const Eigen::Matrix3d J = EulerToRotationJacobian(rig.cameras[sk].C_k_b);
+  Eigen::Matrix<double, 6, 6> cov = Eigen::Matrix<double, 6, 6>::Zero();
+  const Eigen::Vector3d se = sg.euler.cwiseMax(1e-9), sr = sg.r_b_bk.cwiseMax(1e-9);
+  cov.topLeftCorner<3, 3>() = J * se.cwiseAbs2().asDiagonal() * J.transpose();
+  cov.bottomRightCorner<3, 3>() = sr.cwiseAbs2().asDiagonal();
+  return cov;
+}
 
 // The surveyed position as a Gaussian prior of 1-sigma sigma_m per coordinate.
 struct BeaconPrior {
@@ -81,6 +138,9 @@ struct State {
   std::vector<std::array<double, 6>> delta;         // per frame set
   std::vector<std::array<double, 3>> beacon;        // per rig beacon
   std::vector<bool> seen;                           // per rig beacon
+  std::vector<RigCamera> cam_ref;                   // per rig camera
+  std::vector<std::array<double, 6>> cam_delta;     // per rig camera (refine_cameras)
+  std::vector<bool> cam_free;                       // per rig camera: refined
 };
 
 void CheckInput(const Rig& rig, const std::vector<SurveyFrameSet>& sets) {
@@ -102,16 +162,29 @@ void BuildProblem(const Rig& rig, const std::vector<SurveyFrameSet>& sets, const
   const double inv = 1.0 / sigma_px;
   for (std::size_t i = 0; i < sets.size(); ++i)
     for (const SurveyObservation& ob : sets[i].observations) {
+      const auto k = static_cast<std::size_t>(ob.camera);
       ceres::LossFunction* loss = new ceres::HuberLoss(o.huber_sigmas);
-      problem->AddResidualBlock(
-          new BeaconImageCost(rig.cameras[static_cast<std::size_t>(ob.camera)], &s->ref[i], ob.uv_px, inv), loss,
-          s->delta[i].data(), s->beacon[static_cast<std::size_t>(ob.beacon)].data());
+      std::vector<double*> blocks{s->delta[i].data(), s->beacon[static_cast<std::size_t>(ob.beacon)].data()};
+      if (s->cam_free[k]) blocks.push_back(s->cam_delta[k].data());
+      problem->AddResidualBlock(new BeaconImageCost(s->cam_ref[k], s->ref[i], ob.uv_px, inv, s->cam_free[k]), loss,
+                                blocks);
     }
   for (int b = 0; b < rig.num_beacons; ++b) {
     if (!s->seen[static_cast<std::size_t>(b)]) continue;
     problem->AddResidualBlock(new ceres::AutoDiffCostFunction<BeaconPrior, 3, 3>(
                                   new BeaconPrior{rig.beacons_w[static_cast<std::size_t>(b)], 1.0 / rig.beacon_sigma}),
                               nullptr, s->beacon[static_cast<std::size_t>(b)].data());
+  }
+  if (!o.refine_cameras || !rig.has_sigma) return;
+  for (int k = 0; k < rig.num_cameras; ++k) {
+    const auto sk = static_cast<std::size_t>(k);
+    if (!s->cam_free[sk]) continue;
+    const Eigen::LLT<Eigen::Matrix<double, 6, 6>> llt(CalibrationCovariance6(rig, k));
+    auto* prior = new CameraPrior{s->cam_ref[sk].C_k_b * rig.cameras[sk].C_k_b.transpose(),
+                                  s->cam_ref[sk].r_b_bk - rig.cameras[sk].r_b_bk,
+                                  llt.matrixL().solve(Eigen::Matrix<double, 6, 6>::Identity())};
+    problem->AddResidualBlock(new ceres::NumericDiffCostFunction<CameraPrior, ceres::CENTRAL, 6, 6>(prior), nullptr,
+                              s->cam_delta[sk].data());
   }
 }
 
@@ -124,17 +197,24 @@ double Relinearise(State* s) {
     s->ref[i] = Retract(s->ref[i], d);
     s->delta[i].fill(0.0);
   }
+  for (std::size_t k = 0; k < s->cam_ref.size(); ++k) {
+    const Eigen::Map<const Eigen::Matrix<double, 6, 1>> d(s->cam_delta[k].data());
+    largest = std::max(largest, d.cwiseAbs().maxCoeff());
+    s->cam_ref[k].C_k_b = ExpSO3(d.head<3>()) * s->cam_ref[k].C_k_b;
+    s->cam_ref[k].r_b_bk += d.tail<3>();
+    s->cam_delta[k].fill(0.0);
+  }
   return largest;
 }
 
 // Residuals (px) of every observation at the current state, in input order.
-std::vector<Eigen::Vector2d> ImageResiduals(const Rig& rig, const std::vector<SurveyFrameSet>& sets, const State& s) {
+std::vector<Eigen::Vector2d> ImageResiduals(const std::vector<SurveyFrameSet>& sets, const State& s) {
   std::vector<Eigen::Vector2d> r;
   for (std::size_t i = 0; i < sets.size(); ++i)
     for (const SurveyObservation& ob : sets[i].observations) {
       Eigen::Vector2d uv;
       const Eigen::Vector3d P = Eigen::Map<const Eigen::Vector3d>(s.beacon[static_cast<std::size_t>(ob.beacon)].data());
-      if (ProjectBeacon(rig.cameras[static_cast<std::size_t>(ob.camera)], s.ref[i], P, &uv) != ProjectStatus::kOk)
+      if (ProjectBeacon(s.cam_ref[static_cast<std::size_t>(ob.camera)], s.ref[i], P, &uv) != ProjectStatus::kOk)
         uv.setConstant(1e9);
       r.push_back(uv - ob.uv_px);
     }
@@ -193,7 +273,7 @@ SurveyResult Summarise(const Rig& rig, const std::vector<SurveyFrameSet>& sets, 
   std::vector<std::uint64_t> last_set(res.beacons.size(), ~std::uint64_t{0});
   res.camera_rms_px.assign(static_cast<std::size_t>(rig.num_cameras), 0.0);
   res.camera_observations.assign(static_cast<std::size_t>(rig.num_cameras), 0);
-  const std::vector<Eigen::Vector2d> r = ImageResiduals(rig, sets, s);
+  const std::vector<Eigen::Vector2d> r = ImageResiduals(sets, s);
   double total = 0.0;
   std::size_t k = 0;
   for (std::size_t i = 0; i < sets.size(); ++i)
@@ -213,6 +293,21 @@ SurveyResult Summarise(const Rig& rig, const std::vector<SurveyFrameSet>& sets, 
   for (std::size_t c = 0; c < res.camera_rms_px.size(); ++c)
     if (res.camera_observations[c] > 0) res.camera_rms_px[c] = std::sqrt(res.camera_rms_px[c] / res.camera_observations[c]);
   res.rms_px = k > 0 ? std::sqrt(total / static_cast<double>(k)) : 0.0;
+  res.cameras.resize(static_cast<std::size_t>(rig.num_cameras));
+  for (std::size_t c = 0; c < res.cameras.size(); ++c) {
+    SurveyCamera& sc = res.cameras[c];
+    sc.C_k_b = s.cam_ref[c].C_k_b;
+    sc.r_b_bk = s.cam_ref[c].r_b_bk;
+    sc.rotation_change_rad = LogSO3(sc.C_k_b * rig.cameras[c].C_k_b.transpose());
+    sc.translation_change_m = sc.r_b_bk - rig.cameras[c].r_b_bk;
+    sc.refined = s.cam_free[c];
+    sc.observations = res.camera_observations[c];
+    if (sc.refined) {
+      Eigen::Matrix<double, 6, 6, Eigen::RowMajor> m;
+      cov.GetCovarianceBlock(s.cam_delta[c].data(), s.cam_delta[c].data(), m.data());
+      sc.covariance = m;
+    }
+  }
   for (std::size_t b = 0; b < res.beacons.size(); ++b) {
     SurveyBeacon& sb = res.beacons[b];
     sb.surveyed_w = rig.beacons_w[b];
@@ -231,7 +326,39 @@ SurveyResult Summarise(const Rig& rig, const std::vector<SurveyFrameSet>& sets, 
   return res;
 }
 
+// The cameras' references (the given mountings) and which are refined: with refine_cameras,
+// every camera that has observations; without the rig's calibration sigma as their prior, the
+// first of them is held instead (it defines the body frame, which the others are refined in).
+void SetUpCameras(const Rig& rig, const std::vector<SurveyFrameSet>& sets, const SurveyOptions& o, State* s) {
+  const auto n = static_cast<std::size_t>(rig.num_cameras);
+  s->cam_ref.assign(rig.cameras.begin(), rig.cameras.begin() + static_cast<std::ptrdiff_t>(n));
+  s->cam_delta.assign(n, std::array<double, 6>{});
+  s->cam_free.assign(n, false);
+  if (!o.refine_cameras) return;
+  for (const SurveyFrameSet& f : sets)
+    for (const SurveyObservation& ob : f.observations) s->cam_free[static_cast<std::size_t>(ob.camera)] = true;
+  if (rig.has_sigma) return;
+  const auto gauge = std::find(s->cam_free.begin(), s->cam_free.end(), true);
+  if (gauge != s->cam_free.end()) *gauge = false;
+}
+
 }  // namespace
+
+Eigen::Matrix3d EulerToRotationJacobian(const Eigen::Matrix3d& C) {
+  const EulerAngles e0 = MatrixToEuler(C);
+  const Eigen::Matrix3d C0 = EulerToMatrix(e0);
+  Eigen::Matrix3d J;
+  const double h = 1e-6;
+  for (int i = 0; i < 3; ++i) {
+    EulerAngles ep = e0, em = e0;
+    double* pp = i == 0 ? &ep.phi : i == 1 ? &ep.theta : &ep.psi;
+    double* pm = i == 0 ? &em.phi : i == 1 ? &em.theta : &em.psi;
+    *pp += h;
+    *pm -= h;
+    J.col(i) = (LogSO3(EulerToMatrix(ep) * C0.transpose()) - LogSO3(EulerToMatrix(em) * C0.transpose())) / (2 * h);
+  }
+  return J;
+}
 
 SurveyResult AdjustMap(const Rig& rig, const std::vector<SurveyFrameSet>& sets, const SurveyOptions& o,
                        std::ostream* progress) {
@@ -249,14 +376,16 @@ SurveyResult AdjustMap(const Rig& rig, const std::vector<SurveyFrameSet>& sets, 
     const Eigen::Vector3d& P = rig.beacons_w[static_cast<std::size_t>(b)];
     s.beacon.push_back({P.x(), P.y(), P.z()});
   }
+  SetUpCameras(rig, sets, o, &s);
   const int seen = static_cast<int>(std::count(s.seen.begin(), s.seen.end(), true));
-  const int dof_taken = 6 * static_cast<int>(sets.size()) + 3 * seen;
+  const int free_cameras = static_cast<int>(std::count(s.cam_free.begin(), s.cam_free.end(), true));
+  const int dof_taken = 6 * static_cast<int>(sets.size()) + 3 * seen + 6 * free_cameras;
   double sigma_px = o.start_sigma_px;
   bool estimated = true;
   for (int pass = 0; pass < o.reweight_passes; ++pass) {
     Solve(rig, sets, o, sigma_px, &s, progress, "pass " + std::to_string(pass + 1) + "/" + std::to_string(o.reweight_passes));
     double next = sigma_px;
-    if (!EstimateSigmaPx(ImageResiduals(rig, sets, s), sigma_px, dof_taken, o, &next)) {
+    if (!EstimateSigmaPx(ImageResiduals(sets, s), sigma_px, dof_taken, o, &next)) {
       // The given sigma stands (SurveyResult::sigma_estimated false).
       if (progress != nullptr)
         *progress << "survey: too few observations to estimate the centroid sigma: " << sigma_px << " px kept" << std::endl;
@@ -280,8 +409,11 @@ SurveyResult AdjustMap(const Rig& rig, const std::vector<SurveyFrameSet>& sets, 
   for (int b = 0; b < rig.num_beacons; ++b)
     if (s.seen[static_cast<std::size_t>(b)]) blocks.emplace_back(s.beacon[static_cast<std::size_t>(b)].data(),
                                                                  s.beacon[static_cast<std::size_t>(b)].data());
+  for (std::size_t k = 0; k < s.cam_free.size(); ++k)
+    if (s.cam_free[k]) blocks.emplace_back(s.cam_delta[k].data(), s.cam_delta[k].data());
   if (!blocks.empty() && !cov.Compute(blocks, &problem))
-    throw UserError("survey: the beacons' covariance cannot be computed (a beacon seen from too few poses?)");
+    throw UserError("survey: the covariance cannot be computed (a beacon seen from too few poses, or a camera's "
+                    "mounting unobservable?)");
   SurveyResult res = Summarise(rig, sets, o, s, cov, sigma_px);
   res.sigma_estimated = estimated;
   return res;

@@ -40,6 +40,10 @@ struct SurveyOptions {
   // A beacon whose refined position lies farther from its surveyed one than the two estimates'
   // uncertainty allows (Mahalanobis distance above this, 5 sigma) is reported "moved?".
   double moved_sigmas = 5.0;
+  // Also refine each camera's mounting (C_k_b, r_b_bk; intrinsics held): with the rig's
+  // calibration sigma (Rig::has_sigma) each camera has it as its prior, which also fixes the
+  // body frame; without, camera 0 is held (it defines the body frame) and the others are free.
+  bool refine_cameras = false;
   int threads = 1;
   bool IsValid(const char** why = nullptr) const;
 };
@@ -57,8 +61,22 @@ struct SurveyBeacon {
   Eigen::Vector3d Sigma() const { return covariance.diagonal().cwiseSqrt(); }
 };
 
+// One camera's mounting after the adjustment (SurveyOptions::refine_cameras). The perturbation
+// is the one of BelievedRig (host/sim/scenario): C_k_b <- Exp(dtheta_k) C_k_b (rad, camera
+// frame), r_b_bk <- r_b_bk + dr_b (m, body frame).
+struct SurveyCamera {
+  Eigen::Matrix3d C_k_b = Eigen::Matrix3d::Identity();  // refined (the given one when held)
+  Eigen::Vector3d r_b_bk = Eigen::Vector3d::Zero();     // m
+  Eigen::Vector3d rotation_change_rad = Eigen::Vector3d::Zero();  // dtheta_k from the given C_k_b
+  Eigen::Vector3d translation_change_m = Eigen::Vector3d::Zero();  // dr_b from the given r_b_bk
+  Eigen::Matrix<double, 6, 6> covariance = Eigen::Matrix<double, 6, 6>::Zero();  // of [dtheta; dr]
+  bool refined = false;  // false: held (not refined, or camera 0 as the gauge)
+  int observations = 0;
+};
+
 struct SurveyResult {
   std::vector<SurveyBeacon> beacons;  // one per rig beacon, in rig order
+  std::vector<SurveyCamera> cameras;  // one per rig camera
   std::vector<BodyPose> poses;        // the refined pose of each frame set given
   double sigma_px = 0.0;              // centroid sigma estimated from the residuals
   bool sigma_estimated = true;        // false: too few observations, start_sigma_px kept
@@ -69,10 +87,16 @@ struct SurveyResult {
   std::vector<int> camera_observations;
 };
 
-// Refines every pose and every observed beacon. rig: cameras (held fixed) and the surveyed map
-// with beacon_sigma (> 0: the prior's 1-sigma per coordinate). Throws UserError when the rig
-// has no beacon sigma, an observation names a camera or beacon the rig does not have, or the
-// solver fails. progress (optional): one line per solve.
+// d dtheta / d euler at C (central differences): how a change of the Euler angles of C
+// (common/rotation EulerToMatrix) moves it as C <- Exp(dtheta) C. The rig file's sigmas of
+// C_k_b are in Euler angles, SurveyCamera's covariance in dtheta.
+Eigen::Matrix3d EulerToRotationJacobian(const Eigen::Matrix3d& C);
+
+// Refines every pose and every observed beacon (and, with refine_cameras, each camera's
+// mounting). rig: cameras (held unless refine_cameras) and the surveyed map with beacon_sigma
+// (> 0: the prior's 1-sigma per coordinate). Throws UserError when the rig has no beacon sigma,
+// an observation names a camera or beacon the rig does not have, a camera to refine is never
+// seen, or the solver fails. progress (optional): one line per solve.
 SurveyResult AdjustMap(const Rig& rig, const std::vector<SurveyFrameSet>& sets, const SurveyOptions& options,
                        std::ostream* progress = nullptr);
 

@@ -58,10 +58,27 @@ RecordingOptions RecordingOptionsOf(const SurveyCommandOptions& o) {
   return r;
 }
 
+// The refined cameras' mountings; where the rig carries calibration sigmas, a refined camera's
+// Euler-angle and position sigmas from its covariance (intrinsics' sigmas as given).
+void RefinedCameras(const SurveyResult& r, Rig* out) {
+  for (std::size_t k = 0; k < r.cameras.size(); ++k) {
+    const SurveyCamera& c = r.cameras[k];
+    if (!c.refined) continue;
+    out->cameras[k].C_k_b = c.C_k_b;
+    out->cameras[k].r_b_bk = c.r_b_bk;
+    if (!out->has_sigma) continue;
+    const Eigen::Matrix3d J_inv = EulerToRotationJacobian(c.C_k_b).inverse();
+    out->sigma[k].euler = (J_inv * c.covariance.topLeftCorner<3, 3>() * J_inv.transpose()).diagonal().cwiseSqrt();
+    out->sigma[k].r_b_bk = c.covariance.bottomRightCorner<3, 3>().diagonal().cwiseSqrt();
+  }
+}
+
 // The input rig with the refined map and each beacon's 1-sigma (its largest per-axis one: the
-// rig file and the blob hold one number per beacon); beacon_sigma the largest of them.
+// rig file and the blob hold one number per beacon); beacon_sigma the largest of them; and the
+// refined cameras (RefinedCameras).
 Rig RefinedRig(const Rig& in, const SurveyResult& r, const std::string& rig_id) {
   Rig out = in;
+  RefinedCameras(r, &out);
   out.has_beacon_sigmas = true;
   out.beacon_sigma = 0.0;
   for (std::size_t b = 0; b < r.beacons.size(); ++b) {
@@ -158,6 +175,7 @@ SurveyResult RunSurveyCommand(const SurveyCommandOptions& o, std::ostream& log) 
   SurveyOptions so;
   so.start_sigma_px = o.sigma_px;
   so.threads = o.jobs;
+  so.refine_cameras = o.refine_cameras;
   const SurveyResult r = AdjustMap(rig, sets, so, &log);
   const Rig out = RefinedRig(rig, r, o.rig_id);
   // Everything is encoded before anything is written: a failure leaves DIR as it was.
@@ -175,6 +193,22 @@ SurveyResult RunSurveyCommand(const SurveyCommandOptions& o, std::ostream& log) 
   WriteFileAtomic(dir / "report.html", html);
   WriteFileAtomic(dir / "calibration.bin", blob);
   WriteFileAtomic(dir / "rig.yaml", rig_text);
+  for (std::size_t k = 0; k < r.cameras.size(); ++k) {
+    const SurveyCamera& c = r.cameras[k];
+    if (!so.refine_cameras) break;
+    char line[256];
+    std::snprintf(line, sizeof line, "survey: camera %s: %s", rig.cameras[k].name.data(),
+                  c.refined ? "" : (c.observations > 0 ? "held (it defines the body frame)" : "held (never seen)"));
+    log << line;
+    if (c.refined) {
+      const Eigen::Matrix<double, 6, 1> sg = c.covariance.diagonal().cwiseSqrt();
+      std::snprintf(line, sizeof line, "rotation changed %.4f deg (1-sigma %.4f), position %.3f mm (1-sigma %.3f)",
+                    RadToDeg(c.rotation_change_rad.norm()), RadToDeg(sg.head<3>().norm()),
+                    1e3 * c.translation_change_m.norm(), 1e3 * sg.tail<3>().norm());
+      log << line;
+    }
+    log << std::endl;
+  }
   int seen = 0, moved = 0;
   for (const SurveyBeacon& b : r.beacons) {
     seen += b.observations > 0 ? 1 : 0;

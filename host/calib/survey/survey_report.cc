@@ -1,8 +1,10 @@
 #include "host/calib/survey/survey_report.h"
 
+#include <algorithm>
 #include <cstdio>
 #include <sstream>
 
+#include "common/rotation/rotation.h"
 #include "host/calib/report/outputs.h"
 #include "host/calib/report/svg.h"
 
@@ -46,14 +48,31 @@ void CorrectionChart(const SurveyResult& r, std::ostringstream& h) {
     << "</div>\n";
 }
 
+// Residuals per camera and, when the mountings were refined (--refine-cameras), each camera's
+// change and its 1-sigma (norms over the three axes).
 void CameraTable(const Rig& rig, const SurveyResult& r, std::ostringstream& h) {
+  const bool any_refined =
+      std::any_of(r.cameras.begin(), r.cameras.end(), [](const SurveyCamera& c) { return c.refined; });
   h << "<h2>Residuals per camera</h2>\n<table id=\"cameras\"><tr><th class=\"l\">camera</th><th>observations</th>"
-       "<th>residual RMS (px)</th></tr>\n";
+       "<th>residual RMS (px)</th>";
+  if (any_refined)
+    h << "<th class=\"l\">mounting</th><th>rotation change (deg)</th><th>1-sigma (deg)</th>"
+         "<th>position change (mm)</th><th>1-sigma (mm)</th>";
+  h << "</tr>\n";
   for (int k = 0; k < rig.num_cameras; ++k) {
     const auto sk = static_cast<std::size_t>(k);
     h << "<tr><td class=\"l\">" << XmlEscape(rig.cameras[sk].name.data()) << "</td><td>"
       << (sk < r.camera_observations.size() ? r.camera_observations[sk] : 0) << "</td><td>"
-      << Fixed(sk < r.camera_rms_px.size() ? r.camera_rms_px[sk] : 0.0, 4) << "</td></tr>\n";
+      << Fixed(sk < r.camera_rms_px.size() ? r.camera_rms_px[sk] : 0.0, 4) << "</td>";
+    if (any_refined && sk < r.cameras.size()) {
+      const SurveyCamera& c = r.cameras[sk];
+      const Eigen::Matrix<double, 6, 1> sg = c.covariance.diagonal().cwiseSqrt();
+      h << "<td class=\"l\">" << (c.refined ? "refined" : "held") << "</td><td>"
+        << Fixed(RadToDeg(c.rotation_change_rad.norm()), 4) << "</td><td>" << Fixed(RadToDeg(sg.head<3>().norm()), 4)
+        << "</td><td>" << Fixed(1e3 * c.translation_change_m.norm(), 3) << "</td><td>"
+        << Fixed(1e3 * sg.tail<3>().norm(), 3) << "</td>";
+    }
+    h << "</tr>\n";
   }
   h << "</table>\n";
 }
