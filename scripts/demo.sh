@@ -148,7 +148,7 @@ say "10/11 map survey: mfns-calib survey on the first recording -> $out/survey, 
 generation=$("$bin/mfns-calib" inspect "$out/flyer.bin" | sed -n 's/.*generation \([0-9]*\),.*/\1/p')
 [ -n "$generation" ] || { echo "demo: no generation in 'mfns-calib inspect $out/flyer.bin'" >&2; exit 1; }
 run survey "$bin/mfns-calib" survey --rig "$out/flyer-rig.yaml" --out "$out/survey" "$sweep" \
-  --generation "$((generation + 1))" --jobs "$threads" "${start_pose[@]}"
+  --turntable --generation "$((generation + 1))" --jobs "$threads" "${start_pose[@]}"
 run flash-survey "$bin/mfns-flash" "$out/survey/calibration.bin" "$out/flyer/store" --no-signal
 
 say "11/11 the maps compared on the second recording: surveyed (flyer.bin) and refined (the store)"

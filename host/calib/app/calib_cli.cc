@@ -88,6 +88,9 @@ CLI::App* AddSurveyCommand(CLI::App& app, SurveyCommandOptions* o, std::string* 
   cmd->add_flag("--refine-cameras", o->refine_cameras,
                 "Also refine each camera's mounting (C_k_b, r_b_bk; intrinsics held): with the rig's calibration "
                 "sigma as prior, else in the frame of the first camera seen, which is held");
+  cmd->add_flag("--turntable", o->turntable,
+                "Each recording is a turntable run: the body turns about one fixed point (where the axes meet), "
+                "so its poses share their position model and the beacons' depths are better determined");
   return cmd;
 }
 

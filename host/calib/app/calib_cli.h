@@ -64,6 +64,7 @@ struct SurveyCommandOptions {
   bool generation_set = false;
   int jobs = 2;
   bool refine_cameras = false;        // also refine each camera's mounting (SurveyOptions)
+  bool turntable = false;             // each recording turns about one fixed point (pivot_group)
   std::string command_line;  // for report.html (the tool sets it)
 };
 

@@ -39,21 +39,28 @@ namespace {
 class BeaconImageCost final : public ceres::CostFunction {
  public:
   BeaconImageCost(const RigCamera& cam, const BodyPose& ref, const Eigen::Vector2d& uv, double inv_sigma,
-                  bool camera_block)
-      : cam_(cam), ref_(ref), uv_(uv), inv_sigma_(inv_sigma), camera_block_(camera_block) {
+                  bool pivot_block, bool camera_block)
+      : cam_(cam), ref_(ref), uv_(uv), inv_sigma_(inv_sigma), pivot_(pivot_block), camera_block_(camera_block) {
     set_num_residuals(2);
     mutable_parameter_block_sizes()->push_back(6);
     mutable_parameter_block_sizes()->push_back(3);
+    if (pivot_block) mutable_parameter_block_sizes()->push_back(6);
     if (camera_block) mutable_parameter_block_sizes()->push_back(6);
   }
 
   bool Evaluate(double const* const* params, double* residuals, double** jacobians) const override {
-    const BodyPose pose = Retract(ref_, Eigen::Map<const PoseDelta>(params[0]));
+    BodyPose pose = Retract(ref_, Eigen::Map<const PoseDelta>(params[0]));
     const Eigen::Vector3d P_w = Eigen::Map<const Eigen::Vector3d>(params[1]);
+    const int cam_at = pivot_ ? 3 : 2;
+    Eigen::Vector3d p_b_pivot = Eigen::Vector3d::Zero();
+    if (pivot_) {  // r_w_wb = p_w - C_w_b p_b (the delta's translation is held at zero)
+      p_b_pivot = Eigen::Map<const Eigen::Vector3d>(params[2]);
+      pose.r_w_wb = Eigen::Map<const Eigen::Vector3d>(params[2] + 3) - pose.C_w_b * p_b_pivot;
+    }
     RigCamera cam = cam_;
     if (camera_block_) {
-      cam.C_k_b = ExpSO3(Eigen::Map<const Eigen::Vector3d>(params[2])) * cam_.C_k_b;
-      cam.r_b_bk = cam_.r_b_bk + Eigen::Map<const Eigen::Vector3d>(params[2] + 3);
+      cam.C_k_b = ExpSO3(Eigen::Map<const Eigen::Vector3d>(params[cam_at])) * cam_.C_k_b;
+      cam.r_b_bk = cam_.r_b_bk + Eigen::Map<const Eigen::Vector3d>(params[cam_at] + 3);
     }
     const Eigen::Matrix3d C_b_w = pose.C_w_b.transpose();
     const Eigen::Vector3d p_b = C_b_w * (P_w - pose.r_w_wb);
@@ -65,17 +72,25 @@ class BeaconImageCost final : public ceres::CostFunction {
     res = (uv - uv_) * inv_sigma_;
     if (jacobians == nullptr) return true;
     const Eigen::Matrix<double, 2, 3> J_uv_pb = J_uv_pk * cam.C_k_b * inv_sigma_;
+    const Eigen::Matrix<double, 2, 3> J_r = -J_uv_pb * C_b_w;  // d uv / d r_w_wb
     if (jacobians[0] != nullptr) {  // as ProjectBeacon: dp_b = -C_b_w dr_w + [p_b]x dtheta_b
       Eigen::Map<Eigen::Matrix<double, 2, 6, Eigen::RowMajor>> j(jacobians[0]);
-      j.leftCols<3>() = -J_uv_pb * C_b_w;
+      j.leftCols<3>() = J_r;
       j.rightCols<3>() = J_uv_pb * Skew(p_b);
+      // With a pivot, dtheta_b also moves r_w_wb = p_w - C_w_b p_b by C_w_b [p_b]x dtheta_b.
+      if (pivot_) j.rightCols<3>() += J_r * pose.C_w_b * Skew(p_b_pivot);
+    }
+    if (pivot_ && jacobians[2] != nullptr) {
+      Eigen::Map<Eigen::Matrix<double, 2, 6, Eigen::RowMajor>> j(jacobians[2]);
+      j.leftCols<3>() = -J_r * pose.C_w_b;
+      j.rightCols<3>() = J_r;
     }
     if (jacobians[1] != nullptr) {
       Eigen::Map<Eigen::Matrix<double, 2, 3, Eigen::RowMajor>> j(jacobians[1]);
       j = J_uv_pb * C_b_w;
     }
-    if (camera_block_ && jacobians[2] != nullptr) {  // dp_k = -[p_k]x dtheta_k - C_k_b dr_b
-      Eigen::Map<Eigen::Matrix<double, 2, 6, Eigen::RowMajor>> j(jacobians[2]);
+    if (camera_block_ && jacobians[cam_at] != nullptr) {  // dp_k = -[p_k]x dtheta_k - C_k_b dr_b
+      Eigen::Map<Eigen::Matrix<double, 2, 6, Eigen::RowMajor>> j(jacobians[cam_at]);
       j.leftCols<3>() = -J_uv_pk * Skew(p_k) * inv_sigma_;
       j.rightCols<3>() = -J_uv_pb;
     }
@@ -87,7 +102,19 @@ class BeaconImageCost final : public ceres::CostFunction {
   const BodyPose ref_;
   const Eigen::Vector2d uv_;
   const double inv_sigma_;
+  const bool pivot_;
   const bool camera_block_;
+};
+
+// A pivot's body point held near its start (1 m): a run about one axis leaves it free along
+// the axis, where it changes no pose.
+struct PivotPrior {
+  Eigen::Vector3d p_b0;
+  template <typename T>
+  bool operator()(const T* p, T* res) const {
+    for (int i = 0; i < 3; ++i) res[i] = p[i] - T(p_b0(i));
+    return true;
+  }
 };
 
 // A camera's calibrated mounting as a Gaussian prior: its total change from the given one
@@ -141,11 +168,18 @@ struct State {
   std::vector<RigCamera> cam_ref;                   // per rig camera
   std::vector<std::array<double, 6>> cam_delta;     // per rig camera (refine_cameras)
   std::vector<bool> cam_free;                       // per rig camera: refined
+  std::vector<int> group;                           // per frame set: pivot group or -1
+  std::vector<std::array<double, 6>> pivot;         // per pivot group: p_b, p_w
+  std::vector<Eigen::Vector3d> pivot_b0;            // per pivot group: p_b's start
 };
 
 void CheckInput(const Rig& rig, const std::vector<SurveyFrameSet>& sets) {
   if (!(rig.beacon_sigma > 0.0))
     throw UserError("survey: the rig has no beacon_sigma_mm: the surveyed map's 1-sigma is the prior");
+  for (std::size_t i = 0; i < sets.size(); ++i)
+    if (sets[i].pivot_group < -1 || sets[i].pivot_group >= static_cast<int>(sets.size()))
+      throw UserError("survey: frame set " + std::to_string(i) + ": pivot group " +
+                      std::to_string(sets[i].pivot_group) + " (-1 or 0 .. frame sets - 1)");
   for (std::size_t i = 0; i < sets.size(); ++i)
     for (const SurveyObservation& o : sets[i].observations)
       if (o.camera < 0 || o.camera >= rig.num_cameras || o.beacon < 0 || o.beacon >= rig.num_beacons ||
@@ -165,10 +199,19 @@ void BuildProblem(const Rig& rig, const std::vector<SurveyFrameSet>& sets, const
       const auto k = static_cast<std::size_t>(ob.camera);
       ceres::LossFunction* loss = new ceres::HuberLoss(o.huber_sigmas);
       std::vector<double*> blocks{s->delta[i].data(), s->beacon[static_cast<std::size_t>(ob.beacon)].data()};
+      const int g = s->group[i];
+      if (g >= 0) blocks.push_back(s->pivot[static_cast<std::size_t>(g)].data());
       if (s->cam_free[k]) blocks.push_back(s->cam_delta[k].data());
-      problem->AddResidualBlock(new BeaconImageCost(s->cam_ref[k], s->ref[i], ob.uv_px, inv, s->cam_free[k]), loss,
-                                blocks);
+      problem->AddResidualBlock(
+          new BeaconImageCost(s->cam_ref[k], s->ref[i], ob.uv_px, inv, g >= 0, s->cam_free[k]), loss, blocks);
     }
+  for (std::size_t i = 0; i < sets.size(); ++i)
+    if (s->group[i] >= 0 && problem->HasParameterBlock(s->delta[i].data()))
+      problem->SetManifold(s->delta[i].data(), new ceres::SubsetManifold(6, {0, 1, 2}));
+  for (std::size_t g = 0; g < s->pivot.size(); ++g)
+    if (problem->HasParameterBlock(s->pivot[g].data()))
+      problem->AddResidualBlock(new ceres::AutoDiffCostFunction<PivotPrior, 3, 6>(new PivotPrior{s->pivot_b0[g]}), nullptr,
+                                s->pivot[g].data());
   for (int b = 0; b < rig.num_beacons; ++b) {
     if (!s->seen[static_cast<std::size_t>(b)]) continue;
     problem->AddResidualBlock(new ceres::AutoDiffCostFunction<BeaconPrior, 3, 3>(
@@ -196,6 +239,9 @@ double Relinearise(State* s) {
     largest = std::max(largest, d.cwiseAbs().maxCoeff());
     s->ref[i] = Retract(s->ref[i], d);
     s->delta[i].fill(0.0);
+    if (s->group[i] < 0) continue;
+    const auto& pv = s->pivot[static_cast<std::size_t>(s->group[i])];
+    s->ref[i].r_w_wb = Eigen::Vector3d(pv[3], pv[4], pv[5]) - s->ref[i].C_w_b * Eigen::Vector3d(pv[0], pv[1], pv[2]);
   }
   for (std::size_t k = 0; k < s->cam_ref.size(); ++k) {
     const Eigen::Map<const Eigen::Matrix<double, 6, 1>> d(s->cam_delta[k].data());
@@ -293,6 +339,12 @@ SurveyResult Summarise(const Rig& rig, const std::vector<SurveyFrameSet>& sets, 
   for (std::size_t c = 0; c < res.camera_rms_px.size(); ++c)
     if (res.camera_observations[c] > 0) res.camera_rms_px[c] = std::sqrt(res.camera_rms_px[c] / res.camera_observations[c]);
   res.rms_px = k > 0 ? std::sqrt(total / static_cast<double>(k)) : 0.0;
+  res.pivots.resize(s.pivot.size());
+  for (std::size_t g = 0; g < s.pivot.size(); ++g) {
+    res.pivots[g].p_b = Eigen::Vector3d(s.pivot[g][0], s.pivot[g][1], s.pivot[g][2]);
+    res.pivots[g].p_w = Eigen::Vector3d(s.pivot[g][3], s.pivot[g][4], s.pivot[g][5]);
+    res.pivots[g].frame_sets = static_cast<int>(std::count(s.group.begin(), s.group.end(), static_cast<int>(g)));
+  }
   res.cameras.resize(static_cast<std::size_t>(rig.num_cameras));
   for (std::size_t c = 0; c < res.cameras.size(); ++c) {
     SurveyCamera& sc = res.cameras[c];
@@ -342,6 +394,43 @@ void SetUpCameras(const Rig& rig, const std::vector<SurveyFrameSet>& sets, const
   if (gauge != s->cam_free.end()) *gauge = false;
 }
 
+// Each pivot group's fixed point from its frame sets' poses: least squares of
+// r_w_wb + C_w_b p_b = p_w over (p_b, p_w), a little ridge on p_b for runs about one axis; the
+// group's poses then placed on it. Returns the number of groups.
+int SetUpPivots(const std::vector<SurveyFrameSet>& sets, State* s) {
+  int groups = 0;
+  for (const SurveyFrameSet& f : sets) groups = std::max(groups, f.pivot_group + 1);
+  s->group.clear();
+  for (const SurveyFrameSet& f : sets) s->group.push_back(f.pivot_group);
+  s->pivot.assign(static_cast<std::size_t>(groups), std::array<double, 6>{});
+  s->pivot_b0.assign(static_cast<std::size_t>(groups), Eigen::Vector3d::Zero());
+  for (int g = 0; g < groups; ++g) {
+    Eigen::Matrix<double, 6, 6> AtA = Eigen::Matrix<double, 6, 6>::Zero();
+    Eigen::Matrix<double, 6, 1> Atb = Eigen::Matrix<double, 6, 1>::Zero();
+    int n = 0;
+    for (std::size_t i = 0; i < sets.size(); ++i) {
+      if (s->group[i] != g) continue;
+      Eigen::Matrix<double, 3, 6> A;
+      A << s->ref[i].C_w_b, -Eigen::Matrix3d::Identity();
+      AtA += A.transpose() * A;
+      Atb -= A.transpose() * s->ref[i].r_w_wb;
+      ++n;
+    }
+    if (n == 0) continue;
+    AtA.topLeftCorner<3, 3>() += 1e-6 * n * Eigen::Matrix3d::Identity();
+    const Eigen::Matrix<double, 6, 1> x = AtA.ldlt().solve(Atb);
+    auto& pv = s->pivot[static_cast<std::size_t>(g)];
+    for (int k = 0; k < 6; ++k) pv[static_cast<std::size_t>(k)] = x(k);
+    s->pivot_b0[static_cast<std::size_t>(g)] = x.head<3>();
+  }
+  for (std::size_t i = 0; i < sets.size(); ++i) {
+    if (s->group[i] < 0) continue;
+    const auto& pv = s->pivot[static_cast<std::size_t>(s->group[i])];
+    s->ref[i].r_w_wb = Eigen::Vector3d(pv[3], pv[4], pv[5]) - s->ref[i].C_w_b * Eigen::Vector3d(pv[0], pv[1], pv[2]);
+  }
+  return groups;
+}
+
 }  // namespace
 
 Eigen::Matrix3d EulerToRotationJacobian(const Eigen::Matrix3d& C) {
@@ -377,9 +466,11 @@ SurveyResult AdjustMap(const Rig& rig, const std::vector<SurveyFrameSet>& sets, 
     s.beacon.push_back({P.x(), P.y(), P.z()});
   }
   SetUpCameras(rig, sets, o, &s);
+  const int groups = SetUpPivots(sets, &s);
   const int seen = static_cast<int>(std::count(s.seen.begin(), s.seen.end(), true));
   const int free_cameras = static_cast<int>(std::count(s.cam_free.begin(), s.cam_free.end(), true));
-  const int dof_taken = 6 * static_cast<int>(sets.size()) + 3 * seen + 6 * free_cameras;
+  const int pivoted = static_cast<int>(std::count_if(s.group.begin(), s.group.end(), [](int g) { return g >= 0; }));
+  const int dof_taken = 6 * static_cast<int>(sets.size()) - 3 * pivoted + 6 * groups + 3 * seen + 6 * free_cameras;
   double sigma_px = o.start_sigma_px;
   bool estimated = true;
   for (int pass = 0; pass < o.reweight_passes; ++pass) {

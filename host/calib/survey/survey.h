@@ -29,6 +29,11 @@ struct SurveyFrameSet {
   std::uint64_t t_ns = 0;
   BodyPose pose;
   std::vector<SurveyObservation> observations;
+  // >= 0: a turntable run's frame set. The frame sets of one group turn about one fixed point
+  // (a two-axis turntable's axes meet in it): one point p_b of the body stays at one place p_w
+  // of the world, r_w_wb = p_w - C_w_b p_b, so each such pose has its attitude only of its own.
+  // -1: a free pose.
+  int pivot_group = -1;
 };
 
 struct SurveyOptions {
@@ -74,8 +79,17 @@ struct SurveyCamera {
   int observations = 0;
 };
 
+// A turntable run's fixed point (SurveyFrameSet::pivot_group), refined with the rest. A run
+// about one axis leaves p_b along it free: a weak prior (1 m) then holds it near its start.
+struct SurveyPivot {
+  Eigen::Vector3d p_b = Eigen::Vector3d::Zero();  // body frame, m
+  Eigen::Vector3d p_w = Eigen::Vector3d::Zero();  // world frame, m
+  int frame_sets = 0;
+};
+
 struct SurveyResult {
   std::vector<SurveyBeacon> beacons;  // one per rig beacon, in rig order
+  std::vector<SurveyPivot> pivots;    // one per pivot group (0, 1, ...)
   std::vector<SurveyCamera> cameras;  // one per rig camera
   std::vector<BodyPose> poses;        // the refined pose of each frame set given
   double sigma_px = 0.0;              // centroid sigma estimated from the residuals

@@ -166,6 +166,8 @@ SurveyResult RunSurveyCommand(const SurveyCommandOptions& o, std::ostream& log) 
   for (const std::string& dir : o.recordings) {
     RecordingSummary sum;
     std::vector<SurveyFrameSet> s = PoseRecording(rig, dir, ro, &sum);
+    if (o.turntable)
+      for (SurveyFrameSet& f : s) f.pivot_group = static_cast<int>(ctx.recordings.size());
     ctx.recordings.push_back(dir + ": " + std::to_string(sum.frame_sets) + " frame sets, " + std::to_string(sum.fixes) +
                              " fixes");
     log << "survey: " << ctx.recordings.back() << std::endl;
@@ -208,6 +210,13 @@ SurveyResult RunSurveyCommand(const SurveyCommandOptions& o, std::ostream& log) 
       log << line;
     }
     log << std::endl;
+  }
+  for (std::size_t g = 0; g < r.pivots.size(); ++g) {
+    const SurveyPivot& p = r.pivots[g];
+    char line[256];
+    std::snprintf(line, sizeof line, "survey: recording %zu turns about p_w = (%.1f, %.1f, %.1f) mm, p_b = (%.1f, %.1f, %.1f) mm",
+                  g + 1, 1e3 * p.p_w.x(), 1e3 * p.p_w.y(), 1e3 * p.p_w.z(), 1e3 * p.p_b.x(), 1e3 * p.p_b.y(), 1e3 * p.p_b.z());
+    log << line << std::endl;
   }
   int seen = 0, moved = 0;
   for (const SurveyBeacon& b : r.beacons) {
