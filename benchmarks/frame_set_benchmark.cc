@@ -7,7 +7,9 @@
 //
 // Frame sets: the first kNumSets = 72 frames of `mfns-sim render --preset paper-turntable`
 // (1 deg yaw steps at 18.6 Hz, shot and read noise; the preset's centroid jitter is left out:
-// it does not change the work), rendered once at setup (not timed). They are replayed forwards
+// it does not change the work), rendered once at setup (not timed); with the argument
+// scenario = 1 those of `--preset free-flight` instead (6-DOF flight through a module, 60 wall
+// beacons, the same rig; issue 20 asks both). They are replayed forwards
 // in passes; each pass starts from a cold start (NavLoop::Configure / Tracker::Reset) and its first
 // kWarmUpSets = 32 frame sets (acquisition: lost-in-space, then following its candidate poses
 // until one is left, ~22 frame sets) are not timed, so the timed frame sets 32-71 (3-4 beacons
@@ -88,11 +90,14 @@ struct FrameSets {
   std::vector<int> visible;  // beacons in view over all cameras
 };
 
+constexpr const char* kScenarios[] = {"paper-turntable", "free-flight"};
+constexpr int kNumScenarios = 2;
+
 // Renders the frame sets as `mfns-sim render` does (host/sim/frames/render_run.cc).
-std::unique_ptr<FrameSets> Render() {
+std::unique_ptr<FrameSets> Render(const char* preset) {
   auto fs = std::make_unique<FrameSets>();
   host::Scenario& s = fs->scenario;
-  s = host::LoadPreset("paper-turntable");
+  s = host::LoadPreset(preset);
   s.frames = kNumSets;
   fs->rig = s.rig;
   fs->frame_period_ns = 1e9 / s.frame_rate_hz;
@@ -104,7 +109,8 @@ std::unique_ptr<FrameSets> Render() {
   sensor.full_well_e = s.sensor.full_well_e;
   fs->background_dn = s.sensor.background_e / s.sensor.gain_e_per_dn;
   const std::vector<host::FrameTruth> frames = host::SimulateTrajectory(s);
-  std::fprintf(stderr, "frame_set_benchmark: rendering %d frame sets of %d cameras...\n", kNumSets, s.rig.num_cameras);
+  std::fprintf(stderr, "frame_set_benchmark: rendering %d frame sets of %s, %d cameras...\n", kNumSets, preset,
+               s.rig.num_cameras);
   for (int i = 0; i < kNumSets; ++i) {
     const BodyPose& pose = frames[static_cast<std::size_t>(i)].pose;
     fs->truth.push_back(pose);
@@ -145,9 +151,12 @@ std::unique_ptr<FrameSets> Render() {
   return fs;
 }
 
-const FrameSets& Sets() {
-  static const std::unique_ptr<FrameSets> fs = Render();
-  return *fs;
+// The frame sets of kScenarios[scenario], rendered at first use.
+const FrameSets& Sets(std::int64_t scenario) {
+  static std::array<std::unique_ptr<FrameSets>, kNumScenarios> sets;
+  const auto i = static_cast<std::size_t>(std::clamp<std::int64_t>(scenario, 0, kNumScenarios - 1));
+  if (!sets[i]) sets[i] = Render(kScenarios[i]);
+  return *sets[i];
 }
 
 // Replay position: frame set index f of the current pass and the count n of frame sets
@@ -209,10 +218,10 @@ struct Outcomes {
   }
 };
 
-// Argument: NavLoopConfig::windowed_detection (1, the default: windows about the predicted
-// beacons plus a stripe while tracking; 0: full frames, issue 20 item 1).
+// Arguments: NavLoopConfig::windowed_detection (1, the default: windows about the predicted
+// beacons plus a stripe while tracking; 0: full frames, issue 20 item 1); scenario.
 void BM_FrameSet_NavLoop(benchmark::State& state) {
-  const FrameSets& fs = Sets();
+  const FrameSets& fs = Sets(state.range(1));
   NavLoopConfig config;
   config.windowed_detection = state.range(0) != 0;
   InProcessSource source(fs.rig.num_cameras);
@@ -287,7 +296,7 @@ struct StageBuffers {
 };
 
 void RunStages(benchmark::State& state, bool reset_every_set) {
-  const FrameSets& fs = Sets();
+  const FrameSets& fs = Sets(state.range(0));
   auto buf = std::make_unique<StageBuffers>();
   buf->tracker.Reset(fs.rig);
   Replay r;
@@ -403,7 +412,7 @@ std::vector<PnpCase> PnpCases(const FrameSets& fs) {
 }
 
 void BM_FrameSet_OpenCvBaseline(benchmark::State& state) {
-  const FrameSets& fs = Sets();
+  const FrameSets& fs = Sets(state.range(1));
   const std::vector<PnpCase> cases = PnpCases(fs);
   const int threads_before = cv::getNumThreads();
   cv::setNumThreads(static_cast<int>(state.range(0)));
@@ -449,10 +458,11 @@ void BM_FrameSet_OpenCvBaseline(benchmark::State& state) {
   state.SetItemsProcessed(static_cast<std::int64_t>(n));
 }
 
-BENCHMARK(BM_FrameSet_NavLoop)->ArgName("windowed")->Arg(1)->Arg(0)->Unit(benchmark::kMillisecond);
-BENCHMARK(BM_FrameSet_Stages)->Unit(benchmark::kMillisecond);
-BENCHMARK(BM_FrameSet_LostInSpaceEverySet)->Unit(benchmark::kMillisecond);
-BENCHMARK(BM_FrameSet_OpenCvBaseline)->ArgName("cv_threads")->Arg(1)->Unit(benchmark::kMillisecond);
+// scenario: 0 paper-turntable, 1 free-flight (kScenarios).
+BENCHMARK(BM_FrameSet_NavLoop)->ArgNames({"windowed", "scenario"})->ArgsProduct({{1, 0}, {0, 1}})->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_FrameSet_Stages)->ArgName("scenario")->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_FrameSet_LostInSpaceEverySet)->ArgName("scenario")->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_FrameSet_OpenCvBaseline)->ArgNames({"cv_threads", "scenario"})->ArgsProduct({{1}, {0, 1}})->Unit(benchmark::kMillisecond);
 
 }  // namespace
 }  // namespace mfns::fw
