@@ -35,7 +35,8 @@ namespace {
 // SurveyCamera says. Parameters are perturbations from references held outside Ceres; their
 // Jacobians are exact at zero, so the solve is repeated with each perturbation folded into its
 // reference until they vanish (the optimum and the covariance, taken at zero, are exact).
-// Blocks: pose delta (6), beacon (3), [camera delta (6): dtheta_k, dr_b].
+// Blocks: pose delta (6), beacon (3), [pivot (6): p_b, p_w; the pose's position is then
+// p_w - C_w_b p_b and its delta's translation is held], [camera delta (6): dtheta_k, dr_b].
 class BeaconImageCost final : public ceres::CostFunction {
  public:
   BeaconImageCost(const RigCamera& cam, const BodyPose& ref, const Eigen::Vector2d& uv, double inv_sigma,
