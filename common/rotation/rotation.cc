@@ -83,6 +83,20 @@ Eigen::Matrix3d ExpSO3(const Eigen::Vector3d& w) {
   return Eigen::AngleAxisd(angle, w / angle).toRotationMatrix();
 }
 
+Eigen::Matrix3d RightJacobianSO3(const Eigen::Vector3d& w) {
+  const double t2 = w.squaredNorm();
+  const Eigen::Matrix3d W = Skew(w);
+  // I - (1 - cos t)/t^2 W + (t - sin t)/t^3 W^2; series below 1e-4 rad (terms to t^4 exact to
+  // ~1e-17).
+  double a = 0.5 - t2 / 24.0, b = 1.0 / 6.0 - t2 / 120.0;
+  if (t2 > 1e-8) {
+    const double t = std::sqrt(t2);
+    a = (1.0 - std::cos(t)) / t2;
+    b = (t - std::sin(t)) / (t2 * t);
+  }
+  return Eigen::Matrix3d::Identity() - a * W + b * W * W;
+}
+
 Eigen::Vector3d LogSO3(const Eigen::Matrix3d& C) {
   const Eigen::AngleAxisd aa(C);
   return aa.angle() * aa.axis();

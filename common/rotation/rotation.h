@@ -60,6 +60,12 @@ Eigen::Matrix3d SmallAngleMatrix(const Eigen::Vector3d& angles);
 Eigen::Matrix3d ExpSO3(const Eigen::Vector3d& w);
 Eigen::Vector3d LogSO3(const Eigen::Matrix3d& C);
 
+// Right Jacobian of SO(3): Exp(w + dw) = Exp(w) Exp(J_r(w) dw) to first order in dw; the left
+// one is J_r(-w): Exp(w + dw) = Exp(J_r(-w) dw) Exp(w). A Jacobian taken with respect to a
+// rotation perturbation at the current rotation becomes one with respect to the parameter w
+// through it (exact at every w, not only at w = 0).
+Eigen::Matrix3d RightJacobianSO3(const Eigen::Vector3d& w);
+
 // True when C^T C = I and det C = +1 within tol (max abs element error).
 bool IsRotation(const Eigen::Matrix3d& C, double tol = 1e-9);
 

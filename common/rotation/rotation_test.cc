@@ -119,6 +119,26 @@ TEST(Rotation, ExpLogRoundTripAndSkew) {
   }
 }
 
+// Exp(w + dw) = Exp(w) Exp(J_r(w) dw) and = Exp(J_r(-w) dw) Exp(w), by central differences,
+// at small (series) and large angles.
+TEST(Rotation, RightJacobianAgainstFiniteDifferences) {
+  for (const Eigen::Vector3d& w : {Eigen::Vector3d(1e-6, -2e-6, 3e-7), Eigen::Vector3d(0.3, -0.2, 0.1),
+                                   Eigen::Vector3d(-1.2, 2.0, 0.7), Eigen::Vector3d(0.0, 0.0, 3.0)}) {
+    const Eigen::Matrix3d Jr = RightJacobianSO3(w), Jl = RightJacobianSO3(-w);
+    const double h = 1e-6;
+    for (int i = 0; i < 3; ++i) {
+      const Eigen::Vector3d e = Eigen::Vector3d::Unit(i) * h;
+      const Eigen::Vector3d right = (LogSO3(ExpSO3(w).transpose() * ExpSO3(w + e)) -
+                                     LogSO3(ExpSO3(w).transpose() * ExpSO3(w - e))) / (2 * h);
+      const Eigen::Vector3d left = (LogSO3(ExpSO3(w + e) * ExpSO3(w).transpose()) -
+                                    LogSO3(ExpSO3(w - e) * ExpSO3(w).transpose())) / (2 * h);
+      EXPECT_LT((right - Jr.col(i)).norm(), 1e-8) << w.transpose() << " column " << i;
+      EXPECT_LT((left - Jl.col(i)).norm(), 1e-8) << w.transpose() << " column " << i;
+    }
+  }
+  EXPECT_LT((RightJacobianSO3(Eigen::Vector3d::Zero()) - Eigen::Matrix3d::Identity()).norm(), 1e-15);
+}
+
 TEST(Rotation, NearestRotationRepairsNoise) {
   const Eigen::Matrix3d C = EulerToMatrix({0.1, -0.7, 2.0});
   Eigen::Matrix3d noisy = C;

@@ -32,9 +32,10 @@ namespace {
 
 // The image of a beacon through the navigation model (common/rig ProjectBeacon, eq. 2) at the
 // pose Retract(ref, delta), and (with a camera block) the camera's mounting perturbed as
-// SurveyCamera says. Parameters are perturbations from references held outside Ceres; their
-// Jacobians are exact at zero, so the solve is repeated with each perturbation folded into its
-// reference until they vanish (the optimum and the covariance, taken at zero, are exact).
+// SurveyCamera says. Parameters are perturbations from references held outside Ceres (their
+// Jacobians exact at every value, through SO(3)'s right Jacobian); the solve is repeated with
+// each perturbation folded into its reference until they vanish, so the covariance is taken
+// about the optimum itself.
 // Blocks: pose delta (6), beacon (3), [pivot (6): p_b, p_w; the pose's position is then
 // p_w - C_w_b p_b and its delta's translation is held], [camera delta (6): dtheta_k, dr_b].
 class BeaconImageCost final : public ceres::CostFunction {
@@ -78,8 +79,14 @@ class BeaconImageCost final : public ceres::CostFunction {
       Eigen::Map<Eigen::Matrix<double, 2, 6, Eigen::RowMajor>> j(jacobians[0]);
       j.leftCols<3>() = J_r;
       j.rightCols<3>() = J_uv_pb * Skew(p_b);
-      // With a pivot, dtheta_b also moves r_w_wb = p_w - C_w_b p_b by C_w_b [p_b]x dtheta_b.
-      if (pivot_) j.rightCols<3>() += J_r * pose.C_w_b * Skew(p_b_pivot);
+      // With a pivot the delta's translation changes nothing, and dtheta_b also moves
+      // r_w_wb = p_w - C_w_b p_b by C_w_b [p_b]x dtheta_b.
+      if (pivot_) {
+        j.leftCols<3>().setZero();
+        j.rightCols<3>() += J_r * pose.C_w_b * Skew(p_b_pivot);
+      }
+      // C_w_b = C_ref Exp(dtheta): a perturbation at the current attitude is J_r(dtheta) ddtheta.
+      j.rightCols<3>() = (j.rightCols<3>() * RightJacobianSO3(Eigen::Map<const Eigen::Vector3d>(params[0] + 3))).eval();
     }
     if (pivot_ && jacobians[2] != nullptr) {
       Eigen::Map<Eigen::Matrix<double, 2, 6, Eigen::RowMajor>> j(jacobians[2]);
@@ -92,7 +99,9 @@ class BeaconImageCost final : public ceres::CostFunction {
     }
     if (camera_block_ && jacobians[cam_at] != nullptr) {  // dp_k = -[p_k]x dtheta_k - C_k_b dr_b
       Eigen::Map<Eigen::Matrix<double, 2, 6, Eigen::RowMajor>> j(jacobians[cam_at]);
-      j.leftCols<3>() = -J_uv_pk * Skew(p_k) * inv_sigma_;
+      // C_k_b = Exp(dtheta_k) C_ref: a perturbation on the left is J_r(-dtheta_k) ddtheta_k.
+      j.leftCols<3>() = -J_uv_pk * Skew(p_k) * inv_sigma_ *
+                        RightJacobianSO3(-Eigen::Map<const Eigen::Vector3d>(params[cam_at]));
       j.rightCols<3>() = -J_uv_pb;
     }
     return true;
@@ -120,20 +129,35 @@ struct PivotPrior {
 
 // A camera's calibrated mounting as a Gaussian prior: its total change from the given one
 // (reference and perturbation), whitened by the calibration's covariance (sqrt_info: the
-// inverse of its Cholesky factor, in the perturbation's coordinates).
-struct CameraPrior {
-  Eigen::Matrix3d C_ref_given;  // C_k_b(reference) C_k_b(given)^T
-  Eigen::Vector3d r_ref_minus_given;
-  Eigen::Matrix<double, 6, 6> sqrt_info;
-  bool operator()(const double* d, double* res) const {
-    const Eigen::Vector3d dtheta = Eigen::Map<const Eigen::Vector3d>(d);
+// inverse of its Cholesky factor, in the perturbation's coordinates). The rotation's change
+// c = Log(Exp(dtheta) C_ref C_given^T) has d c / d dtheta = J_l(c)^-1 J_l(dtheta), with
+// J_l(x) = J_r(-x) (common/rotation RightJacobianSO3).
+class CameraPrior final : public ceres::SizedCostFunction<6, 6> {
+ public:
+  CameraPrior(const Eigen::Matrix3d& C_ref_given, const Eigen::Vector3d& r_ref_minus_given,
+              const Eigen::Matrix<double, 6, 6>& sqrt_info)
+      : C_ref_given_(C_ref_given), r_ref_minus_given_(r_ref_minus_given), sqrt_info_(sqrt_info) {}
+
+  bool Evaluate(double const* const* params, double* residuals, double** jacobians) const override {
+    const Eigen::Vector3d dtheta = Eigen::Map<const Eigen::Vector3d>(params[0]);
     Eigen::Matrix<double, 6, 1> change;
-    change.head<3>() = LogSO3(ExpSO3(dtheta) * C_ref_given);
-    change.tail<3>() = r_ref_minus_given + Eigen::Map<const Eigen::Vector3d>(d + 3);
-    Eigen::Map<Eigen::Matrix<double, 6, 1>> r(res);
-    r = sqrt_info * change;
+    change.head<3>() = LogSO3(ExpSO3(dtheta) * C_ref_given_);
+    change.tail<3>() = r_ref_minus_given_ + Eigen::Map<const Eigen::Vector3d>(params[0] + 3);
+    Eigen::Map<Eigen::Matrix<double, 6, 1>> res(residuals);
+    res = sqrt_info_ * change;
+    if (jacobians == nullptr || jacobians[0] == nullptr) return true;
+    Eigen::Matrix<double, 6, 6> d_change = Eigen::Matrix<double, 6, 6>::Identity();
+    d_change.topLeftCorner<3, 3>() =
+        RightJacobianSO3(-change.head<3>()).inverse() * RightJacobianSO3(-dtheta);
+    Eigen::Map<Eigen::Matrix<double, 6, 6, Eigen::RowMajor>> j(jacobians[0]);
+    j = sqrt_info_ * d_change;
     return true;
   }
+
+ private:
+  const Eigen::Matrix3d C_ref_given_;  // C_k_b(reference) C_k_b(given)^T
+  const Eigen::Vector3d r_ref_minus_given_;
+  const Eigen::Matrix<double, 6, 6> sqrt_info_;
 };
 
 // The calibration's covariance of camera k's mounting in the perturbation's coordinates: the
@@ -224,11 +248,10 @@ void BuildProblem(const Rig& rig, const std::vector<SurveyFrameSet>& sets, const
     const auto sk = static_cast<std::size_t>(k);
     if (!s->cam_free[sk]) continue;
     const Eigen::LLT<Eigen::Matrix<double, 6, 6>> llt(CalibrationCovariance6(rig, k));
-    auto* prior = new CameraPrior{s->cam_ref[sk].C_k_b * rig.cameras[sk].C_k_b.transpose(),
-                                  s->cam_ref[sk].r_b_bk - rig.cameras[sk].r_b_bk,
-                                  llt.matrixL().solve(Eigen::Matrix<double, 6, 6>::Identity())};
-    problem->AddResidualBlock(new ceres::NumericDiffCostFunction<CameraPrior, ceres::CENTRAL, 6, 6>(prior), nullptr,
-                              s->cam_delta[sk].data());
+    problem->AddResidualBlock(new CameraPrior(s->cam_ref[sk].C_k_b * rig.cameras[sk].C_k_b.transpose(),
+                                              s->cam_ref[sk].r_b_bk - rig.cameras[sk].r_b_bk,
+                                              llt.matrixL().solve(Eigen::Matrix<double, 6, 6>::Identity())),
+                              nullptr, s->cam_delta[sk].data());
   }
 }
 
@@ -295,6 +318,8 @@ void Solve(const Rig& rig, const std::vector<SurveyFrameSet>& sets, const Survey
     so.linear_solver_type = ceres::SPARSE_SCHUR;
     so.max_num_iterations = o.max_iterations;
     so.num_threads = o.threads;
+    so.check_gradients = o.check_gradients;
+    so.gradient_check_relative_precision = 1e-3;  // numeric differences' own error: ~1e-4
     ceres::Solver::Summary summary;
     ceres::Solve(so, &problem, &summary);
     if (summary.termination_type == ceres::FAILURE || !std::isfinite(summary.final_cost))

@@ -50,6 +50,9 @@ struct SurveyOptions {
   // body frame; without, camera 0 is held (it defines the body frame) and the others are free.
   bool refine_cameras = false;
   int threads = 1;
+  // Tests: Ceres compares every analytic Jacobian with numeric differences during the solves
+  // (a mismatch fails the solve: UserError).
+  bool check_gradients = false;
   bool IsValid(const char** why = nullptr) const;
 };
 
@@ -67,7 +70,7 @@ struct SurveyBeacon {
 };
 
 // One camera's mounting after the adjustment (SurveyOptions::refine_cameras). The perturbation
-// is the one of BelievedRig (host/sim/scenario): C_k_b <- Exp(dtheta_k) C_k_b (rad, camera
+// is on the left of the camera's rotation: C_k_b <- Exp(dtheta_k) C_k_b (rad, camera
 // frame), r_b_bk <- r_b_bk + dr_b (m, body frame).
 struct SurveyCamera {
   Eigen::Matrix3d C_k_b = Eigen::Matrix3d::Identity();  // refined (the given one when held)
