@@ -116,6 +116,11 @@ class BeaconImageCost final : public ceres::CostFunction {
   const bool camera_block_;
 };
 
+// The body's position on a pivot pv = (p_b, p_w) at attitude C_w_b: r_w_wb = p_w - C_w_b p_b.
+Eigen::Vector3d PivotPosition(const std::array<double, 6>& pv, const Eigen::Matrix3d& C_w_b) {
+  return Eigen::Vector3d(pv[3], pv[4], pv[5]) - C_w_b * Eigen::Vector3d(pv[0], pv[1], pv[2]);
+}
+
 // A pivot's body point held near its start (1 m): a run about one axis leaves it free along
 // the axis, where it changes no pose.
 struct PivotPrior {
@@ -264,8 +269,7 @@ double Relinearise(State* s) {
     s->ref[i] = Retract(s->ref[i], d);
     s->delta[i].fill(0.0);
     if (s->group[i] < 0) continue;
-    const auto& pv = s->pivot[static_cast<std::size_t>(s->group[i])];
-    s->ref[i].r_w_wb = Eigen::Vector3d(pv[3], pv[4], pv[5]) - s->ref[i].C_w_b * Eigen::Vector3d(pv[0], pv[1], pv[2]);
+    s->ref[i].r_w_wb = PivotPosition(s->pivot[static_cast<std::size_t>(s->group[i])], s->ref[i].C_w_b);
   }
   for (std::size_t k = 0; k < s->cam_ref.size(); ++k) {
     const Eigen::Map<const Eigen::Matrix<double, 6, 1>> d(s->cam_delta[k].data());
@@ -451,8 +455,7 @@ int SetUpPivots(const std::vector<SurveyFrameSet>& sets, State* s) {
   }
   for (std::size_t i = 0; i < sets.size(); ++i) {
     if (s->group[i] < 0) continue;
-    const auto& pv = s->pivot[static_cast<std::size_t>(s->group[i])];
-    s->ref[i].r_w_wb = Eigen::Vector3d(pv[3], pv[4], pv[5]) - s->ref[i].C_w_b * Eigen::Vector3d(pv[0], pv[1], pv[2]);
+    s->ref[i].r_w_wb = PivotPosition(s->pivot[static_cast<std::size_t>(s->group[i])], s->ref[i].C_w_b);
   }
   return groups;
 }
