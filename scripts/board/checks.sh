@@ -50,11 +50,18 @@ if [ "$ICOUNT" = 1 ]; then
     b=$(board-now)
     echo $((b - a))
   }
+  stages() {  # FILE: navd's per-stage means (ms; under -icount M instructions) as "name mean ..."
+    sed -n 's/^mfns-navd: stages, ms per frame set (mean \/ worst): //p' "$1" | tr ',' '\n' | awk '{ printf "%s %s ", $1, $2 }'
+  }
   one=$(run 1)
   all=$(run "$REPLAY_FRAMES")
   sed 's/^/BOARD LOG navd (icount): /' /tmp/icount$REPLAY_FRAMES.out
+  # Per stage as for the whole: the replay's stage totals minus frame set 0's, per frame set.
+  per_stage=$(awk -v a="$(stages /tmp/icount$REPLAY_FRAMES.out)" -v o="$(stages /tmp/icount1.out)" -v n="$REPLAY_FRAMES" 'BEGIN {
+    na = split(a, A, " "); split(o, O, " ")
+    for (i = 1; i < na; i += 2) printf "%s%s %.2f M", (i > 1 ? ", " : ""), A[i], (A[i + 1] * n - O[i + 1]) / (n - 1) }')
   echo "BOARD ICOUNT $(awk -v a="$all" -v o="$one" -v n="$REPLAY_FRAMES" 'BEGIN {
-    printf "%.1f M instructions per frame set (replay of %d frame sets %.1f M, of 1 frame set %.1f M)", (a - o) / (n - 1) / 1e6, n, a / 1e6, o / 1e6 }'); $(grep 'done:' /tmp/icount$REPLAY_FRAMES.out | sed 's/^mfns-navd: //')"
+    printf "%.1f M instructions per frame set (replay of %d frame sets %.1f M, of 1 frame set %.1f M)", (a - o) / (n - 1) / 1e6, n, a / 1e6, o / 1e6 }'); by stage: $per_stage; $(grep 'done:' /tmp/icount$REPLAY_FRAMES.out | sed 's/^mfns-navd: //')"
   echo "BOARD CHECKS COMPLETE"
   exit 0
 fi

@@ -11,7 +11,15 @@ namespace mfns::fw {
 
 namespace {
 std::uint32_t Saturate32(std::uint64_t n) { return static_cast<std::uint32_t>(std::min<std::uint64_t>(n, 0xFFFFFFFFu)); }
+
+constexpr std::array<const char*, kNumStages> kStageNames = {"acquire", "detect", "navigate", "publish"};
+static_assert(kStageNames.size() == static_cast<std::size_t>(Stage::kCount), "one name per stage");
 }  // namespace
+
+const char* ToString(Stage s) {
+  const auto i = static_cast<std::size_t>(s);
+  return i < kStageNames.size() ? kStageNames[i] : "?";
+}
 
 NavLoop::NavLoop(const Rig& rig, FrameSource* source, GpioTrigger* trigger, Outputs* outputs, PoseLog* log)
     : rig_(&rig), source_(source), trigger_(trigger), outputs_(outputs), log_(log) {}
@@ -154,7 +162,9 @@ bool NavLoop::AcquireAll(std::uint64_t* t_capture_ns, bool* all_ended, std::uint
       sup.consecutive_failures = 0;
     }
     FrameView view;
+    const std::uint64_t t_acquire = MonotonicNs();
     const SourceStatus s = source_->Acquire(k, config_.timeout_ms, &view);
+    stage_ns_[static_cast<std::size_t>(Stage::kAcquire)] += MonotonicNs() - t_acquire;
     if (s == SourceStatus::kEndOfStream) {
       ++ended;
       continue;
@@ -174,9 +184,11 @@ bool NavLoop::AcquireAll(std::uint64_t* t_capture_ns, bool* all_ended, std::uint
     if (windowed && num_windows == 0) ++counters_.windowed_fallbacks;
     counters_.windowed_frames += num_windows > 0 ? 1 : 0;
     const CameraIntrinsics* intrinsics = &rig_->cameras[ks].intrinsics;
+    const std::uint64_t t_detect = MonotonicNs();
     const DetectStatus d = num_windows > 0
                                ? detectors_[ks].Detect(view, intrinsics, windows_.data(), num_windows, &lists_[ks])
                                : detectors_[ks].Detect(view, intrinsics, &lists_[ks]);
+    stage_ns_[static_cast<std::size_t>(Stage::kDetect)] += MonotonicNs() - t_detect;
     source_->Release(k);
     if (d == DetectStatus::kBlankFrame) {
       ++sup.blank_frames;  // no information (a stuck sensor): as if the camera had not delivered
@@ -482,6 +494,7 @@ StepStatus NavLoop::Step(PoseRecord* out) {
   std::uint64_t t_capture_ns = 0;
   bool all_ended = false;
   std::uint32_t delivered = 0;
+  stage_ns_.fill(0);
   const bool any = AcquireAll(&t_capture_ns, &all_ended, &delivered);
   if (all_ended) return StepStatus::kEndOfStream;
   const std::uint64_t t_start = MonotonicNs();
@@ -505,6 +518,8 @@ StepStatus NavLoop::Step(PoseRecord* out) {
     nav_.beacons_per_camera.fill(0);
   }
   KeepPoseForWindows(any, t_capture_ns);
+  const std::uint64_t t_publish = MonotonicNs();
+  stage_ns_[static_cast<std::size_t>(Stage::kNavigate)] = t_publish - t_start;
   Publish(nav_, t_capture_ns, out);
   if (outputs_ != nullptr && outputs_->wants_health()) PublishBlobs(nav_, any ? num_obs_ : 0, t_capture_ns);
   switch (nav_.status) {
@@ -522,6 +537,11 @@ StepStatus NavLoop::Step(PoseRecord* out) {
     outputs_->Health(Health());
     ++health_sequence_;
     PublishBeaconHealth();
+  }
+  stage_ns_[static_cast<std::size_t>(Stage::kPublish)] = MonotonicNs() - t_publish;
+  for (std::size_t i = 0; i < stage_ns_.size(); ++i) {
+    counters_.stage_total_ns[i] += stage_ns_[i];
+    counters_.stage_worst_ns[i] = std::max(counters_.stage_worst_ns[i], stage_ns_[i]);
   }
   return StepStatus::kOk;
 }

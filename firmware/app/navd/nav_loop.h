@@ -60,6 +60,19 @@ struct NavLoopConfig {
 
 enum class StepStatus : unsigned char { kOk = 0, kEndOfStream, kNotStarted };
 
+// The stages of a frame set, timed on the monotonic clock (LoopCounters::stage_*): under QEMU's
+// `-icount shift=0` the guest's clock advances 1 ns per instruction, so the same counters are
+// the instructions each stage executes on the emulated board (issue 20 item 4).
+enum class Stage : unsigned char {
+  kAcquire = 0,  // FrameSource::Acquire of every camera: waiting for the frames (live), reading them (replay)
+  kDetect,       // blob detection in place, every camera (BlobDetector::Detect, windowed or full)
+  kNavigate,     // the clock checks and Navigator::Step (identification, solve, beacon health)
+  kPublish,      // pose, blobs, health and beacon-health records to the outputs and the log
+  kCount
+};
+inline constexpr int kNumStages = static_cast<int>(Stage::kCount);
+const char* ToString(Stage s);  // "acquire", "detect", "navigate", "publish"
+
 struct CameraSupervision {
   int consecutive_failures = 0;
   bool set_aside = false;
@@ -92,6 +105,10 @@ struct LoopCounters {
   std::uint64_t windowed_frames = 0;     // frames detected in windows (NavLoopConfig::windowed_detection)
   std::uint64_t windowed_fallbacks = 0;  // tracking, but more beacons predicted than windows: full frame
   std::array<std::uint64_t, static_cast<std::size_t>(NavReason::kCount)> by_reason{};
+  // Per stage (index Stage), ns on the monotonic clock: the sum over every frame set, and the
+  // largest of one frame set. Acquire counts the wait for a frame as well as its reading.
+  std::array<std::uint64_t, kNumStages> stage_total_ns{};
+  std::array<std::uint64_t, kNumStages> stage_worst_ns{};
 };
 
 // Fills r's blobs from a frame set's observations and the beacon of each (beacon_of_blob[i],
@@ -162,6 +179,7 @@ class NavLoop {
   BodyPose window_last_, window_prev_;
   std::uint64_t window_last_t_ns_ = 0, window_prev_t_ns_ = 0;
   std::array<BlobObs, limits::kMaxObservations> obs_{};
+  std::array<std::uint64_t, kNumStages> stage_ns_{};  // this frame set's, per stage (Step folds them in)
   std::array<std::uint64_t, limits::kMaxCameras> stamps_{};  // this frame set's, per camera (0: none)
   int num_obs_ = 0;
   Navigator navigator_;

@@ -12,6 +12,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <functional>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -197,6 +198,47 @@ TEST(NavLoop, NoAllocationAfterStartAndFixesFromImages) {
   EXPECT_GE(fixes_3plus, sets_3plus * 93 / 100);
   EXPECT_EQ(wrong, 0);
   EXPECT_EQ(loop->counters().frame_sets, static_cast<std::uint64_t>(sets));
+}
+
+// The per-stage times (LoopCounters::stage_*, what -icount turns into instruction counts on the
+// emulated board): every stage that runs is counted, none more than the wall time around the
+// steps, each worst between the mean and the total; detection of three frames costs more than
+// publishing nowhere.
+TEST(NavLoop, StageTimesAddUpWithinTheFrameSets) {
+  const Rig rig = SmallRig();
+  SweepRenderer sweep(rig);
+  InProcessSource source(rig.num_cameras);
+  ASSERT_EQ(source.Start(), SourceStatus::kOk);
+  auto loop = std::make_unique<NavLoop>(rig, &source, nullptr, nullptr, nullptr);
+  const char* why = nullptr;
+  ASSERT_TRUE(loop->Configure(Config(), &why)) << why;
+  constexpr int kSets = 40;
+  std::uint64_t wall_ns = 0;
+  for (int n = 0; n < kSets; ++n) {
+    sweep.Render(n);
+    for (int k = 0; k < rig.num_cameras; ++k)
+      ASSERT_TRUE(source.Push(k, sweep.View(k, 1'000'000'000ull + static_cast<std::uint64_t>(n) * kFrameNs,
+                                            static_cast<std::uint32_t>(n))));
+    const std::uint64_t t0 = MonotonicNs();  // (the pushes above are the test's, not the loop's)
+    ASSERT_EQ(loop->Step(), StepStatus::kOk);
+    wall_ns += MonotonicNs() - t0;
+  }
+  const LoopCounters& c = loop->counters();
+  std::uint64_t sum = 0;
+  for (int i = 0; i < kNumStages; ++i) {
+    const auto si = static_cast<std::size_t>(i);
+    const char* name = ToString(static_cast<Stage>(i));
+    sum += c.stage_total_ns[si];
+    EXPECT_LE(c.stage_worst_ns[si], c.stage_total_ns[si]) << name;
+    EXPECT_GE(c.stage_worst_ns[si] * kSets, c.stage_total_ns[si]) << name;
+  }
+  EXPECT_GT(c.stage_total_ns[static_cast<std::size_t>(Stage::kDetect)], 0u);
+  EXPECT_GT(c.stage_total_ns[static_cast<std::size_t>(Stage::kNavigate)], 0u);
+  EXPECT_GT(c.stage_total_ns[static_cast<std::size_t>(Stage::kDetect)],
+            c.stage_total_ns[static_cast<std::size_t>(Stage::kPublish)]);
+  EXPECT_LE(sum, wall_ns);
+  EXPECT_STREQ(ToString(Stage::kAcquire), "acquire");
+  EXPECT_STREQ(ToString(Stage::kPublish), "publish");
 }
 
 // The shrunk sweep feeding a loop that starts at the sweep's first pose exactly (no

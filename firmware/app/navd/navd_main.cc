@@ -252,6 +252,20 @@ int Run(int argc, char** argv) {
                static_cast<unsigned long long>(c.frame_sets), static_cast<unsigned long long>(c.fixes),
                static_cast<unsigned long long>(c.degraded), static_cast<unsigned long long>(c.lost),
                static_cast<unsigned long long>(c.deadline_slips), static_cast<double>(c.worst_frame_set_ns) * 1e-6);
+  if (c.frame_sets > 0) {
+    // Per stage, mean and worst of one frame set (under QEMU's -icount shift=0: 1 ms = 1 M
+    // instructions, docs/benchmarks.md).
+    char stages[256] = "";
+    int used = 0;
+    for (int i = 0; i < kNumStages && used >= 0 && used < static_cast<int>(sizeof(stages)); ++i) {
+      const auto stage = static_cast<std::size_t>(i);
+      used += std::snprintf(stages + used, sizeof(stages) - static_cast<std::size_t>(used), "%s%s %.3f / %.3f",
+                            i > 0 ? ", " : "", ToString(static_cast<Stage>(i)),
+                            static_cast<double>(c.stage_total_ns[stage]) * 1e-6 / static_cast<double>(c.frame_sets),
+                            static_cast<double>(c.stage_worst_ns[stage]) * 1e-6);
+    }
+    std::fprintf(stderr, "mfns-navd: stages, ms per frame set (mean / worst): %s\n", stages);
+  }
   ReportFaults(loop->Health());
   if (opt.pid_file[0] != '\0') RemovePidFile(opt.pid_file.data());
   if (log.is_open() && log.Close() != PublishStatus::kOk) {
