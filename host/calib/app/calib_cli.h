@@ -28,7 +28,10 @@ struct RigCommandOptions {
   bool all_a10_rows = false;
   int jobs = 2;
   bool fast_detect = false;
-  bool refine_corners = false;  // corner_refine.h model fit after findChessboardCornersSB (--refine-corners)
+  // corner_refine.h's model fit after findChessboardCornersSB: on by default (--no-refine-corners:
+  // SB's corners); --fast-detect leaves it out unless --refine-corners is given (RefineCorners).
+  bool refine_corners = true;
+  bool refine_corners_given = false;  // --refine-corners or --no-refine-corners was on the command line
   std::string rig_id;  // default: truth-rig.yaml's rig id, else "mfns-calibrated"
   std::uint64_t generation = 0;  // the command line's --generation through ParseGenerationOption
   bool generation_set = false;
@@ -48,7 +51,8 @@ struct IntrinsicsCommandOptions {
   std::string camera = "camera";
   bool free_k3 = false;
   bool fast_detect = false;
-  bool refine_corners = false;
+  bool refine_corners = true;  // as RigCommandOptions'
+  bool refine_corners_given = false;
 };
 
 // `mfns-calib survey --rig RIG.yaml --out DIR RECORDING...` (host/calib/survey/survey_command.h).
@@ -96,6 +100,9 @@ void ParseCalibCommandLine(CLI::App& app, int argc, char** argv, CalibCommandLin
 // `rig`: --out, --huber-px, --angle-sigma-arcsec, --jobs, --mount-mm and --method (returned);
 // --cross-validate only with --method ml and its covariance.
 RigMethod ValidateRigCommand(const RigCommandOptions& o);
+// Whether the corners are refined: refine_corners, except under --fast-detect (a quick look)
+// where only an explicit --refine-corners turns it on.
+bool RefineCorners(bool refine_corners, bool given, bool fast_detect);
 // `intrinsics`: --out, --target (returned, parsed) and the images.
 CalibrationTarget ValidateIntrinsicsCommand(const IntrinsicsCommandOptions& o);
 // `survey`: --out, --rig, the recordings, --initial-pose (6 finite numbers), --initial-sigma (2

@@ -186,7 +186,7 @@ RigCalibration RunRigCommand(const RigCommandOptions& o, std::ostream& log) {
       << ", method " << ToString(ro.method) << "\n";
   DetectOptions det;
   det.sb_accuracy = !o.fast_detect;
-  det.corner_refine = o.refine_corners;
+  det.corner_refine = RefineCorners(o.refine_corners, o.refine_corners_given, o.fast_detect);
   det.min_corners = ro.min_corners;
   CalibInput in = o.corners_csv.empty() ? DetectDataset(ds, det, o.jobs, &log) : CornersFromCsv(ds, o.corners_csv);
   if (!o.corners_csv.empty()) log << "corners from " << o.corners_csv << " (no detection)\n";
@@ -240,7 +240,7 @@ ZhangResult RunIntrinsicsCommand(const IntrinsicsCommandOptions& o, std::ostream
   const std::vector<Eigen::Vector3d> pts = TargetPoints(target);
   DetectOptions det;
   det.sb_accuracy = !o.fast_detect;
-  det.corner_refine = o.refine_corners;
+  det.corner_refine = RefineCorners(o.refine_corners, o.refine_corners_given, o.fast_detect);
   CornerRefineStats refine;
   std::vector<std::vector<CornerObs>> views;
   std::vector<std::string> used;

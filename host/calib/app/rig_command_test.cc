@@ -133,6 +133,32 @@ TEST(CalibCommandLine, ParsesWithoutRunningAndErrorsStayOneLine) {
   }
 }
 
+// The corner refinement is on by default (issue 18 item 1); --fast-detect (a quick look) leaves it
+// out unless --refine-corners is given; --no-refine-corners turns it off; the same for intrinsics.
+TEST(CalibCommandLine, CornerRefinementIsTheDefaultAndFastDetectDropsIt) {
+  const auto refines = [](std::vector<std::string> flags, bool intrinsics = false) {
+    std::vector<std::string> words = {"mfns-calib", intrinsics ? "intrinsics" : "rig"};
+    if (intrinsics) words.insert(words.end(), {"--target", "checkerboard:9x6:20", "a.pgm", "--out", "o"});
+    else words.insert(words.end(), {"no-dataset", "--out", "o"});
+    words.insert(words.end(), flags.begin(), flags.end());
+    const CalibCommandLine cl = ParseWords(ParseCalibCommandLine, words);
+    return intrinsics ? RefineCorners(cl.intrinsics.refine_corners, cl.intrinsics.refine_corners_given,
+                                      cl.intrinsics.fast_detect)
+                      : RefineCorners(cl.rig.refine_corners, cl.rig.refine_corners_given, cl.rig.fast_detect);
+  };
+  for (const bool intrinsics : {false, true}) {
+    EXPECT_TRUE(refines({}, intrinsics));
+    EXPECT_TRUE(refines({"--refine-corners"}, intrinsics));
+    EXPECT_FALSE(refines({"--no-refine-corners"}, intrinsics));
+    EXPECT_FALSE(refines({"--fast-detect"}, intrinsics));
+    EXPECT_TRUE(refines({"--fast-detect", "--refine-corners"}, intrinsics));
+    EXPECT_FALSE(refines({"--fast-detect", "--no-refine-corners"}, intrinsics));
+  }
+  // Options built in code (not parsed) follow the same rule.
+  EXPECT_TRUE(RefineCorners(RigCommandOptions{}.refine_corners, false, false));
+  EXPECT_FALSE(RefineCorners(true, false, true));
+}
+
 // The checks rig and intrinsics make before reading anything (ValidateRigCommand,
 // ValidateIntrinsicsCommand): one line naming the option, nothing created. A --method holding a
 // newline made a two-line error before (host_cli_fuzz's run-time checks, issue 14).

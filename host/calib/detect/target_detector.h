@@ -32,9 +32,11 @@ struct DetectOptions {
   // Checkerboards: fit the blurred-corner model to each SB corner (corner_refine.h) on the
   // original image; a corner whose fit is refused keeps SB's position (counted in refine_stats).
   // 5x more exact corners (0.004 px against 0.022 on the paper-calibration dataset) for ~0.07 s
-  // of CPU per 1280x1024 image of that dataset (SB + ACCURACY: ~2 s). Still off by default: on
-  // the dim, blurry images of the rendered-image tests it costs ~0.4 s per image and made them
-  // 6.6 min slower (host/calib/detect/README.md); mfns-calib --refine-corners turns it on.
+  // of CPU per 1280x1024 image of that dataset (SB + ACCURACY: ~0.5-1 s). mfns-calib turns it on
+  // by default (RigCommandOptions::refine_corners; the whole calibration then costs 1.0-1.2x
+  // OpenCV's detection alone, docs/benchmarks.md). Off here, for the library's callers: on the
+  // dim, blurry images of the rendered-image tests it costs ~0.4 s per image and made them 6.6
+  // min slower (host/calib/detect/README.md); those tests choose it where they test it.
   bool corner_refine = false;
   CornerRefineOptions refine;
   int subpix_half_window = 3;  // px
