@@ -46,7 +46,7 @@ if [ "$ICOUNT" = 1 ]; then
   run() {  # N: instructions (ns) of a replay of N frame sets; navd's summary in /tmp/icount$1.out
     a=$(board-now)
     mfns-navd --params /board/loop.bin --source replay:/board/replay --frames "$1" --initial-pose "$REPLAY_POSE" \
-      --pid-file '' --quiet >/tmp/icount$1.out 2>&1
+      --pid-file '' --quiet $NAVD_EXTRA >/tmp/icount$1.out 2>&1
     b=$(board-now)
     echo $((b - a))
   }
