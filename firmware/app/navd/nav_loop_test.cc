@@ -153,24 +153,37 @@ bool FixIsRight(const PoseRecord& rec, const BodyPose& truth) {
 // Issue 4: no heap after start, counted over 10,000 frame sets (1,000 under qemu and the
 // sanitizers); and the images of the sweep give a fix in every frame set with >= 3 beacons
 // after the first one (the acquisition), each right.
-TEST(NavLoop, NoAllocationAfterStartAndFixesFromImages) {
+// The shrunk sweep feeding a loop from a cold start (no initial pose, no outputs).
+struct ColdSweep {
+  ColdSweep() : sweep(rig), source(rig.num_cameras), loop(std::make_unique<NavLoop>(rig, &source, nullptr, nullptr, nullptr)) {}
+  bool Start() { return source.Start() == SourceStatus::kOk && loop->Configure(Config(), nullptr); }
+  // Renders frame set n and pushes it to every camera (stamped n frame periods after 1 s);
+  // returns the beacons in view.
+  int Push(long n) {
+    const int visible = sweep.Render(n);
+    for (int k = 0; k < rig.num_cameras; ++k)
+      EXPECT_TRUE(source.Push(k, sweep.View(k, 1'000'000'000ull + static_cast<std::uint64_t>(n) * kFrameNs,
+                                            static_cast<std::uint32_t>(n))));
+    return visible;
+  }
   const Rig rig = SmallRig();
-  SweepRenderer sweep(rig);
-  InProcessSource source(rig.num_cameras);
-  ASSERT_EQ(source.Start(), SourceStatus::kOk);
-  auto loop = std::make_unique<NavLoop>(rig, &source, nullptr, nullptr, nullptr);
-  const char* why = nullptr;
-  ASSERT_TRUE(loop->Configure(Config(), &why)) << why;
+  SweepRenderer sweep;
+  InProcessSource source;
+  std::unique_ptr<NavLoop> loop;
+};
+
+TEST(NavLoop, NoAllocationAfterStartAndFixesFromImages) {
+  ColdSweep c;
+  ASSERT_TRUE(c.Start());
+  SweepRenderer& sweep = c.sweep;
+  NavLoop* loop = c.loop.get();
 
   const long sets = FrameSetsForAllocationTest();
   const std::uint64_t before = testing::AllocationCount();
   long first_fix = -1, sets_3plus = 0, fixes_3plus = 0, posed_3plus = 0, wrong = 0;
   PoseRecord rec;
   for (long n = 0; n < sets; ++n) {
-    const int visible = sweep.Render(n);
-    for (int k = 0; k < rig.num_cameras; ++k)
-      ASSERT_TRUE(source.Push(k, sweep.View(k, 1'000'000'000ull + static_cast<std::uint64_t>(n) * kFrameNs,
-                                            static_cast<std::uint32_t>(n))));
+    const int visible = c.Push(n);
     ASSERT_EQ(loop->Step(&rec), StepStatus::kOk);
     const bool fix = rec.status != NavStatus::kLost;
     if (fix && first_fix < 0) first_fix = n;
@@ -205,25 +218,17 @@ TEST(NavLoop, NoAllocationAfterStartAndFixesFromImages) {
 // steps, each worst between the mean and the total; detection of three frames costs more than
 // publishing nowhere.
 TEST(NavLoop, StageTimesAddUpWithinTheFrameSets) {
-  const Rig rig = SmallRig();
-  SweepRenderer sweep(rig);
-  InProcessSource source(rig.num_cameras);
-  ASSERT_EQ(source.Start(), SourceStatus::kOk);
-  auto loop = std::make_unique<NavLoop>(rig, &source, nullptr, nullptr, nullptr);
-  const char* why = nullptr;
-  ASSERT_TRUE(loop->Configure(Config(), &why)) << why;
+  ColdSweep sweep;
+  ASSERT_TRUE(sweep.Start());
   constexpr int kSets = 40;
   std::uint64_t wall_ns = 0;
   for (int n = 0; n < kSets; ++n) {
-    sweep.Render(n);
-    for (int k = 0; k < rig.num_cameras; ++k)
-      ASSERT_TRUE(source.Push(k, sweep.View(k, 1'000'000'000ull + static_cast<std::uint64_t>(n) * kFrameNs,
-                                            static_cast<std::uint32_t>(n))));
+    sweep.Push(n);
     const std::uint64_t t0 = MonotonicNs();  // (the pushes above are the test's, not the loop's)
-    ASSERT_EQ(loop->Step(), StepStatus::kOk);
+    ASSERT_EQ(sweep.loop->Step(), StepStatus::kOk);
     wall_ns += MonotonicNs() - t0;
   }
-  const LoopCounters& c = loop->counters();
+  const LoopCounters& c = sweep.loop->counters();
   std::uint64_t sum = 0;
   for (int i = 0; i < kNumStages; ++i) {
     const auto si = static_cast<std::size_t>(i);
