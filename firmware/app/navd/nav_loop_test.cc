@@ -150,40 +150,54 @@ bool FixIsRight(const PoseRecord& rec, const BodyPose& truth) {
   return (rec.r_w_wb - truth.r_w_wb).norm() < 0.02 && LogSO3(truth.C_w_b.transpose() * C_w_b).norm() < DegToRad(1.0);
 }
 
-// Issue 4: no heap after start, counted over 10,000 frame sets (1,000 under qemu and the
-// sanitizers); and the images of the sweep give a fix in every frame set with >= 3 beacons
-// after the first one (the acquisition), each right.
-// The shrunk sweep feeding a loop from a cold start (no initial pose, no outputs).
-struct ColdSweep {
-  ColdSweep() : sweep(rig), source(rig.num_cameras), loop(std::make_unique<NavLoop>(rig, &source, nullptr, nullptr, nullptr)) {}
-  bool Start() { return source.Start() == SourceStatus::kOk && loop->Configure(Config(), nullptr); }
-  // Renders frame set n and pushes it to every camera (stamped n frame periods after 1 s);
-  // returns the beacons in view.
-  int Push(long n) {
+// The shrunk sweep feeding a loop that starts at the sweep's first pose exactly (no
+// acquisition; Start(false): cold, no initial pose); trigger, outputs and log as given (null:
+// none). Start() before use.
+struct TrackedSweep {
+  explicit TrackedSweep(GpioTrigger* trigger = nullptr, Outputs* outputs = nullptr, PoseLog* log = nullptr)
+      : sweep(rig), source(rig.num_cameras), loop(rig, &source, trigger, outputs, log) {}
+  bool Start(bool from_first_pose = true) {
+    NavLoopConfig c = Config();
+    c.has_initial_pose = from_first_pose;
+    return source.Start() == SourceStatus::kOk && loop.Configure(c, nullptr);
+  }
+  // Renders frame set n and gives it to every camera, stamped t_ns; returns the beacons in view.
+  // sequence: the driver's frame number (default n; a gap counts as dropped frames).
+  int Push(long n, std::uint64_t t_ns, int sequence = -1) {
     const int visible = sweep.Render(n);
-    for (int k = 0; k < rig.num_cameras; ++k)
-      EXPECT_TRUE(source.Push(k, sweep.View(k, 1'000'000'000ull + static_cast<std::uint64_t>(n) * kFrameNs,
-                                            static_cast<std::uint32_t>(n))));
+    const auto seq = static_cast<std::uint32_t>(sequence >= 0 ? sequence : n);
+    for (int k = 0; k < rig.num_cameras; ++k) EXPECT_TRUE(source.Push(k, sweep.View(k, t_ns, seq)));
+    return visible;
+  }
+  // Frame set n through the loop into *rec (Push); counts a wrong pose in *wrong and returns the
+  // beacons in view.
+  int StepStamped(int n, std::uint64_t t_ns, PoseRecord* rec, int* wrong, int sequence = -1) {
+    const int visible = Push(n, t_ns, sequence);
+    EXPECT_EQ(loop.Step(rec), StepStatus::kOk);
+    *wrong += rec->status != NavStatus::kLost && !FixIsRight(*rec, sweep.pose());
     return visible;
   }
   const Rig rig = SmallRig();
   SweepRenderer sweep;
   InProcessSource source;
-  std::unique_ptr<NavLoop> loop;
+  NavLoop loop;
 };
 
+// Issue 4: no heap after start, counted over 10,000 frame sets (1,000 under qemu and the
+// sanitizers); and the images of the sweep give a fix in every frame set with >= 3 beacons
+// after the first one (the acquisition), each right.
 TEST(NavLoop, NoAllocationAfterStartAndFixesFromImages) {
-  ColdSweep c;
-  ASSERT_TRUE(c.Start());
-  SweepRenderer& sweep = c.sweep;
-  NavLoop* loop = c.loop.get();
+  TrackedSweep s;
+  ASSERT_TRUE(s.Start(false));
+  const SweepRenderer& sweep = s.sweep;
+  NavLoop* loop = &s.loop;
 
   const long sets = FrameSetsForAllocationTest();
   const std::uint64_t before = testing::AllocationCount();
   long first_fix = -1, sets_3plus = 0, fixes_3plus = 0, posed_3plus = 0, wrong = 0;
   PoseRecord rec;
   for (long n = 0; n < sets; ++n) {
-    const int visible = c.Push(n);
+    const int visible = s.Push(n, 1'000'000'000ull + static_cast<std::uint64_t>(n) * kFrameNs);
     ASSERT_EQ(loop->Step(&rec), StepStatus::kOk);
     const bool fix = rec.status != NavStatus::kLost;
     if (fix && first_fix < 0) first_fix = n;
@@ -218,17 +232,17 @@ TEST(NavLoop, NoAllocationAfterStartAndFixesFromImages) {
 // steps, each worst between the mean and the total; detection of three frames costs more than
 // publishing nowhere.
 TEST(NavLoop, StageTimesAddUpWithinTheFrameSets) {
-  ColdSweep sweep;
-  ASSERT_TRUE(sweep.Start());
+  TrackedSweep s;
+  ASSERT_TRUE(s.Start(false));
   constexpr int kSets = 40;
   std::uint64_t wall_ns = 0;
   for (int n = 0; n < kSets; ++n) {
-    sweep.Push(n);
+    s.Push(n, 1'000'000'000ull + static_cast<std::uint64_t>(n) * kFrameNs);
     const std::uint64_t t0 = MonotonicNs();  // (the pushes above are the test's, not the loop's)
-    ASSERT_EQ(sweep.loop->Step(), StepStatus::kOk);
+    ASSERT_EQ(s.loop.Step(), StepStatus::kOk);
     wall_ns += MonotonicNs() - t0;
   }
-  const LoopCounters& c = sweep.loop->counters();
+  const LoopCounters& c = s.loop.counters();
   std::uint64_t sum = 0;
   for (int i = 0; i < kNumStages; ++i) {
     const auto si = static_cast<std::size_t>(i);
@@ -245,33 +259,6 @@ TEST(NavLoop, StageTimesAddUpWithinTheFrameSets) {
   EXPECT_STREQ(ToString(Stage::kAcquire), "acquire");
   EXPECT_STREQ(ToString(Stage::kPublish), "publish");
 }
-
-// The shrunk sweep feeding a loop that starts at the sweep's first pose exactly (no
-// acquisition); trigger, outputs and log as given (null: none). Start() before use.
-struct TrackedSweep {
-  explicit TrackedSweep(GpioTrigger* trigger = nullptr, Outputs* outputs = nullptr, PoseLog* log = nullptr)
-      : sweep(rig), source(rig.num_cameras), loop(rig, &source, trigger, outputs, log) {}
-  bool Start() {
-    NavLoopConfig c = Config();
-    c.has_initial_pose = true;
-    return source.Start() == SourceStatus::kOk && loop.Configure(c, nullptr);
-  }
-  // Frame set n of the sweep, every camera stamped t_ns, through the loop into *rec; counts a
-  // wrong pose in *wrong and returns the beacons in view.
-  // sequence: the driver's frame number (default n; a gap counts as dropped frames).
-  int StepStamped(int n, std::uint64_t t_ns, PoseRecord* rec, int* wrong, int sequence = -1) {
-    const int visible = sweep.Render(n);
-    const auto seq = static_cast<std::uint32_t>(sequence >= 0 ? sequence : n);
-    for (int k = 0; k < rig.num_cameras; ++k) EXPECT_TRUE(source.Push(k, sweep.View(k, t_ns, seq)));
-    EXPECT_EQ(loop.Step(rec), StepStatus::kOk);
-    *wrong += rec->status != NavStatus::kLost && !FixIsRight(*rec, sweep.pose());
-    return visible;
-  }
-  const Rig rig = SmallRig();
-  SweepRenderer sweep;
-  InProcessSource source;
-  NavLoop loop;
-};
 
 // A UDP socket on loopback for the outputs to send to; *url gets its address in scheme.
 int LoopbackReceiver(const char* scheme, std::string* url) {

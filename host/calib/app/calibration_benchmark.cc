@@ -91,21 +91,14 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "usage: calibration_benchmark DATASET_DIR [DATASET_DIR ...] [--benchmark_* flags]\n");
     return 2;
   }
+  // One run each (tens of seconds), in seconds of process CPU time (OpenCV's threads counted).
+  const auto once = [](benchmark::internal::Benchmark* b) { b->MeasureProcessCPUTime()->Unit(benchmark::kSecond)->Iterations(1); };
   for (int i = 1; i < argc; ++i) {
     const std::filesystem::path dir = argv[i];
     const std::string name = dir.filename().string();
-    benchmark::RegisterBenchmark(("OpenCvCornerDetection/" + name).c_str(), mfns::host::OpenCvCornerDetection, dir)
-        ->MeasureProcessCPUTime()
-        ->Unit(benchmark::kSecond)
-        ->Iterations(1);
-    benchmark::RegisterBenchmark(("DefaultCalibration/" + name).c_str(), mfns::host::Calibration, dir, true)
-        ->MeasureProcessCPUTime()
-        ->Unit(benchmark::kSecond)
-        ->Iterations(1);
-    benchmark::RegisterBenchmark(("SbOnlyCalibration/" + name).c_str(), mfns::host::Calibration, dir, false)
-        ->MeasureProcessCPUTime()
-        ->Unit(benchmark::kSecond)
-        ->Iterations(1);
+    once(benchmark::RegisterBenchmark(("OpenCvCornerDetection/" + name).c_str(), mfns::host::OpenCvCornerDetection, dir));
+    once(benchmark::RegisterBenchmark(("DefaultCalibration/" + name).c_str(), mfns::host::Calibration, dir, true));
+    once(benchmark::RegisterBenchmark(("SbOnlyCalibration/" + name).c_str(), mfns::host::Calibration, dir, false));
   }
   benchmark::RunSpecifiedBenchmarks();
   benchmark::Shutdown();
