@@ -34,8 +34,9 @@ CLI::App* AddRigCommand(CLI::App& app, RigCommandOptions* o, std::string* genera
                 "findChessboardCornersSB without CALIB_CB_ACCURACY and without the corner refinement (a quick look: "
                 "4x faster, 5-10x less exact)");
   cmd->add_flag("--refine-corners,!--no-refine-corners", o->refine_corners,
-                "Checkerboards: fit a blurred-corner model to every SB corner (the default: 5x more exact, 0.04-0.07 s "
-                "CPU per 1280x1024 image; docs/calibration.md); --no-refine-corners keeps SB's corners")
+                "Fit a blurred-corner model to every checkerboard corner (SB's) or AprilGrid tag corner (libapriltag's): "
+                "the default, 5-10x more exact for 0.04-0.07 s CPU per 1280x1024 image (docs/calibration.md); "
+                "--no-refine-corners keeps the detector's corners")
       ->each([o](const std::string&) { o->refine_corners_given = true; });
   cmd->add_option("--rig-id", o->rig_id, "Rig id of the blob (default: the truth rig's, else mfns-calibrated)");
   cmd->add_option("--generation", *generation, "Blob generation, 0..2^64-1 (default: UTC seconds now)");
@@ -66,8 +67,8 @@ void AddIntrinsicsCommand(CLI::App& app, IntrinsicsCommandOptions* o) {
   cmd->add_flag("--fast-detect", o->fast_detect,
                 "findChessboardCornersSB without CALIB_CB_ACCURACY and without the corner refinement");
   cmd->add_flag("--refine-corners,!--no-refine-corners", o->refine_corners,
-                "Checkerboards: fit a blurred-corner model to every SB corner (the default); --no-refine-corners "
-                "keeps SB's corners")
+                "Fit a blurred-corner model to every checkerboard or AprilGrid tag corner (the default); "
+                "--no-refine-corners keeps the detector's corners")
       ->each([o](const std::string&) { o->refine_corners_given = true; });
 }
 

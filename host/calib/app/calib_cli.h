@@ -28,8 +28,8 @@ struct RigCommandOptions {
   bool all_a10_rows = false;
   int jobs = 2;
   bool fast_detect = false;
-  // corner_refine.h's model fit after findChessboardCornersSB: on by default (--no-refine-corners:
-  // SB's corners); --fast-detect leaves it out unless --refine-corners is given (RefineCorners).
+  // corner_refine.h's model fit after findChessboardCornersSB or libapriltag: on by default
+  // (--no-refine-corners: the detector's corners); --fast-detect leaves it out unless --refine-corners is given (RefineCorners).
   bool refine_corners = true;
   bool refine_corners_given = false;  // --refine-corners or --no-refine-corners was on the command line
   std::string rig_id;  // default: truth-rig.yaml's rig id, else "mfns-calibrated"

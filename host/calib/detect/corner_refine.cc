@@ -1,6 +1,7 @@
 #include "host/calib/detect/corner_refine.h"
 
 #include <Eigen/Dense>
+#include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
 #include <numbers>
@@ -179,6 +180,7 @@ struct Pixel {
 // The pixels of the fit and the grid of pixel positions where the profile is evaluated: the
 // pixels' bounding box plus one pixel on each side (the 3-tap kernel's reach).
 struct Window {
+  int x_lo = 0, x_hi = -1, y_lo = 0, y_hi = -1;  // the image's pixel box the pixels come from
   int nx = 0, ny = 0;          // grid size
   double dx0 = 0, dy0 = 0;     // position of grid cell (0, 0) relative to x0 (px)
   std::vector<Pixel> pixels;
@@ -229,17 +231,34 @@ struct Geometry {
         sin12(std::sin(p[kTh1] - p[kTh2])), inv_s(1.0 / p[kS]), far_px(kFar * p[kS] + sub.reach) {}
 };
 
+// The ideal corner's value far from both edges: +1 on the quadrants the shape marks, else -1.
+double FarSign(CornerShape shape, double d1, double d2) {
+  if (shape == CornerShape::kX) return (d1 > 0) == (d2 > 0) ? 1.0 : -1.0;
+  return d1 < 0 && d2 < 0 ? 1.0 : -1.0;
+}
+
+// The shape's blurred profile from the X-corner's F and the edges' own profiles:
+//   P_L = 2 Phi2(-mu1, -mu2; rho) - 1 = F / 2 - Phi(mu1) - Phi(mu2) + 1 / 2.
+CornerProfile ShapeProfile(CornerShape shape, const PreparedRho& pr, double mu1, double mu2) {
+  const CornerProfile x = pr.Corner(mu1, mu2);
+  if (shape == CornerShape::kX) return x;
+  const Erfcx& erfcx = ErfcxTable();
+  const NormalCdfPdf n1 = std::abs(mu1) > kFar ? NormalCdfPdf{mu1 > 0 ? 1.0 : 0.0, 0.0} : NormalBoth(mu1, erfcx);
+  const NormalCdfPdf n2 = std::abs(mu2) > kFar ? NormalCdfPdf{mu2 > 0 ? 1.0 : 0.0, 0.0} : NormalBoth(mu2, erfcx);
+  return {0.5 * x.f - n1.cdf - n2.cdf + 0.5, 0.5 * x.df_dmu1 - n1.pdf, 0.5 * x.df_dmu2 - n2.pdf, 0.5 * x.df_drho};
+}
+
 // The cell's profile; false (and F = +-1, no derivatives) when the whole pixel is far from both
 // edges, as most of the window is: exactly what the sub-samples would give, for no work.
-bool Profile(const Vec& p, const Geometry& G, const PreparedRho& pr, const SubSamples& sub, double cell_dx,
-             double cell_dy, PixelProfile* out_profile) {
+bool Profile(const Vec& p, const Geometry& G, const PreparedRho& pr, const SubSamples& sub, CornerShape shape,
+             double cell_dx, double cell_dy, PixelProfile* out_profile) {
   PixelProfile& out = *out_profile;
   out = PixelProfile{};
   {
     const double ex = cell_dx - p[kU], ey = cell_dy - p[kV];
     const double d1 = G.c1 * ex + G.s1 * ey, d2 = G.c2 * ex + G.s2 * ey;
     if (std::abs(d1) > G.far_px && std::abs(d2) > G.far_px) {
-      out.f = (d1 > 0) == (d2 > 0) ? 1.0 : -1.0;
+      out.f = FarSign(shape, d1, d2);
       return false;
     }
   }
@@ -249,10 +268,10 @@ bool Profile(const Vec& p, const Geometry& G, const PreparedRho& pr, const SubSa
     const double a1 = G.c1 * ex + G.s1 * ey, a2 = G.c2 * ex + G.s2 * ey;
     const double mu1 = a1 * G.inv_s, mu2 = a2 * G.inv_s;
     if (std::abs(mu1) > kFar && std::abs(mu2) > kFar) {  // as Corner() would say, without the call
-      out.f += (mu1 > 0) == (mu2 > 0) ? 1.0 : -1.0;
+      out.f += FarSign(shape, mu1, mu2);
       continue;
     }
-    const CornerProfile f = pr.Corner(mu1, mu2);
+    const CornerProfile f = ShapeProfile(shape, pr, mu1, mu2);
     out.f += f.f;
     if (f.df_dmu1 == 0.0 && f.df_dmu2 == 0.0 && f.df_drho == 0.0) continue;
     // d d_i / d c = -n_i; d d_i / d th_i = t_i . (x - c) = b_i with t_i = (-sin th_i, cos th_i).
@@ -294,7 +313,8 @@ struct Scratch {
 
 // Weighted sum of squared residuals and the normal equations H, g at p.
 // With the 3-tap kernel, a pixel's profile is sum_kl w_k w_l F(cell + (k, l)), w = [a, 1 - 2a, a].
-double Accumulate(const Vec& p, const Window& win, const SubSamples& sub, bool taps, Scratch* scratch, Mat* H, Vec* g) {
+double Accumulate(const Vec& p, const Window& win, const SubSamples& sub, CornerShape shape, bool taps,
+                  Scratch* scratch, Mat* H, Vec* g) {
   const PreparedRho pr(Rho(p));
   const Geometry G(p, sub);
   const std::vector<char>& use = taps ? win.reached : win.needed;
@@ -305,7 +325,7 @@ double Accumulate(const Vec& p, const Window& win, const SubSamples& sub, bool t
   for (int iy = 0; iy < win.ny; ++iy)
     for (int ix = 0; ix < win.nx; ++ix) {
       const std::size_t c = static_cast<std::size_t>(iy * win.nx + ix);
-      if (use[c]) edge[c] = Profile(p, G, pr, sub, win.dx0 + ix, win.dy0 + iy, &cells[c]) ? 1 : 0;
+      if (use[c]) edge[c] = Profile(p, G, pr, sub, shape, win.dx0 + ix, win.dy0 + iy, &cells[c]) ? 1 : 0;
     }
   const double a = taps ? p[kA] : 0.0;
   const std::array<double, 3> w{a, 1.0 - 2.0 * a, a}, dw{1.0, -2.0, 1.0};
@@ -380,91 +400,44 @@ double PixelValue(const cv::Mat& image, int x, int y) {
 
 Eigen::Vector2d Perp(const Eigen::Vector2d& e) { return Eigen::Vector2d(-e.y(), e.x()); }
 
-}  // namespace
-
-const char* ToString(CornerRefineStatus s) {
-  switch (s) {
-    case CornerRefineStatus::kRefined: return "refined";
-    case CornerRefineStatus::kWindowTooSmall: return "window too small or cut by the image border";
-    case CornerRefineStatus::kNotConverged: return "fit did not converge";
-    case CornerRefineStatus::kMovedTooFar: return "fit moved the corner too far";
-    case CornerRefineStatus::kBadFit: return "implausible fit (blur, contrast or edge angle)";
-    case CornerRefineStatus::kCount: break;
-  }
-  return "unknown";
-}
-
-int CornerRefineStats::Kept() const {
-  int n = 0;
-  for (std::size_t i = 1; i < count.size(); ++i) n += count[i];
-  return n;
-}
-
-void CornerRefineStats::Add(const CornerRefineStats& other) {
-  for (std::size_t i = 0; i < count.size(); ++i) count[i] += other.count[i];
-}
-
-std::string ToString(const CornerRefineStats& s) {
-  std::string out = std::to_string(s.Refined()) + " refined, " + std::to_string(s.Kept()) + " kept";
-  std::string reasons;
-  for (std::size_t i = 1; i < s.count.size(); ++i)
-    if (s.count[i] > 0)
-      reasons += (reasons.empty() ? "" : ", ") + std::to_string(s.count[i]) + " " +
-                 ToString(static_cast<CornerRefineStatus>(i));
-  return reasons.empty() ? out : out + " (" + reasons + ")";
-}
-
-double BivariateNormalCdf(double h, double k, double rho) {
-  if (!(std::abs(rho) <= kMaxAbsRho)) throw std::invalid_argument("BivariateNormalCdf: |rho| must be <= 0.95");
-  return PreparedRho(rho).Cdf(h, k);
-}
-
-CornerProfile BlurredCorner(double mu1, double mu2, double rho) {
-  if (!(std::abs(rho) <= kMaxAbsRho)) throw std::invalid_argument("BlurredCorner: |rho| must be <= 0.95");
-  return PreparedRho(rho).Corner(mu1, mu2);
-}
-
-CornerFit RefineCorner(const cv::Mat& image, const Eigen::Vector2d& uv0, const Eigen::Vector2d& edge1_px,
-                       const Eigen::Vector2d& edge2_px, double radius_px, const CornerRefineOptions& o) {
-  if (image.type() != CV_8UC1 && image.type() != CV_16UC1)
-    throw std::invalid_argument("RefineCorner: image must be CV_8UC1 or CV_16UC1");
-  CornerFit fit;
-  fit.uv = uv0;
-  // Near the image border the window shrinks to stay inside.
-  const double r = std::min({radius_px, uv0.x(), uv0.y(), image.cols - 1.0 - uv0.x(), image.rows - 1.0 - uv0.y()});
-  fit.radius_px = r;
-  if (!(r >= o.min_radius_px) || !uv0.allFinite()) {
-    fit.status = CornerRefineStatus::kWindowTooSmall;
-    return fit;
-  }
-  // The window's pixels (fixed during the fit: the model, not the window, follows the corner).
+// An empty window over the pixel box [x_lo, x_hi] x [y_lo, y_hi], positions relative to uv0.
+Window EmptyWindow(const Eigen::Vector2d& uv0, int x_lo, int x_hi, int y_lo, int y_hi) {
   Window win;
-  const int x_lo = static_cast<int>(std::ceil(uv0.x() - r)), x_hi = static_cast<int>(std::floor(uv0.x() + r));
-  const int y_lo = static_cast<int>(std::ceil(uv0.y() - r)), y_hi = static_cast<int>(std::floor(uv0.y() + r));
+  win.x_lo = x_lo;
+  win.x_hi = x_hi;
+  win.y_lo = y_lo;
+  win.y_hi = y_hi;
   win.nx = x_hi - x_lo + 3;
   win.ny = y_hi - y_lo + 3;
   win.dx0 = (x_lo - 1) - uv0.x();
   win.dy0 = (y_lo - 1) - uv0.y();
-  win.needed.assign(static_cast<std::size_t>(win.nx * win.ny), 0);
-  win.pixels.reserve(static_cast<std::size_t>((x_hi - x_lo + 1) * (y_hi - y_lo + 1)));
-  for (int y = y_lo; y <= y_hi; ++y)
-    for (int x = x_lo; x <= x_hi; ++x) {
-      const double dx = x - uv0.x(), dy = y - uv0.y();
-      const double w = Taper(std::hypot(dx, dy), r);
-      if (!(w > 0.0)) continue;
-      const int cell = (y - y_lo + 1) * win.nx + (x - x_lo + 1);
-      win.pixels.push_back({dx, dy, PixelValue(image, x, y), w, cell});
-      win.needed[static_cast<std::size_t>(cell)] = 1;
-    }
-  win.reached.assign(win.needed.size(), 0);
-  for (const Pixel& px : win.pixels)
-    for (int l = -1; l <= 1; ++l)
-      for (int k = -1; k <= 1; ++k) win.reached[static_cast<std::size_t>(px.cell + l * win.nx + k)] = 1;
-  const std::vector<Pixel>& pixels = win.pixels;
+  win.needed.assign(static_cast<std::size_t>(std::max(win.nx, 0) * std::max(win.ny, 0)), 0);
+  return win;
+}
 
-  // Start: edges from the grid, blur 1 px, then the levels by linear least squares.
+// Adds pixel (x, y) of the box with weight w (none when w <= 0).
+void AddPixel(const cv::Mat& image, const Eigen::Vector2d& uv0, int x, int y, double w, Window* win) {
+  if (!(w > 0.0)) return;
+  const int cell = (y - win->y_lo + 1) * win->nx + (x - win->x_lo + 1);
+  win->pixels.push_back({x - uv0.x(), y - uv0.y(), PixelValue(image, x, y), w, cell});
+  win->needed[static_cast<std::size_t>(cell)] = 1;
+}
+
+// The cells the 3-tap kernel reaches from the window's pixels.
+void FinishWindow(Window* win) {
+  win->reached.assign(win->needed.size(), 0);
+  for (const Pixel& px : win->pixels)
+    for (int l = -1; l <= 1; ++l)
+      for (int k = -1; k <= 1; ++k) win->reached[static_cast<std::size_t>(px.cell + l * win->nx + k)] = 1;
+}
+
+// Fits the model of `shape` to the window's pixels from the corner uv0 and the edges' normals
+// n1, n2 (unit; for kL pointing out of the dark quadrant); fit carries uv0 and the window's radius.
+CornerFit FitCorner(const Window& win, const Eigen::Vector2d& uv0, const Eigen::Vector2d& n1, const Eigen::Vector2d& n2,
+                    CornerShape shape, const CornerRefineOptions& o, CornerFit fit) {
+  const std::vector<Pixel>& pixels = win.pixels;
   Vec p = Vec::Zero();
-  const Eigen::Vector2d n1 = Perp(edge1_px).normalized(), n2 = Perp(edge2_px).normalized();
+  // Start: the given edges, a sharp blur, then the levels by linear least squares.
   p[kTh1] = std::atan2(n1.y(), n1.x());
   p[kTh2] = std::atan2(n2.y(), n2.x());
   // A sharp start: the first evaluations cost in proportion to the blur (the edge profiles' reach),
@@ -481,7 +454,7 @@ CornerFit RefineCorner(const cv::Mat& image, const Eigen::Vector2d& uv0, const E
     Eigen::Vector2d b = Eigen::Vector2d::Zero();
     for (const Pixel& px : pixels) {
       const double c1 = std::cos(p[kTh1]), s1 = std::sin(p[kTh1]), c2 = std::cos(p[kTh2]), s2 = std::sin(p[kTh2]);
-      const double f = pr.Corner((c1 * px.dx + s1 * px.dy) / p[kS], (c2 * px.dx + s2 * px.dy) / p[kS]).f;
+      const double f = ShapeProfile(shape, pr, (c1 * px.dx + s1 * px.dy) / p[kS], (c2 * px.dx + s2 * px.dy) / p[kS]).f;
       const Eigen::Vector2d a(1.0, f);
       A += px.w * a * a.transpose();
       b += px.w * px.value * a;
@@ -504,7 +477,7 @@ CornerFit RefineCorner(const cv::Mat& image, const Eigen::Vector2d& uv0, const E
   Mat H;
   Vec g;
   Scratch scratch;
-  double cost = Accumulate(p, win, sub, o.fit_pixel_kernel, &scratch, &H, &g);
+  double cost = Accumulate(p, win, sub, shape, o.fit_pixel_kernel, &scratch, &H, &g);
   double lambda = 1e-3;
   bool converged = false;
   int it = 0;
@@ -550,7 +523,7 @@ CornerFit RefineCorner(const cv::Mat& image, const Eigen::Vector2d& uv0, const E
       // The normal equations come with the trial's cost: nearly every trial step is taken.
       Mat Hq;
       Vec gq;
-      const double new_cost = Accumulate(q, win, sub, o.fit_pixel_kernel, &scratch, &Hq, &gq);
+      const double new_cost = Accumulate(q, win, sub, shape, o.fit_pixel_kernel, &scratch, &Hq, &gq);
       if (new_cost <= cost) {
         accepted = true;
         const double decrease = cost - new_cost;
@@ -604,6 +577,73 @@ CornerFit RefineCorner(const cv::Mat& image, const Eigen::Vector2d& uv0, const E
   return fit;
 }
 
+}  // namespace
+
+const char* ToString(CornerRefineStatus s) {
+  switch (s) {
+    case CornerRefineStatus::kRefined: return "refined";
+    case CornerRefineStatus::kWindowTooSmall: return "window too small or cut by the image border";
+    case CornerRefineStatus::kNotConverged: return "fit did not converge";
+    case CornerRefineStatus::kMovedTooFar: return "fit moved the corner too far";
+    case CornerRefineStatus::kBadFit: return "implausible fit (blur, contrast or edge angle)";
+    case CornerRefineStatus::kCount: break;
+  }
+  return "unknown";
+}
+
+int CornerRefineStats::Kept() const {
+  int n = 0;
+  for (std::size_t i = 1; i < count.size(); ++i) n += count[i];
+  return n;
+}
+
+void CornerRefineStats::Add(const CornerRefineStats& other) {
+  for (std::size_t i = 0; i < count.size(); ++i) count[i] += other.count[i];
+}
+
+std::string ToString(const CornerRefineStats& s) {
+  std::string out = std::to_string(s.Refined()) + " refined, " + std::to_string(s.Kept()) + " kept";
+  std::string reasons;
+  for (std::size_t i = 1; i < s.count.size(); ++i)
+    if (s.count[i] > 0)
+      reasons += (reasons.empty() ? "" : ", ") + std::to_string(s.count[i]) + " " +
+                 ToString(static_cast<CornerRefineStatus>(i));
+  return reasons.empty() ? out : out + " (" + reasons + ")";
+}
+
+double BivariateNormalCdf(double h, double k, double rho) {
+  if (!(std::abs(rho) <= kMaxAbsRho)) throw std::invalid_argument("BivariateNormalCdf: |rho| must be <= 0.95");
+  return PreparedRho(rho).Cdf(h, k);
+}
+
+CornerProfile BlurredCorner(double mu1, double mu2, double rho, CornerShape shape) {
+  if (!(std::abs(rho) <= kMaxAbsRho)) throw std::invalid_argument("BlurredCorner: |rho| must be <= 0.95");
+  return ShapeProfile(shape, PreparedRho(rho), mu1, mu2);
+}
+
+CornerFit RefineCorner(const cv::Mat& image, const Eigen::Vector2d& uv0, const Eigen::Vector2d& edge1_px,
+                       const Eigen::Vector2d& edge2_px, double radius_px, const CornerRefineOptions& o) {
+  if (image.type() != CV_8UC1 && image.type() != CV_16UC1)
+    throw std::invalid_argument("RefineCorner: image must be CV_8UC1 or CV_16UC1");
+  CornerFit fit;
+  fit.uv = uv0;
+  // Near the image border the window shrinks to stay inside.
+  const double r = std::min({radius_px, uv0.x(), uv0.y(), image.cols - 1.0 - uv0.x(), image.rows - 1.0 - uv0.y()});
+  fit.radius_px = r;
+  if (!(r >= o.min_radius_px) || !uv0.allFinite()) {
+    fit.status = CornerRefineStatus::kWindowTooSmall;
+    return fit;
+  }
+  // The window's pixels (fixed during the fit: the model, not the window, follows the corner).
+  Window win = EmptyWindow(uv0, static_cast<int>(std::ceil(uv0.x() - r)), static_cast<int>(std::floor(uv0.x() + r)),
+                           static_cast<int>(std::ceil(uv0.y() - r)), static_cast<int>(std::floor(uv0.y() + r)));
+  for (int y = win.y_lo; y <= win.y_hi; ++y)
+    for (int x = win.x_lo; x <= win.x_hi; ++x) AddPixel(image, uv0, x, y, Taper(std::hypot(x - uv0.x(), y - uv0.y()), r), &win);
+  FinishWindow(&win);
+  // The X-corner's model is the same for either sign of each normal (h and rho follow).
+  return FitCorner(win, uv0, Perp(edge1_px).normalized(), Perp(edge2_px).normalized(), CornerShape::kX, o, fit);
+}
+
 std::vector<CornerFit> RefineCheckerboardCorners(const cv::Mat& image, int rows, int cols,
                                                  const std::vector<Eigen::Vector2d>& uv, const CornerRefineOptions& o,
                                                  CornerRefineStats* stats) {
@@ -633,6 +673,90 @@ std::vector<CornerFit> RefineCheckerboardCorners(const cv::Mat& image, int rows,
         }
       const double radius = std::min(o.max_radius_px, o.window_fraction * height);
       CornerFit f = RefineCorner(image, p, a_plus - a_minus, b_plus - b_minus, radius, o);
+      if (stats != nullptr) ++stats->count[static_cast<std::size_t>(f.status)];
+      out.push_back(f);
+    }
+  return out;
+}
+
+
+namespace {
+
+// Weight along an arm of length A at distance t >= 0 from the corner: the window's flat top and
+// cosine taper (Taper), so that no pixel enters or leaves the fit abruptly as the arm ends.
+double ArmWeight(double t, double A) { return Taper(std::max(t, 0.0), A); }
+
+}  // namespace
+
+CornerFit RefineTagCorner(const cv::Mat& image, const Eigen::Vector2d& uv0, const Eigen::Vector2d& along1_px,
+                          const Eigen::Vector2d& along2_px, double tag_spacing, bool corner_squares,
+                          const CornerRefineOptions& o) {
+  if (image.type() != CV_8UC1 && image.type() != CV_16UC1)
+    throw std::invalid_argument("RefineTagCorner: image must be CV_8UC1 or CV_16UC1");
+  CornerFit fit;
+  fit.uv = uv0;
+  fit.status = CornerRefineStatus::kWindowTooSmall;
+  // Outward normals of the tag's two edges through the corner (d_i = n_i . (x - c) < 0 inside).
+  Eigen::Vector2d n1 = Perp(along1_px), n2 = Perp(along2_px);
+  if (!uv0.allFinite() || !(n1.norm() > 1.0) || !(n2.norm() > 1.0)) return fit;
+  n1.normalize();
+  n2.normalize();
+  if (n1.dot(along2_px) > 0) n1 = -n1;
+  if (n2.dot(along1_px) > 0) n2 = -n2;
+  // The tag's width across each edge, its border cell (1/8 of it) and the gap beyond the edge.
+  const double w1 = std::abs(n1.dot(along2_px)), w2 = std::abs(n2.dot(along1_px));
+  const double m = o.tag_margin_px;
+  const double b1 = w1 / 8.0 - m, b2 = w2 / 8.0 - m;                // inward reach of each arm
+  const double g1 = tag_spacing * w1 - m, g2 = tag_spacing * w2 - m;  // outward reach
+  const double a1 = std::min(o.tag_arm_fraction * w2, o.max_radius_px);  // arm along edge 1 (in -d2)
+  const double a2 = std::min(o.tag_arm_fraction * w1, o.max_radius_px);  // arm along edge 2 (in -d1)
+  fit.radius_px = std::max(a1, a2);
+  if (!(std::min(b1, b2) >= o.tag_min_strip_px) || !(std::min(g1, g2) >= o.tag_min_strip_px) ||
+      !(std::min(a1, a2) >= o.min_radius_px))
+    return fit;
+  // The pixels of the two arms: arm 1 spans d1 in (-b1, g1), d2 in (-a1, g2); arm 2 likewise.
+  Eigen::Matrix2d N;
+  N << n1.transpose(), n2.transpose();
+  const Eigen::Matrix2d Ninv = N.inverse();
+  // Their bounding box, cut to the image; the block round the corner (both strips' crossing,
+  // reaching as far outwards as inwards) must lie inside it, the rest may be cut by the border.
+  auto box = [&](std::initializer_list<Eigen::Vector2d> ds) {
+    Eigen::AlignedBox2d b;
+    for (const Eigen::Vector2d& d : ds) b.extend(uv0 + Ninv * d);
+    return b;
+  };
+  const Eigen::AlignedBox2d image_box(Eigen::Vector2d(0.0, 0.0), Eigen::Vector2d(image.cols - 1.0, image.rows - 1.0));
+  const double o1 = std::min(g1, b1), o2 = std::min(g2, b2);
+  if (!image_box.contains(box({{-b1, -b2}, {o1, -b2}, {-b1, o2}, {o1, o2}}))) return fit;
+  const Eigen::AlignedBox2d arms = box({{-b1, -a1}, {g1, -a1}, {-b1, g2}, {-a2, -b2}, {-a2, g2}, {g1, g2}}).intersection(image_box);
+  const double x_min = arms.min().x(), x_max = arms.max().x(), y_min = arms.min().y(), y_max = arms.max().y();
+  Window win = EmptyWindow(uv0, static_cast<int>(std::ceil(x_min)), static_cast<int>(std::floor(x_max)),
+                           static_cast<int>(std::ceil(y_min)), static_cast<int>(std::floor(y_max)));
+  for (int y = win.y_lo; y <= win.y_hi; ++y)
+    for (int x = win.x_lo; x <= win.x_hi; ++x) {
+      const Eigen::Vector2d d = N * (Eigen::Vector2d(x, y) - uv0);
+      const bool outer = d.x() < g1 && d.y() < g2;
+      const double w_arm1 = outer && d.x() > -b1 ? ArmWeight(-d.y(), a1) : 0.0;
+      const double w_arm2 = outer && d.y() > -b2 ? ArmWeight(-d.x(), a2) : 0.0;
+      AddPixel(image, uv0, x, y, std::max(w_arm1, w_arm2), &win);
+    }
+  FinishWindow(&win);
+  return FitCorner(win, uv0, n1, n2, corner_squares ? CornerShape::kX : CornerShape::kL, o, fit);
+}
+
+std::vector<CornerFit> RefineAprilGridCorners(const cv::Mat& image, const AprilGridSpec& spec,
+                                              const std::vector<std::array<Eigen::Vector2d, 4>>& tags,
+                                              const CornerRefineOptions& o, CornerRefineStats* stats) {
+  if (image.type() != CV_8UC1 && image.type() != CV_16UC1)
+    throw std::invalid_argument("RefineAprilGridCorners: image must be CV_8UC1 or CV_16UC1");
+  std::vector<CornerFit> out;
+  out.reserve(4 * tags.size());
+  for (const std::array<Eigen::Vector2d, 4>& q : tags)
+    for (std::size_t k = 0; k < 4; ++k) {
+      // libapriltag's corners go round the tag: the neighbours along its edges are k +- 1.
+      const Eigen::Vector2d& c = q[k];
+      CornerFit f = RefineTagCorner(image, c, q[(k + 1) % 4] - c, q[(k + 3) % 4] - c, spec.tag_spacing,
+                                    spec.corner_squares, o);
       if (stats != nullptr) ++stats->count[static_cast<std::size_t>(f.status)];
       out.push_back(f);
     }

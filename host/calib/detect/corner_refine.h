@@ -1,4 +1,4 @@
-// Sub-pixel checkerboard corners by fitting a model of the blurred corner to the pixels around
+// Sub-pixel checkerboard and AprilGrid corners by fitting a model of the blurred corner to the pixels around
 // each corner (issue 5: findChessboardCornersSB's ~0.022 px error, mostly a common offset per
 // image, limited the rig calibration).
 //
@@ -40,6 +40,8 @@
 #include <string>
 #include <vector>
 
+#include "host/core/target.h"
+
 namespace mfns::host {
 
 struct CornerRefineOptions {
@@ -54,7 +56,22 @@ struct CornerRefineOptions {
   bool fit_gradient = true;       // gx, gy free (else 0)
   bool fit_pixel_kernel = true;   // a free (else 0): the 3-tap pixel kernel
   int pixel_subsamples = 3;       // F averaged over n x n points per pixel (its area; 1: s absorbs it)
+  // AprilGrid tag corners (RefineTagCorner): the window keeps this far (px) from every other edge
+  // of the printed pattern (the border cell's inner side, the next tag, a corner square's far
+  // sides), whose blurred profile would otherwise leak into it; each arm runs along its edge for
+  // this fraction of the tag's side (at most max_radius_px); a strip narrower than
+  // tag_min_strip_px (px) after the margin: the corner is kept (kWindowTooSmall).
+  double tag_margin_px = 1.5;
+  double tag_arm_fraction = 0.5;
+  double tag_min_strip_px = 0.5;
 };
+
+// The corner's picture near its centre: kX two dark quadrants opposite each other (a
+// checkerboard's; an AprilGrid tag's corner touching Kalibr's corner square), kL one dark
+// quadrant (a tag's outer corner without corner squares). Model of kL, as F above:
+//   P_L(y) = 2 Phi2(-d1 / s, -d2 / s; rho) - 1 = F / 2 - Phi(d1 / s) - Phi(d2 / s) + 1 / 2,
+// +1 deep in the dark quadrant {d1 < 0, d2 < 0} (n_i: the edges' outward normals), -1 elsewhere.
+enum class CornerShape : unsigned char { kX, kL };
 
 enum class CornerRefineStatus : unsigned char {
   kRefined = 0,
@@ -103,6 +120,26 @@ std::vector<CornerFit> RefineCheckerboardCorners(const cv::Mat& image, int rows,
                                                  const CornerRefineOptions& options = {},
                                                  CornerRefineStats* stats = nullptr);
 
+// One outer corner of an AprilGrid tag (host/core/target.h; Kalibr's layout: a 1-cell black
+// border of side/8, gaps of tag_spacing x side to the next tags). uv0: start (libapriltag's
+// corner); along1_px, along2_px: image vectors from it to the tag's adjacent corners (so the
+// tag's side, border and gap in pixels follow, to first order). Model kL, or kX when
+// corner_squares. Window: two arms along the tag's edges, each from the border cell's inner side
+// to the gap's far side (less tag_margin_px on both), tag_arm_fraction of the side long: the only
+// region whose picture is the corner's whatever the tag's bits. Too small (tags below ~16 px) or
+// cut by the image border: kept as kWindowTooSmall.
+CornerFit RefineTagCorner(const cv::Mat& image, const Eigen::Vector2d& uv0, const Eigen::Vector2d& along1_px,
+                          const Eigen::Vector2d& along2_px, double tag_spacing, bool corner_squares,
+                          const CornerRefineOptions& options = {});
+
+// Refines the 4 corners of every tag, tags[t] in libapriltag's order (p[0..3]: round the tag).
+// Returns 4 fits per tag (tag-major, same order) and adds the outcomes to *stats (may be null).
+// Throws std::invalid_argument when the image type is not CV_8UC1/CV_16UC1.
+std::vector<CornerFit> RefineAprilGridCorners(const cv::Mat& image, const AprilGridSpec& spec,
+                                              const std::vector<std::array<Eigen::Vector2d, 4>>& tags,
+                                              const CornerRefineOptions& options = {},
+                                              CornerRefineStats* stats = nullptr);
+
 // P(X < h, Y < k) for standard bivariate normal X, Y with correlation rho, |rho| <= 0.95
 // (Drezner-Wesolowsky / Genz: Gauss-Legendre over asin rho, 6 / 12 / 20 nodes for |rho| below
 // 0.3 / 0.75 / above; tested to 1e-10).
@@ -113,6 +150,7 @@ double BivariateNormalCdf(double h, double k, double rho);
 struct CornerProfile {
   double f = 0.0, df_dmu1 = 0.0, df_dmu2 = 0.0, df_drho = 0.0;
 };
-CornerProfile BlurredCorner(double mu1, double mu2, double rho);
+// shape kL: the L-corner's P_L instead of F.
+CornerProfile BlurredCorner(double mu1, double mu2, double rho, CornerShape shape = CornerShape::kX);
 
 }  // namespace mfns::host

@@ -156,7 +156,8 @@ DetectResult DetectCheckerboard(const cv::Mat& image, const cv::Mat& mono8, cons
   return res;
 }
 
-DetectResult DetectAprilGrid(const cv::Mat& mono8, const AprilGridSpec& s, const DetectOptions& o) {
+// image: the original (mono8 or mono16) for the refinement; mono8: its 8-bit view for libapriltag.
+DetectResult DetectAprilGrid(const cv::Mat& image, const cv::Mat& mono8, const AprilGridSpec& s, const DetectOptions& o) {
   DetectResult res;
   std::unique_ptr<apriltag_family_t, void (*)(apriltag_family_t*)> family(tag36h11_create(), tag36h11_destroy);
   std::unique_ptr<apriltag_detector_t, void (*)(apriltag_detector_t*)> detector(apriltag_detector_create(),
@@ -206,7 +207,16 @@ DetectResult DetectAprilGrid(const cv::Mat& mono8, const AprilGridSpec& s, const
     cv::cornerSubPix(mono8, pts, cv::Size(w, w), cv::Size(-1, -1),
                      cv::TermCriteria(cv::TermCriteria::EPS + cv::TermCriteria::MAX_ITER, 50, 1e-4));
   }
-  for (std::size_t n = 0; n < pts.size(); ++n) res.corners.push_back({ids[n], Eigen::Vector2d(pts[n].x, pts[n].y)});
+  std::vector<Eigen::Vector2d> uv;
+  for (const cv::Point2f& p : pts) uv.emplace_back(p.x, p.y);
+  if (o.corner_refine) {
+    // pts holds whole tags, 4 corners each in libapriltag's order.
+    std::vector<std::array<Eigen::Vector2d, 4>> quads(uv.size() / 4);
+    for (std::size_t n = 0; n < uv.size(); ++n) quads[n / 4][n % 4] = uv[n];
+    const std::vector<CornerFit> fits = RefineAprilGridCorners(image, s, quads, o.refine, &res.refine_stats);
+    for (std::size_t n = 0; n < uv.size(); ++n) uv[n] = fits[n].uv;
+  }
+  for (std::size_t n = 0; n < uv.size(); ++n) res.corners.push_back({ids[n], uv[n]});
   std::sort(res.corners.begin(), res.corners.end(), [](const CornerObs& a, const CornerObs& b) { return a.id < b.id; });
   res.ok = true;
   return res;
@@ -232,7 +242,7 @@ DetectResult DetectTarget(const cv::Mat& image, const CalibrationTarget& target,
   KeepImageBuffers();  // OpenCV's detectors allocate and free big blocks per image (image_memory.h)
   const cv::Mat mono8 = ToMono8(image);
   return target.type() == TargetType::kCheckerboard ? DetectCheckerboard(image, mono8, target.checkerboard(), options)
-                                                    : DetectAprilGrid(mono8, target.aprilgrid(), options);
+                                                    : DetectAprilGrid(image, mono8, target.aprilgrid(), options);
 }
 
 }  // namespace mfns::host

@@ -13,7 +13,9 @@
 // AprilGrid: libapriltag tag36h11; a tag outside the grid's ids is ignored; partial boards
 //   are used when at least min_corners corners are seen; a tag touching the image border is
 //   dropped (its edge refinement fails there: errors above 1 px). Ids 4 (tag - first_id) + k.
-//   libapriltag's pixel centres are at +0.5: corrected to MFNS's integer centres.
+//   libapriltag's pixel centres are at +0.5: corrected to MFNS's integer centres. Optionally
+//   (corner_refine) each tag corner is fitted as corner_refine.h's L-corner (X-corner with
+//   Kalibr's corner squares) on the original image.
 #pragma once
 
 #include <opencv2/core.hpp>
@@ -29,8 +31,9 @@ namespace mfns::host {
 struct DetectOptions {
   bool sb_accuracy = true;     // CALIB_CB_ACCURACY (upsampled sub-pixel search)
   bool corner_subpix = false;  // cv::cornerSubPix on the SB (or AprilTag) corners
-  // Checkerboards: fit the blurred-corner model to each SB corner (corner_refine.h) on the
-  // original image; a corner whose fit is refused keeps SB's position (counted in refine_stats).
+  // Fit the blurred-corner model (corner_refine.h) to each SB corner, or to each AprilGrid tag
+  // corner (RefineTagCorner), on the original image; a corner whose fit is refused keeps the
+  // detector's position (counted in refine_stats).
   // 5x more exact corners (0.004 px against 0.022 on the paper-calibration dataset) for ~0.07 s
   // of CPU per 1280x1024 image of that dataset (SB + ACCURACY: ~0.5-1 s). mfns-calib turns it on
   // by default (RigCommandOptions::refine_corners; the whole calibration then costs 1.0-1.2x
@@ -49,7 +52,7 @@ struct DetectResult {
   std::string reason;  // why not, when !ok
   std::vector<CornerObs> corners;
   bool orientation_ambiguous = false;
-  CornerRefineStats refine_stats;  // checkerboard with corner_refine: outcome counts
+  CornerRefineStats refine_stats;  // with corner_refine: outcome counts
 };
 
 // image: CV_8UC1 or CV_16UC1 (scaled to 8 bits for the detectors). Never throws for image
