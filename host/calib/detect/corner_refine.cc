@@ -153,6 +153,34 @@ class PreparedRho {
     return p;
   }
 
+  // The L-corner's P_L = 2 Phi2(-mu1, -mu2) - 1 and its derivatives, from the same pieces as
+  // Corner: dP_L/dmu1 = -2 phi(mu1) Phi(-(mu2 - rho mu1) / s), dP_L/drho = 2 phi2(mu1, mu2).
+  CornerProfile LCorner(double mu1, double mu2) const {
+    CornerProfile p;
+    const bool far1 = std::abs(mu1) > kFar, far2 = std::abs(mu2) > kFar;
+    if (far1 || far2) {
+      if ((far1 && mu1 > 0) || (far2 && mu2 > 0) || (far1 && far2)) {  // outside, or deep inside
+        p.f = mu1 < 0 && mu2 < 0 ? 1.0 : -1.0;
+      } else if (far2) {  // inside edge 2's half-plane: edge 1's profile
+        const NormalCdfPdf n1 = NormalBoth(mu1, *erfcx_);
+        p.f = 1.0 - 2.0 * n1.cdf;
+        p.df_dmu1 = -2.0 * n1.pdf;
+      } else {
+        const NormalCdfPdf n2 = NormalBoth(mu2, *erfcx_);
+        p.f = 1.0 - 2.0 * n2.cdf;
+        p.df_dmu2 = -2.0 * n2.pdf;
+      }
+      return p;
+    }
+    const NormalCdfPdf n1 = NormalBoth(mu1, *erfcx_), n2 = NormalBoth(mu2, *erfcx_);
+    p.f = 2.0 * (1.0 - n1.cdf - n2.cdf + CdfGiven(mu1, mu2, n1.cdf, n2.cdf)) - 1.0;
+    p.df_dmu1 = -2.0 * n1.pdf * NormalBoth((rho_ * mu1 - mu2) / s_, *erfcx_).cdf;
+    p.df_dmu2 = -2.0 * n2.pdf * NormalBoth((rho_ * mu2 - mu1) / s_, *erfcx_).cdf;
+    p.df_drho = 2.0 * std::exp(-(mu1 * mu1 - 2.0 * rho_ * mu1 * mu2 + mu2 * mu2) / (2.0 * s_ * s_)) /
+                (2.0 * std::numbers::pi * s_);
+    return p;
+  }
+
  private:
   // Phi2(h, k) given Phi(h) and Phi(k).
   double CdfGiven(double h, double k, double cdf_h, double cdf_k) const {
@@ -237,15 +265,9 @@ double FarSign(CornerShape shape, double d1, double d2) {
   return d1 < 0 && d2 < 0 ? 1.0 : -1.0;
 }
 
-// The shape's blurred profile from the X-corner's F and the edges' own profiles:
-//   P_L = 2 Phi2(-mu1, -mu2; rho) - 1 = F / 2 - Phi(mu1) - Phi(mu2) + 1 / 2.
+// The shape's blurred profile.
 CornerProfile ShapeProfile(CornerShape shape, const PreparedRho& pr, double mu1, double mu2) {
-  const CornerProfile x = pr.Corner(mu1, mu2);
-  if (shape == CornerShape::kX) return x;
-  const Erfcx& erfcx = ErfcxTable();
-  const NormalCdfPdf n1 = std::abs(mu1) > kFar ? NormalCdfPdf{mu1 > 0 ? 1.0 : 0.0, 0.0} : NormalBoth(mu1, erfcx);
-  const NormalCdfPdf n2 = std::abs(mu2) > kFar ? NormalCdfPdf{mu2 > 0 ? 1.0 : 0.0, 0.0} : NormalBoth(mu2, erfcx);
-  return {0.5 * x.f - n1.cdf - n2.cdf + 0.5, 0.5 * x.df_dmu1 - n1.pdf, 0.5 * x.df_dmu2 - n2.pdf, 0.5 * x.df_drho};
+  return shape == CornerShape::kX ? pr.Corner(mu1, mu2) : pr.LCorner(mu1, mu2);
 }
 
 // The cell's profile; false (and F = +-1, no derivatives) when the whole pixel is far from both
@@ -432,7 +454,8 @@ void FinishWindow(Window* win) {
 }
 
 // Fits the model of `shape` to the window's pixels from the corner uv0 and the edges' normals
-// n1, n2 (unit; for kL pointing out of the dark quadrant); fit carries uv0 and the window's radius.
+// n1, n2 (unit; for kL pointing out of the dark quadrant); fit carries uv0 and the window's radius
+// and, when fit.blur_px > 0, the blur and kernel to start from (else a sharp start).
 CornerFit FitCorner(const Window& win, const Eigen::Vector2d& uv0, const Eigen::Vector2d& n1, const Eigen::Vector2d& n2,
                     CornerShape shape, const CornerRefineOptions& o, CornerFit fit) {
   const std::vector<Pixel>& pixels = win.pixels;
@@ -443,7 +466,8 @@ CornerFit FitCorner(const Window& win, const Eigen::Vector2d& uv0, const Eigen::
   // A sharp start: the first evaluations cost in proportion to the blur (the edge profiles' reach),
   // and the simulated and the measured images fit s ~0.1-0.15 px (the 3-tap kernel and the pixel
   // area carry most of the blur). Blurrier optics are reached from it (corner_refine_test).
-  p[kS] = 0.25;
+  p[kS] = fit.blur_px > 0.0 ? fit.blur_px : 0.25;
+  p[kA] = fit.blur_px > 0.0 ? std::clamp(fit.kernel_a, 0.0, kMaxTap) : 0.0;
   if (!(std::abs(Rho(p)) < kMaxAbsRho)) {
     fit.status = CornerRefineStatus::kBadFit;
     return fit;
@@ -486,8 +510,8 @@ CornerFit FitCorner(const Window& win, const Eigen::Vector2d& uv0, const Eigen::
   constexpr int kSettle = 8;
   std::array<Eigen::Vector2d, kSettle> recent{};
   int accepted_steps = 0;
-  // Or: the corner's Gauss-Newton steps have shrunk below 1e-4 then 1e-5 px (they shrink
-  // geometrically, so it has < ~1e-5 px left to move: 100 times below the noise).
+  // Or: the corner's Gauss-Newton steps have shrunk below 10 x then 1 x converged_step_px (they
+  // shrink geometrically, so it has < ~converged_step_px left to move: far below the noise).
   double last_step_px = 1e9;
   for (; it < o.max_iterations && !converged; ++it) {
     bool accepted = false;
@@ -538,7 +562,7 @@ CornerFit FitCorner(const Window& win, const Eigen::Vector2d& uv0, const Eigen::
         lambda = std::max(lambda / 10.0, 1e-9);
         // Converged when the corner and the edges have stopped moving.
         converged = step_px < 1e-6 && std::abs(dp[kTh1]) + std::abs(dp[kTh2]) < 1e-7;
-        converged = converged || (gauss_newton && step_px < 1e-5 && last_step_px < 1e-4);
+        converged = converged || (gauss_newton && step_px < o.converged_step_px && last_step_px < 10.0 * o.converged_step_px);
         last_step_px = gauss_newton ? step_px : 1e9;
         converged = converged || decrease <= 1e-12 * cost;
         const Eigen::Vector2d uv_now(p[kU], p[kV]);
@@ -690,7 +714,7 @@ double ArmWeight(double t, double A) { return Taper(std::max(t, 0.0), A); }
 
 CornerFit RefineTagCorner(const cv::Mat& image, const Eigen::Vector2d& uv0, const Eigen::Vector2d& along1_px,
                           const Eigen::Vector2d& along2_px, double tag_spacing, bool corner_squares,
-                          const CornerRefineOptions& o) {
+                          const CornerRefineOptions& o, const CornerFit* prior) {
   if (image.type() != CV_8UC1 && image.type() != CV_16UC1)
     throw std::invalid_argument("RefineTagCorner: image must be CV_8UC1 or CV_16UC1");
   CornerFit fit;
@@ -703,18 +727,23 @@ CornerFit RefineTagCorner(const cv::Mat& image, const Eigen::Vector2d& uv0, cons
   n2.normalize();
   if (n1.dot(along2_px) > 0) n1 = -n1;
   if (n2.dot(along1_px) > 0) n2 = -n2;
-  // The tag's width across each edge, its border cell (1/8 of it) and the gap beyond the edge.
+  // The tag's width across each edge (its border cell is 1/8 of it, the gap beyond the edge
+  // tag_spacing of it).
   const double w1 = std::abs(n1.dot(along2_px)), w2 = std::abs(n2.dot(along1_px));
   const double m = o.tag_margin_px;
-  const double b1 = w1 / 8.0 - m, b2 = w2 / 8.0 - m;                // inward reach of each arm
-  const double g1 = tag_spacing * w1 - m, g2 = tag_spacing * w2 - m;  // outward reach
-  const double a1 = std::min(o.tag_arm_fraction * w2, o.max_radius_px);  // arm along edge 1 (in -d2)
-  const double a2 = std::min(o.tag_arm_fraction * w1, o.max_radius_px);  // arm along edge 2 (in -d1)
+  // Each arm's reach across its edge, inwards (to the border cell's inner side) and outwards
+  // (to the gap's far side), less the margin, at most tag_strip_px: beyond the edge's blurred
+  // profile a pixel only adds to the levels (and to the cost: 2.3x for the dataset's tags).
+  const double b1 = std::min(w1 / 8.0 - m, o.tag_strip_px), b2 = std::min(w2 / 8.0 - m, o.tag_strip_px);
+  const double g1 = std::min(tag_spacing * w1 - m, o.tag_strip_px), g2 = std::min(tag_spacing * w2 - m, o.tag_strip_px);
+  const double a1 = std::min(o.tag_arm_fraction * w2, o.tag_max_arm_px);  // arm along edge 1 (in -d2)
+  const double a2 = std::min(o.tag_arm_fraction * w1, o.tag_max_arm_px);  // arm along edge 2 (in -d1)
   fit.radius_px = std::max(a1, a2);
   if (!(std::min(b1, b2) >= o.tag_min_strip_px) || !(std::min(g1, g2) >= o.tag_min_strip_px) ||
       !(std::min(a1, a2) >= o.min_radius_px))
     return fit;
-  // The pixels of the two arms: arm 1 spans d1 in (-b1, g1), d2 in (-a1, g2); arm 2 likewise.
+  // The pixels of the two arms: arm 1 (along edge 1) spans d1 in (-b1, g1), d2 in (-a1, g2);
+  // arm 2 likewise.
   Eigen::Matrix2d N;
   N << n1.transpose(), n2.transpose();
   const Eigen::Matrix2d Ninv = N.inverse();
@@ -741,6 +770,10 @@ CornerFit RefineTagCorner(const cv::Mat& image, const Eigen::Vector2d& uv0, cons
       AddPixel(image, uv0, x, y, std::max(w_arm1, w_arm2), &win);
     }
   FinishWindow(&win);
+  if (prior != nullptr && prior->status == CornerRefineStatus::kRefined) {
+    fit.blur_px = prior->blur_px;
+    fit.kernel_a = prior->kernel_a;
+  }
   return FitCorner(win, uv0, n1, n2, corner_squares ? CornerShape::kX : CornerShape::kL, o, fit);
 }
 
@@ -751,14 +784,15 @@ std::vector<CornerFit> RefineAprilGridCorners(const cv::Mat& image, const AprilG
     throw std::invalid_argument("RefineAprilGridCorners: image must be CV_8UC1 or CV_16UC1");
   std::vector<CornerFit> out;
   out.reserve(4 * tags.size());
+  const CornerFit* prior = nullptr;  // the last refined corner: its blur and kernel start the next fit
   for (const std::array<Eigen::Vector2d, 4>& q : tags)
     for (std::size_t k = 0; k < 4; ++k) {
       // libapriltag's corners go round the tag: the neighbours along its edges are k +- 1.
       const Eigen::Vector2d& c = q[k];
-      CornerFit f = RefineTagCorner(image, c, q[(k + 1) % 4] - c, q[(k + 3) % 4] - c, spec.tag_spacing,
-                                    spec.corner_squares, o);
-      if (stats != nullptr) ++stats->count[static_cast<std::size_t>(f.status)];
-      out.push_back(f);
+      out.push_back(RefineTagCorner(image, c, q[(k + 1) % 4] - c, q[(k + 3) % 4] - c, spec.tag_spacing,
+                                    spec.corner_squares, o, prior));
+      if (stats != nullptr) ++stats->count[static_cast<std::size_t>(out.back().status)];
+      if (out.back().status == CornerRefineStatus::kRefined) prior = &out.back();
     }
   return out;
 }

@@ -1,13 +1,14 @@
 // Accuracy of the corner refinement on simulated datasets (a measuring tool, not a test; built
-// with the benchmarks): refines the given corners (e.g. SB's, from `mfns-calib rig ...
-// --write-corners` without the refinement) of every complete image and compares both with the
-// dataset's exact corners.csv:
+// with the benchmarks): refines the given corners (SB's or libapriltag's, from `mfns-calib rig
+// ... --no-refine-corners --write-corners`) of every complete checkerboard image, or of every
+// whole AprilGrid tag, and compares both with the dataset's exact corners.csv:
 //   corner_refine_eval DATASET_DIR START_CORNERS_CSV [DATASET_DIR START_CORNERS_CSV ...]
 // Prints RMS error per axis, the RMS and max of the per-image mean offset, refusals, CPU time.
 #include <Eigen/Core>
 #include <cmath>
 #include <cstdio>
 #include <ctime>
+#include <array>
 #include <fstream>
 #include <map>
 #include <string>
@@ -31,11 +32,6 @@ std::map<Key, Eigen::Vector2d> ReadCorners(const std::string& path, int num_ids)
   return out;
 }
 
-int Value(const std::string& yaml, const std::string& key) {
-  const std::size_t p = yaml.find(key + ":");
-  return p == std::string::npos ? 0 : std::stoi(yaml.substr(p + key.size() + 1));
-}
-
 struct Sum {
   double ss = 0.0, ss_mean = 0.0, max_mean = 0.0;
   int corners = 0, images = 0;
@@ -57,6 +53,43 @@ struct Sum {
   }
 };
 
+// One image's start corners, truth and fits, in the same order.
+struct ImageFit {
+  std::vector<Eigen::Vector2d> start, truth;
+  std::vector<mfns::host::CornerFit> fits;
+};
+
+// Refines the image's corners the way the detector does: a complete checkerboard, or every
+// AprilGrid tag whose 4 corners are in the start CSV. Empty when there is nothing to refine.
+ImageFit RefineImage(const mfns::host::CalibrationTarget& target, const cv::Mat& image,
+                     const std::map<int, Eigen::Vector2d>& start, const std::map<int, Eigen::Vector2d>& truth,
+                     mfns::host::CornerRefineStats* stats) {
+  ImageFit out;
+  if (target.type() == mfns::host::TargetType::kCheckerboard) {
+    const mfns::host::CheckerboardSpec& s = target.checkerboard();
+    if (static_cast<int>(start.size()) != s.rows * s.cols) return out;
+    for (const auto& [id, uv] : start) {
+      out.start.push_back(uv);
+      out.truth.push_back(truth.at(id));
+    }
+    out.fits = mfns::host::RefineCheckerboardCorners(image, s.rows, s.cols, out.start, {}, stats);
+    return out;
+  }
+  std::vector<std::array<Eigen::Vector2d, 4>> quads;
+  for (const auto& [id, uv] : start) {
+    if (id % 4 != 0 || !start.contains(id + 3)) continue;
+    std::array<Eigen::Vector2d, 4> q;
+    for (int k = 0; k < 4; ++k) {
+      q[static_cast<std::size_t>(k)] = start.at(id + k);
+      out.start.push_back(start.at(id + k));
+      out.truth.push_back(truth.at(id + k));
+    }
+    quads.push_back(q);
+  }
+  out.fits = mfns::host::RefineAprilGridCorners(image, target.aprilgrid(), quads, {}, stats);
+  return out;
+}
+
 // The tool; main adds the error report.
 int Run(int argc, char** argv) {
   if (argc < 3 || argc % 2 == 0) {
@@ -68,32 +101,26 @@ int Run(int argc, char** argv) {
   double cpu_s = 0.0, iterations = 0.0, radius = 0.0, blur = 0.0;
   for (int a = 1; a + 1 < argc; a += 2) {
     const std::string dir = argv[a];
-    std::ifstream ty(dir + "/target.yaml");
-    const std::string yaml((std::istreambuf_iterator<char>(ty)), std::istreambuf_iterator<char>());
-    const int rows = Value(yaml, "rows"), cols = Value(yaml, "cols");
-    const std::map<Key, Eigen::Vector2d> truth = ReadCorners(dir + "/corners.csv", rows * cols);
-    const std::map<Key, Eigen::Vector2d> start = ReadCorners(argv[a + 1], rows * cols);
-    std::map<std::pair<std::string, std::string>, int> per_image;
-    for (const auto& [k, uv] : start) ++per_image[{std::get<0>(k), std::get<1>(k)}];
-    for (const auto& [ci, n] : per_image) {
-      if (n != rows * cols) continue;
-      std::vector<Eigen::Vector2d> uv0, tr;
-      for (int id = 0; id < n; ++id) {
-        uv0.push_back(start.at({ci.first, ci.second, id}));
-        tr.push_back(truth.at({ci.first, ci.second, id}));
-      }
+    const mfns::host::CalibDataset ds = mfns::host::ReadCalibDataset(dir);
+    const int num_ids = static_cast<int>(ds.target.corners().size());
+    const std::map<Key, Eigen::Vector2d> truth = ReadCorners(dir + "/corners.csv", num_ids);
+    const std::map<Key, Eigen::Vector2d> start = ReadCorners(argv[a + 1], num_ids);
+    std::map<std::pair<std::string, std::string>, std::map<int, Eigen::Vector2d>> per_image, per_image_truth;
+    for (const auto& [k, uv] : start) per_image[{std::get<0>(k), std::get<1>(k)}][std::get<2>(k)] = uv;
+    for (const auto& [k, uv] : truth) per_image_truth[{std::get<0>(k), std::get<1>(k)}][std::get<2>(k)] = uv;
+    for (const auto& [ci, corners] : per_image) {
       const cv::Mat image = mfns::host::ReadPgm(dir + "/images/" + ci.first + "/" + ci.second + ".pgm");
       const std::clock_t t0 = std::clock();
-      const std::vector<mfns::host::CornerFit> fits = mfns::host::RefineCheckerboardCorners(image, rows, cols, uv0, {}, &stats);
+      const ImageFit f = RefineImage(ds.target, image, corners, per_image_truth[ci], &stats);
       cpu_s += static_cast<double>(std::clock() - t0) / CLOCKS_PER_SEC;
+      if (f.fits.empty()) continue;
       std::vector<Eigen::Vector2d> e0, e1;
-      for (int id = 0; id < n; ++id) {
-        e0.push_back(uv0[static_cast<std::size_t>(id)] - tr[static_cast<std::size_t>(id)]);
-        const mfns::host::CornerFit& f = fits[static_cast<std::size_t>(id)];
-        e1.push_back(f.uv - tr[static_cast<std::size_t>(id)]);
-        iterations += f.iterations;
-        radius += f.radius_px;
-        blur += f.blur_px;
+      for (std::size_t n = 0; n < f.fits.size(); ++n) {
+        e0.push_back(f.start[n] - f.truth[n]);
+        e1.push_back(f.fits[n].uv - f.truth[n]);
+        iterations += f.fits[n].iterations;
+        radius += f.fits[n].radius_px;
+        blur += f.fits[n].blur_px;
       }
       start_sum.Add(e0);
       refined_sum.Add(e1);
