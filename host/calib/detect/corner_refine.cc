@@ -712,6 +712,66 @@ double ArmWeight(double t, double A) { return Taper(std::max(t, 0.0), A); }
 
 }  // namespace
 
+namespace {
+
+// A tag corner's geometry: outward unit normals of its two edges (d_i = n_i . (x - c) < 0
+// inside the tag) and the tag's width across each (its border cell is 1/8 of it, the gap
+// beyond the edge tag_spacing of it).
+struct TagCorner {
+  Eigen::Vector2d c, n1, n2;
+  double w1 = 0.0, w2 = 0.0;
+};
+
+// The window of a tag corner whose arms keep `margin` px from the pattern's other edges and reach
+// at most `strip` px across their edge; false (fit->status kWindowTooSmall) when too small or cut.
+bool TagWindow(const cv::Mat& image, const TagCorner& t, double tag_spacing, double margin, double strip,
+               const CornerRefineOptions& o, Window* win, CornerFit* fit) {
+  fit->status = CornerRefineStatus::kWindowTooSmall;
+  // Each arm's reach across its edge, inwards (to the border cell's inner side) and outwards
+  // (to the gap's far side), less the margin, at most `strip`: beyond the edge's blurred
+  // profile a pixel only adds to the levels (and to the cost: 2.3x for the dataset's tags).
+  const double b1 = std::min(t.w1 / 8.0 - margin, strip), b2 = std::min(t.w2 / 8.0 - margin, strip);
+  const double g1 = std::min(tag_spacing * t.w1 - margin, strip), g2 = std::min(tag_spacing * t.w2 - margin, strip);
+  const double a1 = std::min(o.tag_arm_fraction * t.w2, o.tag_max_arm_px);  // arm along edge 1 (in -d2)
+  const double a2 = std::min(o.tag_arm_fraction * t.w1, o.tag_max_arm_px);  // arm along edge 2 (in -d1)
+  fit->radius_px = std::max(a1, a2);
+  if (!(std::min({b1, b2, g1, g2}) >= o.tag_min_strip_px) || !(std::min(a1, a2) >= o.min_radius_px)) return false;
+  // The pixels of the two arms: arm 1 (along edge 1) spans d1 in (-b1, g1), d2 in (-a1, g2);
+  // arm 2 likewise.
+  Eigen::Matrix2d N;
+  N << t.n1.transpose(), t.n2.transpose();
+  const Eigen::Matrix2d Ninv = N.inverse();
+  // Their bounding box, cut to the image; the block round the corner (both strips' crossing,
+  // reaching as far outwards as inwards) must lie inside it, the rest may be cut by the border.
+  auto box = [&](std::initializer_list<Eigen::Vector2d> ds) {
+    Eigen::AlignedBox2d bx;
+    for (const Eigen::Vector2d& d : ds) bx.extend(t.c + Ninv * d);
+    return bx;
+  };
+  const Eigen::AlignedBox2d image_box(Eigen::Vector2d(0.0, 0.0), Eigen::Vector2d(image.cols - 1.0, image.rows - 1.0));
+  const double o1 = std::min(g1, b1), o2 = std::min(g2, b2);
+  if (!image_box.contains(box({{-b1, -b2}, {o1, -b2}, {-b1, o2}, {o1, o2}}))) return false;
+  const Eigen::AlignedBox2d arms = box({{-b1, -a1}, {g1, -a1}, {-b1, g2}, {-a2, -b2}, {-a2, g2}, {g1, g2}}).intersection(image_box);
+  *win = EmptyWindow(t.c, static_cast<int>(std::ceil(arms.min().x())), static_cast<int>(std::floor(arms.max().x())),
+                     static_cast<int>(std::ceil(arms.min().y())), static_cast<int>(std::floor(arms.max().y())));
+  for (int y = win->y_lo; y <= win->y_hi; ++y)
+    for (int x = win->x_lo; x <= win->x_hi; ++x) {
+      const Eigen::Vector2d d = N * (Eigen::Vector2d(x, y) - t.c);
+      const bool outer = d.x() < g1 && d.y() < g2;
+      const double w_arm1 = outer && d.x() > -b1 ? ArmWeight(-d.y(), a1) : 0.0;
+      const double w_arm2 = outer && d.y() > -b2 ? ArmWeight(-d.x(), a2) : 0.0;
+      AddPixel(image, t.c, x, y, std::max(w_arm1, w_arm2), win);
+    }
+  FinishWindow(win);
+  return true;
+}
+
+// The fitted corner's blur as one Gaussian sigma (px): the optics' s, the pixel's area (1/12) and
+// the 3-tap kernel's variance (2a), per axis.
+double TotalBlurPx(const CornerFit& f) { return std::sqrt(f.blur_px * f.blur_px + 1.0 / 12.0 + 2.0 * f.kernel_a); }
+
+}  // namespace
+
 CornerFit RefineTagCorner(const cv::Mat& image, const Eigen::Vector2d& uv0, const Eigen::Vector2d& along1_px,
                           const Eigen::Vector2d& along2_px, double tag_spacing, bool corner_squares,
                           const CornerRefineOptions& o, const CornerFit* prior) {
@@ -720,61 +780,32 @@ CornerFit RefineTagCorner(const cv::Mat& image, const Eigen::Vector2d& uv0, cons
   CornerFit fit;
   fit.uv = uv0;
   fit.status = CornerRefineStatus::kWindowTooSmall;
-  // Outward normals of the tag's two edges through the corner (d_i = n_i . (x - c) < 0 inside).
-  Eigen::Vector2d n1 = Perp(along1_px), n2 = Perp(along2_px);
-  if (!uv0.allFinite() || !(n1.norm() > 1.0) || !(n2.norm() > 1.0)) return fit;
-  n1.normalize();
-  n2.normalize();
-  if (n1.dot(along2_px) > 0) n1 = -n1;
-  if (n2.dot(along1_px) > 0) n2 = -n2;
-  // The tag's width across each edge (its border cell is 1/8 of it, the gap beyond the edge
-  // tag_spacing of it).
-  const double w1 = std::abs(n1.dot(along2_px)), w2 = std::abs(n2.dot(along1_px));
-  const double m = o.tag_margin_px;
-  // Each arm's reach across its edge, inwards (to the border cell's inner side) and outwards
-  // (to the gap's far side), less the margin, at most tag_strip_px: beyond the edge's blurred
-  // profile a pixel only adds to the levels (and to the cost: 2.3x for the dataset's tags).
-  const double b1 = std::min(w1 / 8.0 - m, o.tag_strip_px), b2 = std::min(w2 / 8.0 - m, o.tag_strip_px);
-  const double g1 = std::min(tag_spacing * w1 - m, o.tag_strip_px), g2 = std::min(tag_spacing * w2 - m, o.tag_strip_px);
-  const double a1 = std::min(o.tag_arm_fraction * w2, o.tag_max_arm_px);  // arm along edge 1 (in -d2)
-  const double a2 = std::min(o.tag_arm_fraction * w1, o.tag_max_arm_px);  // arm along edge 2 (in -d1)
-  fit.radius_px = std::max(a1, a2);
-  if (!(std::min(b1, b2) >= o.tag_min_strip_px) || !(std::min(g1, g2) >= o.tag_min_strip_px) ||
-      !(std::min(a1, a2) >= o.min_radius_px))
-    return fit;
-  // The pixels of the two arms: arm 1 (along edge 1) spans d1 in (-b1, g1), d2 in (-a1, g2);
-  // arm 2 likewise.
-  Eigen::Matrix2d N;
-  N << n1.transpose(), n2.transpose();
-  const Eigen::Matrix2d Ninv = N.inverse();
-  // Their bounding box, cut to the image; the block round the corner (both strips' crossing,
-  // reaching as far outwards as inwards) must lie inside it, the rest may be cut by the border.
-  auto box = [&](std::initializer_list<Eigen::Vector2d> ds) {
-    Eigen::AlignedBox2d b;
-    for (const Eigen::Vector2d& d : ds) b.extend(uv0 + Ninv * d);
-    return b;
-  };
-  const Eigen::AlignedBox2d image_box(Eigen::Vector2d(0.0, 0.0), Eigen::Vector2d(image.cols - 1.0, image.rows - 1.0));
-  const double o1 = std::min(g1, b1), o2 = std::min(g2, b2);
-  if (!image_box.contains(box({{-b1, -b2}, {o1, -b2}, {-b1, o2}, {o1, o2}}))) return fit;
-  const Eigen::AlignedBox2d arms = box({{-b1, -a1}, {g1, -a1}, {-b1, g2}, {-a2, -b2}, {-a2, g2}, {g1, g2}}).intersection(image_box);
-  const double x_min = arms.min().x(), x_max = arms.max().x(), y_min = arms.min().y(), y_max = arms.max().y();
-  Window win = EmptyWindow(uv0, static_cast<int>(std::ceil(x_min)), static_cast<int>(std::floor(x_max)),
-                           static_cast<int>(std::ceil(y_min)), static_cast<int>(std::floor(y_max)));
-  for (int y = win.y_lo; y <= win.y_hi; ++y)
-    for (int x = win.x_lo; x <= win.x_hi; ++x) {
-      const Eigen::Vector2d d = N * (Eigen::Vector2d(x, y) - uv0);
-      const bool outer = d.x() < g1 && d.y() < g2;
-      const double w_arm1 = outer && d.x() > -b1 ? ArmWeight(-d.y(), a1) : 0.0;
-      const double w_arm2 = outer && d.y() > -b2 ? ArmWeight(-d.x(), a2) : 0.0;
-      AddPixel(image, uv0, x, y, std::max(w_arm1, w_arm2), &win);
-    }
-  FinishWindow(&win);
+  TagCorner t{uv0, Perp(along1_px), Perp(along2_px)};
+  if (!uv0.allFinite() || !(t.n1.norm() > 1.0) || !(t.n2.norm() > 1.0)) return fit;
+  t.n1.normalize();
+  t.n2.normalize();
+  if (t.n1.dot(along2_px) > 0) t.n1 = -t.n1;
+  if (t.n2.dot(along1_px) > 0) t.n2 = -t.n2;
+  t.w1 = std::abs(t.n1.dot(along2_px));
+  t.w2 = std::abs(t.n2.dot(along1_px));
   if (prior != nullptr && prior->status == CornerRefineStatus::kRefined) {
     fit.blur_px = prior->blur_px;
     fit.kernel_a = prior->kernel_a;
   }
-  return FitCorner(win, uv0, n1, n2, corner_squares ? CornerShape::kX : CornerShape::kL, o, fit);
+  const CornerShape shape = corner_squares ? CornerShape::kX : CornerShape::kL;
+  Window win;
+  if (!TagWindow(image, t, tag_spacing, o.tag_margin_px, o.tag_strip_px, o, &win, &fit)) return fit;
+  CornerFit out = FitCorner(win, uv0, t.n1, t.n2, shape, o, fit);
+  // Blurrier optics than the margin allows for (beyond 2 sigma the next edge leaks < 2 % of its
+  // contrast into the window's rim): the window again with margins and strips of 3 sigma, the
+  // fit from this one's blur and kernel.
+  const double sigma = TotalBlurPx(out);
+  if (out.status != CornerRefineStatus::kRefined || !(2.0 * sigma > o.tag_margin_px)) return out;
+  const double wide = 3.0 * sigma;
+  fit.blur_px = out.blur_px;
+  fit.kernel_a = out.kernel_a;
+  if (!TagWindow(image, t, tag_spacing, wide, std::max(o.tag_strip_px, wide), o, &win, &fit)) return fit;
+  return FitCorner(win, uv0, t.n1, t.n2, shape, o, fit);
 }
 
 std::vector<CornerFit> RefineAprilGridCorners(const cv::Mat& image, const AprilGridSpec& spec,

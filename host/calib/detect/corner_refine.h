@@ -134,8 +134,10 @@ std::vector<CornerFit> RefineCheckerboardCorners(const cv::Mat& image, int rows,
 // corner_squares. Window: two arms along the tag's edges, each from the border cell's inner side
 // to the gap's far side (less tag_margin_px on both, at most tag_strip_px from the edge),
 // tag_arm_fraction of the side long: the only region whose picture is the corner's whatever the
-// tag's bits. Too small (tags below ~16 px) or
-// cut by the image border: kept as kWindowTooSmall. prior (may be null): a refined corner of the
+// tag's bits; when the fitted blur's sigma (pixel area and 3-tap kernel included) exceeds
+// tag_margin_px / 2, the window again with margins and strips of 3 sigma and a second fit. Too
+// small (tags below ~16 px) or cut by the image border: kept as kWindowTooSmall.
+// prior (may be null): a refined corner of the
 // same image whose blur and kernel start the fit (the optics' blur varies slowly across an image;
 // 7.7 -> 6.8 iterations on the paper-calibration AprilGrid dataset).
 CornerFit RefineTagCorner(const cv::Mat& image, const Eigen::Vector2d& uv0, const Eigen::Vector2d& along1_px,
