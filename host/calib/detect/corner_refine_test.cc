@@ -67,14 +67,15 @@ TEST(CornerRefine, OneEdgeProfileMatchesStdErfcToRounding) {
   }
 }
 
-// The model's F is the Gaussian blur of sgn(d1) sgn(d2): compare with a direct 2-D quadrature of
-// that blur (a grid over z), and its derivatives with central differences.
-TEST(CornerRefine, BlurredCornerIsTheGaussianBlurOfTheIdealCornerAndItsDerivativesHold) {
-  const double th1 = 0.3, th2 = 0.3 + DegToRad(65.0);  // edges 65 deg apart (a tilted view)
+// The shape's profile at each point x against a direct 2-D quadrature (a grid over z) of the
+// Gaussian blur of its ideal picture ideal(n1 . y, n2 . y) = +-1, and its derivatives against
+// central differences; edges at angles th1, th2.
+void ExpectBlurOfIdealCorner(CornerShape shape, double th1, double th2, std::initializer_list<Eigen::Vector2d> points,
+                             double (*ideal)(double, double)) {
   const Eigen::Vector2d n1(std::cos(th1), std::sin(th1)), n2(std::cos(th2), std::sin(th2));
   const double rho = n1.dot(n2);
-  for (const Eigen::Vector2d& x : {Eigen::Vector2d(0.2, -0.3), Eigen::Vector2d(-1.1, 0.4), Eigen::Vector2d(0.0, 0.0),
-                                  Eigen::Vector2d(2.0, 1.5)}) {
+  auto P = [&](double mu1, double mu2, double r) { return BlurredCorner(mu1, mu2, r, shape); };
+  for (const Eigen::Vector2d& x : points) {
     double sum = 0.0, wsum = 0.0;
     const int n = 600;
     const double zmax = 7.0, dz = 2.0 * zmax / n;
@@ -83,22 +84,26 @@ TEST(CornerRefine, BlurredCornerIsTheGaussianBlurOfTheIdealCornerAndItsDerivativ
         const Eigen::Vector2d z(-zmax + (i + 0.5) * dz, -zmax + (j + 0.5) * dz);
         const double w = std::exp(-0.5 * z.squaredNorm());
         const Eigen::Vector2d y = x + z;
-        sum += w * (n1.dot(y) > 0 ? 1.0 : -1.0) * (n2.dot(y) > 0 ? 1.0 : -1.0);
+        sum += w * ideal(n1.dot(y), n2.dot(y));
         wsum += w;
       }
-    const CornerProfile p = BlurredCorner(n1.dot(x), n2.dot(x), rho);
+    const double mu1 = n1.dot(x), mu2 = n2.dot(x);
+    const CornerProfile p = P(mu1, mu2, rho);
     EXPECT_NEAR(p.f, sum / wsum, 5e-3) << x.transpose();  // the grid's own error along the edges
     const double e = 1e-5;
-    EXPECT_NEAR(p.df_dmu1,
-                (BlurredCorner(n1.dot(x) + e, n2.dot(x), rho).f - BlurredCorner(n1.dot(x) - e, n2.dot(x), rho).f) / (2 * e),
-                1e-7);
-    EXPECT_NEAR(p.df_dmu2,
-                (BlurredCorner(n1.dot(x), n2.dot(x) + e, rho).f - BlurredCorner(n1.dot(x), n2.dot(x) - e, rho).f) / (2 * e),
-                1e-7);
-    EXPECT_NEAR(p.df_drho,
-                (BlurredCorner(n1.dot(x), n2.dot(x), rho + e).f - BlurredCorner(n1.dot(x), n2.dot(x), rho - e).f) / (2 * e),
-                1e-7);
+    EXPECT_NEAR(p.df_dmu1, (P(mu1 + e, mu2, rho).f - P(mu1 - e, mu2, rho).f) / (2 * e), 1e-7);
+    EXPECT_NEAR(p.df_dmu2, (P(mu1, mu2 + e, rho).f - P(mu1, mu2 - e, rho).f) / (2 * e), 1e-7);
+    EXPECT_NEAR(p.df_drho, (P(mu1, mu2, rho + e).f - P(mu1, mu2, rho - e).f) / (2 * e), 1e-7);
   }
+}
+
+// The model's F is the Gaussian blur of sgn(d1) sgn(d2): compare with a direct 2-D quadrature of
+// that blur (a grid over z), and its derivatives with central differences.
+TEST(CornerRefine, BlurredCornerIsTheGaussianBlurOfTheIdealCornerAndItsDerivativesHold) {
+  // Edges 65 deg apart (a tilted view).
+  ExpectBlurOfIdealCorner(CornerShape::kX, 0.3, 0.3 + DegToRad(65.0),
+                          {{0.2, -0.3}, {-1.1, 0.4}, {0.0, 0.0}, {2.0, 1.5}},
+                          [](double d1, double d2) { return (d1 > 0 ? 1.0 : -1.0) * (d2 > 0 ? 1.0 : -1.0); });
 }
 
 // The calibration dataset's camera and board (mfns-sim calib-dataset --preset paper-calibration):
@@ -369,31 +374,9 @@ TEST(CornerRefine, RefusalsKeepTheStartAndAreCounted) {
 // The L-corner's profile is the Gaussian blur of the dark quadrant's indicator (+1 inside, -1
 // outside): a direct 2-D quadrature of that blur, and its derivatives by central differences.
 TEST(CornerRefine, BlurredLCornerIsTheGaussianBlurOfTheDarkQuadrantAndItsDerivativesHold) {
-  const double th1 = -0.4, th2 = -0.4 + DegToRad(110.0);
-  const Eigen::Vector2d n1(std::cos(th1), std::sin(th1)), n2(std::cos(th2), std::sin(th2));
-  const double rho = n1.dot(n2);
-  auto L = [&](double mu1, double mu2, double r) { return BlurredCorner(mu1, mu2, r, CornerShape::kL); };
-  for (const Eigen::Vector2d& x : {Eigen::Vector2d(0.2, -0.3), Eigen::Vector2d(-1.1, 0.4), Eigen::Vector2d(0.0, 0.0),
-                                  Eigen::Vector2d(-2.0, -1.5), Eigen::Vector2d(7.5, 0.3)}) {
-    double sum = 0.0, wsum = 0.0;
-    const int n = 600;
-    const double zmax = 7.0, dz = 2.0 * zmax / n;
-    for (int i = 0; i < n; ++i)
-      for (int j = 0; j < n; ++j) {
-        const Eigen::Vector2d z(-zmax + (i + 0.5) * dz, -zmax + (j + 0.5) * dz);
-        const double w = std::exp(-0.5 * z.squaredNorm());
-        const Eigen::Vector2d y = x + z;
-        sum += w * (n1.dot(y) < 0 && n2.dot(y) < 0 ? 1.0 : -1.0);
-        wsum += w;
-      }
-    const double mu1 = n1.dot(x), mu2 = n2.dot(x);
-    const CornerProfile p = L(mu1, mu2, rho);
-    EXPECT_NEAR(p.f, sum / wsum, 5e-3) << x.transpose();
-    const double e = 1e-5;
-    EXPECT_NEAR(p.df_dmu1, (L(mu1 + e, mu2, rho).f - L(mu1 - e, mu2, rho).f) / (2 * e), 1e-7);
-    EXPECT_NEAR(p.df_dmu2, (L(mu1, mu2 + e, rho).f - L(mu1, mu2 - e, rho).f) / (2 * e), 1e-7);
-    EXPECT_NEAR(p.df_drho, (L(mu1, mu2, rho + e).f - L(mu1, mu2, rho - e).f) / (2 * e), 1e-7);
-  }
+  ExpectBlurOfIdealCorner(CornerShape::kL, -0.4, -0.4 + DegToRad(110.0),
+                          {{0.2, -0.3}, {-1.1, 0.4}, {0.0, 0.0}, {-2.0, -1.5}, {7.5, 0.3}},
+                          [](double d1, double d2) { return d1 < 0 && d2 < 0 ? 1.0 : -1.0; });
 }
 
 // A 4x3 AprilGrid of 25 mm tags (Kalibr's spacing 0.3), with or without Kalibr's corner squares.
@@ -443,6 +426,16 @@ std::vector<CornerTruth> GridTruth(bool corner_squares, const CameraPose& pose) 
   return t;
 }
 
+// Refines every tag corner of the image from the truth moved 0.2 px (JitteredQuads).
+Errors RefineGridFromJitteredTruth(const cv::Mat& image, bool corner_squares, const std::vector<CornerTruth>& truth,
+                                   std::mt19937_64* rng, CornerRefineStats* stats) {
+  const std::vector<CornerFit> fits =
+      RefineAprilGridCorners(image, Grid(corner_squares).aprilgrid(), JitteredQuads(truth, rng), {}, stats);
+  std::vector<Eigen::Vector2d> uv;
+  for (const CornerFit& f : fits) uv.push_back(f.uv);
+  return Measure(uv, truth);
+}
+
 // Noiseless renders, both shapes (L without corner squares, X with them), from 0.2 px off.
 // Measured: L 0.0015-0.0022 px RMS, X 0.0010-0.0014 px; max 0.0035-0.0071 px.
 TEST(CornerRefine, NoiselessAprilGridTagCornersAreRefinedToAFewThousandthsOfAPixel) {
@@ -453,11 +446,7 @@ TEST(CornerRefine, NoiselessAprilGridTagCornersAreRefinedToAFewThousandthsOfAPix
       const cv::Mat image =
           Renderer().Render(Grid(squares), v.pose, Light(), SensorModel::Noiseless(8, 1.0 / 40.0), nullptr);
       CornerRefineStats stats;
-      const std::vector<CornerFit> fits =
-          RefineAprilGridCorners(image, Grid(squares).aprilgrid(), JitteredQuads(truth, &rng), {}, &stats);
-      std::vector<Eigen::Vector2d> uv;
-      for (const CornerFit& f : fits) uv.push_back(f.uv);
-      const Errors e = Measure(uv, truth);
+      const Errors e = RefineGridFromJitteredTruth(image, squares, truth, &rng, &stats);
       std::printf("%-38s %s noiseless: rms %.4f max %.4f mean (%.4f, %.4f) px\n", v.name,
                   squares ? "squares" : "plain  ", e.rms, e.max, e.mean.x(), e.mean.y());
       EXPECT_EQ(stats.Refined(), e.n) << v.name << " " << ToString(stats);
@@ -480,11 +469,7 @@ TEST(CornerRefine, BlurrierOpticsOnAprilGridTags) {
     light.blur_sigma_px = 1.5;
     const cv::Mat image = Renderer().Render(Grid(squares), v.pose, light, SensorModel::Noiseless(8, 1.0 / 40.0), nullptr);
     CornerRefineStats stats;
-    const std::vector<CornerFit> fits =
-        RefineAprilGridCorners(image, Grid(squares).aprilgrid(), JitteredQuads(truth, &rng), {}, &stats);
-    std::vector<Eigen::Vector2d> uv;
-    for (const CornerFit& f : fits) uv.push_back(f.uv);
-    const Errors e = Measure(uv, truth);
+    const Errors e = RefineGridFromJitteredTruth(image, squares, truth, &rng, &stats);
     std::printf("%s blur 1.5 px: rms %.4f max %.4f mean (%.4f, %.4f) px\n", squares ? "squares" : "plain  ", e.rms,
                 e.max, e.mean.x(), e.mean.y());
     EXPECT_EQ(stats.Refined(), e.n) << ToString(stats);
