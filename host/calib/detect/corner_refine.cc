@@ -703,16 +703,11 @@ std::vector<CornerFit> RefineCheckerboardCorners(const cv::Mat& image, int rows,
   return out;
 }
 
-
 namespace {
 
 // Weight along an arm of length A at distance t >= 0 from the corner: the window's flat top and
 // cosine taper (Taper), so that no pixel enters or leaves the fit abruptly as the arm ends.
 double ArmWeight(double t, double A) { return Taper(std::max(t, 0.0), A); }
-
-}  // namespace
-
-namespace {
 
 // A tag corner's geometry: outward unit normals of its two edges (d_i = n_i . (x - c) < 0
 // inside the tag) and the tag's width across each (its border cell is 1/8 of it, the gap
@@ -815,15 +810,17 @@ std::vector<CornerFit> RefineAprilGridCorners(const cv::Mat& image, const AprilG
     throw std::invalid_argument("RefineAprilGridCorners: image must be CV_8UC1 or CV_16UC1");
   std::vector<CornerFit> out;
   out.reserve(4 * tags.size());
-  const CornerFit* prior = nullptr;  // the last refined corner: its blur and kernel start the next fit
+  // The last refined corner (a copy: out grows): its blur and kernel start the next fit.
+  // RefineTagCorner ignores a prior that is not kRefined, as this one is until a fit succeeds.
+  CornerFit prior;
   for (const std::array<Eigen::Vector2d, 4>& q : tags)
     for (std::size_t k = 0; k < 4; ++k) {
       // libapriltag's corners go round the tag: the neighbours along its edges are k +- 1.
       const Eigen::Vector2d& c = q[k];
       out.push_back(RefineTagCorner(image, c, q[(k + 1) % 4] - c, q[(k + 3) % 4] - c, spec.tag_spacing,
-                                    spec.corner_squares, o, prior));
+                                    spec.corner_squares, o, &prior));
       if (stats != nullptr) ++stats->count[static_cast<std::size_t>(out.back().status)];
-      if (out.back().status == CornerRefineStatus::kRefined) prior = &out.back();
+      if (out.back().status == CornerRefineStatus::kRefined) prior = out.back();
     }
   return out;
 }
