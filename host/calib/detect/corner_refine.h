@@ -48,12 +48,13 @@ struct CornerRefineOptions {
   double window_fraction = 0.42;  // window radius / distance to the nearest opposite square side
   double min_radius_px = 4.0;     // smaller windows: kept (kWindowTooSmall)
   double max_radius_px = 40.0;    // larger squares use this radius (information grows slowly)
-  // Converged: the step stops moving the corner (1e-6 px) and the edges, or the corner's last two
-  // Gauss-Newton steps were below 10 x and 1 x converged_step_px, or it moved < 1e-4 px over the
-  // last 8 accepted steps (s and a can creep along a shallow valley after it). The steps shrink
-  // geometrically: < ~converged_step_px is left to move, 40-70x below the refined corners' noise
-  // (1e-5 until session 25: the same corners to 1e-4 px on the datasets, 1 iteration more).
-  double converged_step_px = 1e-4;
+  // Converged: the step stops moving the corner (1e-6 px) and the edges, or the corner's
+  // Gauss-Newton steps fall below 10 x then 1 x converged_step_px (the last one is taken without
+  // evaluating it), or it moved < 1e-4 px over the last 8 accepted steps (s and a can creep along
+  // a shallow valley after it). The steps shrink quadratically: far less than converged_step_px is
+  // left to move, 5-10x below the refined corners' noise (1e-5 until session 25, 1e-4 until
+  // session 26: the same corners to 1e-4 px on the datasets, 2 evaluations more per corner).
+  double converged_step_px = 1e-3;
   int max_iterations = 150;
   double max_shift_px = 0.5;      // a larger move is refused (kMovedTooFar)
   bool fit_gradient = true;       // gx, gy free (else 0)
