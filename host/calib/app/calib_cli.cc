@@ -31,12 +31,12 @@ CLI::App* AddRigCommand(CLI::App& app, RigCommandOptions* o, std::string* genera
   cmd->add_flag("--all-a10-rows", o->all_a10_rows, "paper: use all nine elements of every image in A10");
   cmd->add_option("--jobs", o->jobs, "Detection threads")->capture_default_str();
   cmd->add_flag("--fast-detect", o->fast_detect,
-                "findChessboardCornersSB without CALIB_CB_ACCURACY and without the corner refinement (a quick look: "
-                "4x faster, 5-10x less exact)");
+                "No corner refinement and findChessboardCornersSB without CALIB_CB_ACCURACY (a quick look: the "
+                "detector's corners, 5-10x less exact)");
   cmd->add_flag("--refine-corners,!--no-refine-corners", o->refine_corners,
                 "Fit a blurred-corner model to every checkerboard corner (SB's) or AprilGrid tag corner (libapriltag's): "
-                "the default, 5-10x more exact for 0.04-0.07 s CPU per 1280x1024 image (docs/calibration.md); "
-                "--no-refine-corners keeps the detector's corners")
+                "the default, 5-10x more exact for 0.02-0.05 s CPU per 1280x1024 image (docs/calibration.md); "
+                "--no-refine-corners keeps the detector's corners (SB's with CALIB_CB_ACCURACY)")
       ->each([o](const std::string&) { o->refine_corners_given = true; });
   cmd->add_option("--rig-id", o->rig_id, "Rig id of the blob (default: the truth rig's, else mfns-calibrated)");
   cmd->add_option("--generation", *generation, "Blob generation, 0..2^64-1 (default: UTC seconds now)");
@@ -65,7 +65,7 @@ void AddIntrinsicsCommand(CLI::App& app, IntrinsicsCommandOptions* o) {
   cmd->add_option("--camera", o->camera, "Camera name in the outputs")->capture_default_str();
   cmd->add_flag("--free-k3", o->free_k3, "Estimate kc5 (k3); default fixed at 0");
   cmd->add_flag("--fast-detect", o->fast_detect,
-                "findChessboardCornersSB without CALIB_CB_ACCURACY and without the corner refinement");
+                "No corner refinement and findChessboardCornersSB without CALIB_CB_ACCURACY");
   cmd->add_flag("--refine-corners,!--no-refine-corners", o->refine_corners,
                 "Fit a blurred-corner model to every checkerboard or AprilGrid tag corner (the default); "
                 "--no-refine-corners keeps the detector's corners")
@@ -129,6 +129,7 @@ std::uint64_t ParseGenerationOption(const std::string& text) {
 }
 
 bool RefineCorners(bool refine_corners, bool given, bool fast_detect) { return refine_corners && (!fast_detect || given); }
+bool SbAccuracy(bool fast_detect, bool refine_corners) { return !fast_detect && !refine_corners; }
 
 RigMethod ValidateRigCommand(const RigCommandOptions& o) {
   if (o.out_dir.empty()) throw UserError("--out DIR is required");

@@ -103,6 +103,10 @@ RigMethod ValidateRigCommand(const RigCommandOptions& o);
 // Whether the corners are refined: refine_corners, except under --fast-detect (a quick look)
 // where only an explicit --refine-corners turns it on.
 bool RefineCorners(bool refine_corners, bool given, bool fast_detect);
+// Whether findChessboardCornersSB runs with CALIB_CB_ACCURACY (an upsampled sub-pixel search,
+// ~3.5x its time): only when its corners are the final ones. The refinement converges to the same
+// corners from SB's plain ones (0.0036 px both ways on paper-calibration; docs/calibration.md).
+bool SbAccuracy(bool fast_detect, bool refine_corners);
 // `intrinsics`: --out, --target (returned, parsed) and the images.
 CalibrationTarget ValidateIntrinsicsCommand(const IntrinsicsCommandOptions& o);
 // `survey`: --out, --rig, the recordings, --initial-pose (6 finite numbers), --initial-sigma (2

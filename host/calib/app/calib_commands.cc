@@ -185,8 +185,8 @@ RigCalibration RunRigCommand(const RigCommandOptions& o, std::ostream& log) {
   log << "mfns-calib rig: " << ds.images.size() << " images of " << ds.cameras.size() << " cameras in " << o.dataset
       << ", method " << ToString(ro.method) << "\n";
   DetectOptions det;
-  det.sb_accuracy = !o.fast_detect;
   det.corner_refine = RefineCorners(o.refine_corners, o.refine_corners_given, o.fast_detect);
+  det.sb_accuracy = SbAccuracy(o.fast_detect, det.corner_refine);
   det.min_corners = ro.min_corners;
   CalibInput in = o.corners_csv.empty() ? DetectDataset(ds, det, o.jobs, &log) : CornersFromCsv(ds, o.corners_csv);
   if (!o.corners_csv.empty()) log << "corners from " << o.corners_csv << " (no detection)\n";
@@ -239,8 +239,8 @@ ZhangResult RunIntrinsicsCommand(const IntrinsicsCommandOptions& o, std::ostream
   const CalibrationTarget target = ValidateIntrinsicsCommand(o);
   const std::vector<Eigen::Vector3d> pts = TargetPoints(target);
   DetectOptions det;
-  det.sb_accuracy = !o.fast_detect;
   det.corner_refine = RefineCorners(o.refine_corners, o.refine_corners_given, o.fast_detect);
+  det.sb_accuracy = SbAccuracy(o.fast_detect, det.corner_refine);
   CornerRefineStats refine;
   std::vector<std::vector<CornerObs>> views;
   std::vector<std::string> used;

@@ -157,6 +157,12 @@ TEST(CalibCommandLine, CornerRefinementIsTheDefaultAndFastDetectDropsIt) {
   // Options built in code (not parsed) follow the same rule.
   EXPECT_TRUE(RefineCorners(RigCommandOptions{}.refine_corners, false, false));
   EXPECT_FALSE(RefineCorners(true, false, true));
+  // SB's upsampled sub-pixel search only where its corners are final: not before the refinement
+  // (the default), not under --fast-detect; with --no-refine-corners alone.
+  EXPECT_FALSE(SbAccuracy(false, true));
+  EXPECT_FALSE(SbAccuracy(true, false));
+  EXPECT_FALSE(SbAccuracy(true, true));
+  EXPECT_TRUE(SbAccuracy(false, false));
 }
 
 // The checks rig and intrinsics make before reading anything (ValidateRigCommand,
