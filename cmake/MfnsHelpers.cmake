@@ -42,18 +42,36 @@ endfunction()
 # on one core at the end of the stage.
 # Tests are discovered when ctest runs (PRE_TEST), so cross builds need no emulator at build
 # time; under the aarch64 preset CTest runs them through CMAKE_CROSSCOMPILING_EMULATOR.
+# SHARED_SETUP suite ...: each of these suites runs as one CTest test ("Suite.*", one process)
+# instead of one process per test: their SetUpTestSuite renders a dataset, which one process per
+# test repeated for every test (RigCommandTest: 10 times). A skipped test marks it skipped.
 function(mfns_gtest name)
-  cmake_parse_arguments(ARG "" "COST" "SOURCES;DEPS;LABELS" ${ARGN})
+  cmake_parse_arguments(ARG "" "COST" "SOURCES;DEPS;LABELS;SHARED_SETUP" ${ARGN})
   add_executable(${name} ${ARG_SOURCES})
   target_link_libraries(${name} PRIVATE ${ARG_DEPS} GTest::gtest GTest::gmock GTest::gtest_main)
   target_include_directories(${name} PRIVATE ${PROJECT_SOURCE_DIR})
   mfns_warnings(${name})
   set_target_properties(${name} PROPERTIES RUNTIME_OUTPUT_DIRECTORY ${CMAKE_BINARY_DIR}/tests)
+  set(_mfns_filter "")
+  if(ARG_SHARED_SETUP)
+    list(TRANSFORM ARG_SHARED_SETUP APPEND ".*" OUTPUT_VARIABLE _mfns_suites)
+    list(JOIN _mfns_suites ":" _mfns_suites)
+    set(_mfns_filter "-${_mfns_suites}")
+  endif()
   gtest_discover_tests(${name}
     DISCOVERY_MODE PRE_TEST
     DISCOVERY_TIMEOUT 120
+    TEST_FILTER "${_mfns_filter}"
     WORKING_DIRECTORY ${CMAKE_BINARY_DIR}
     PROPERTIES ENVIRONMENT "MFNS_SOURCE_DIR=${PROJECT_SOURCE_DIR}")
+  foreach(_mfns_suite IN LISTS ARG_SHARED_SETUP)
+    add_test(NAME ${_mfns_suite}.* COMMAND ${name} --gtest_filter=${_mfns_suite}.* WORKING_DIRECTORY ${CMAKE_BINARY_DIR})
+    set_tests_properties(${_mfns_suite}.* PROPERTIES ENVIRONMENT "MFNS_SOURCE_DIR=${PROJECT_SOURCE_DIR}"
+                         LABELS "${ARG_LABELS}" SKIP_REGULAR_EXPRESSION "\\[  SKIPPED \\]")
+    if(ARG_COST)
+      set_tests_properties(${_mfns_suite}.* PROPERTIES COST ${ARG_COST})
+    endif()
+  endforeach()
   # Labels are set by a CTest include file that runs after the discovered tests are added:
   # gtest_discover_tests flattens its PROPERTIES, so a label list ("host;slow") passed there
   # would split into LABELS=host and a stray property.
