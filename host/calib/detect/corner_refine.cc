@@ -17,6 +17,12 @@ constexpr double kMaxAbsRho = 0.95;  // edges closer than ~18 deg to parallel: n
 constexpr int kNumParams = 10;  // u, v, th1, th2, s, m, h, gx, gy, a
 enum Param : int { kU = 0, kV, kTh1, kTh2, kS, kM, kH, kGx, kGy, kA };
 constexpr double kMaxTap = 0.25;  // [a, 1 - 2a, a] stays a unimodal blur
+// The edge blur's lower bound. Where two edges meet, n x n sub-samples with s_eff^2 = s^2 +
+// 1 / (12 n^2) stand for the pixel's area (the one-edge cells average it exactly): with 3 x 3 at
+// s = 0.1 they differ from the exact area by up to ~0.5 % of the contrast in those few cells;
+// 5 x 5 (0.06 %) gave the same corners at 1.6x the cost, and a bound of 0.05 the same corners in
+// more iterations (small-tags, paper-calibration AprilGrid and checkerboard, session 26).
+constexpr double kMinBlurPx = 0.1;
 
 // Gauss-Legendre nodes and weights on [-1, 1] (Newton on P_n from the Chebyshev guesses).
 constexpr int kMaxGaussNodes = 20;
@@ -251,13 +257,83 @@ struct PixelProfile {
 };
 
 // Geometry of one parameter vector, shared by every pixel.
+// A cell near one edge only is the exact pixel-area average of that edge's profile with blur s
+// (BoxAveragedEdge); a cell near both edges averages n x n sub-samples, each the centre of a
+// sub-square of variance 1 / (12 n^2) per axis, carried as extra blur: s_eff^2 = s^2 + 1 / (12 n^2).
 struct Geometry {
-  double c1, s1, c2, s2, sin12, inv_s;
-  double far_px;  // a pixel centre this far from both edges has every sub-sample beyond kFar
+  double c1, s1, c2, s2, sin12;
+  double s, inv_s;          // the edge blur of one-edge cells
+  double inv_s_eff;         // 1 / s_eff of the sub-sampled cells
+  double ds_eff_ds;         // d s_eff / d s
+  double far_px;  // a pixel centre this far from an edge has its whole area beyond kFar s_eff
+  const Erfcx* erfcx = &ErfcxTable();
   Geometry(const Vec& p, const SubSamples& sub)
       : c1(std::cos(p[kTh1])), s1(std::sin(p[kTh1])), c2(std::cos(p[kTh2])), s2(std::sin(p[kTh2])),
-        sin12(std::sin(p[kTh1] - p[kTh2])), inv_s(1.0 / p[kS]), far_px(kFar * p[kS] + sub.reach) {}
+        sin12(std::sin(p[kTh1] - p[kTh2])), s(p[kS]), inv_s(1.0 / p[kS]) {
+    const double s_eff = std::sqrt(p[kS] * p[kS] + 1.0 / (12.0 * sub.n * sub.n));
+    inv_s_eff = 1.0 / s_eff;
+    ds_eff_ds = p[kS] / s_eff;
+    far_px = kFar * s_eff + 0.5 * std::numbers::sqrt2 + 1e-9;
+  }
 };
+
+struct BoxEdge {
+  double e = 0, e_d = 0, e_sigma = 0, e_theta = 0;
+};
+
+// The unit pixel's average of Phi((d + cos(theta) x + sin(theta) y) / sigma) over x, y in
+// [-1/2, 1/2] and its derivatives in d, sigma and theta (d held), in closed form: with
+// alpha = |cos|, beta = |sin|, z_ij = (d + i alpha / 2 + j beta / 2) / sigma,
+//   E = sigma^2 / (alpha beta) sum_ij i j Psi2(z_ij),  Psi2 = ((z^2 + 1) Phi + z phi) / 2,
+// Psi2' = Psi1 = z Phi + phi, Psi1' = Phi; dE/dsigma = sigma / (alpha beta) sum i j Phi(z_ij).
+// An edge within 1e-4 rad of the pixel grid: the limit beta -> 0 (a 1-D box).
+// Phi and phi, exactly 1 or 0 and 0 beyond |z| = 8.5 (Phi(-8.5) = 1e-17; in Psi1 and Psi2 the
+// neglected terms are below 1e-15 of the values that matter).
+NormalCdfPdf TailNormal(double z, const Erfcx& erfcx) {
+  if (z > 8.5) return {1.0, 0.0};
+  if (z < -8.5) return {0.0, 0.0};
+  return NormalBoth(z, erfcx);
+}
+
+BoxEdge BoxAveragedEdge(double d, double c, double sn, double sigma, const Erfcx& erfcx) {
+  const bool swap = std::abs(sn) > std::abs(c);  // alpha >= beta below
+  const double alpha = swap ? std::abs(sn) : std::abs(c), beta = swap ? std::abs(c) : std::abs(sn);
+  double e_alpha = 0.0, e_beta = 0.0;
+  BoxEdge b;
+  if (beta < 1e-4) {
+    const NormalCdfPdf np = TailNormal((d + 0.5 * alpha) / sigma, erfcx), nm = TailNormal((d - 0.5 * alpha) / sigma, erfcx);
+    const double zp = (d + 0.5 * alpha) / sigma, zm = (d - 0.5 * alpha) / sigma;
+    const double psi_p = zp * np.cdf + np.pdf, psi_m = zm * nm.cdf + nm.pdf;
+    b.e = sigma / alpha * (psi_p - psi_m);
+    b.e_d = (np.cdf - nm.cdf) / alpha;
+    b.e_sigma = (np.pdf - nm.pdf) / alpha;
+    e_alpha = -b.e / alpha + (np.cdf + nm.cdf) / (2.0 * alpha);
+  } else {
+    double s2 = 0, s1 = 0, s0 = 0, s1_i = 0, s1_j = 0;
+    for (int i = -1; i <= 1; i += 2)
+      for (int j = -1; j <= 1; j += 2) {
+        const double z = (d + 0.5 * i * alpha + 0.5 * j * beta) / sigma;
+        const NormalCdfPdf n = TailNormal(z, erfcx);
+        const double psi1 = z * n.cdf + n.pdf, psi2 = 0.5 * ((z * z + 1.0) * n.cdf + z * n.pdf);
+        const double w = i * j;
+        s2 += w * psi2;
+        s1 += w * psi1;
+        s0 += w * n.cdf;
+        s1_i += j * psi1;  // w * i
+        s1_j += i * psi1;  // w * j
+      }
+    const double k = sigma / (alpha * beta);
+    b.e = k * sigma * s2;
+    b.e_d = k * s1;
+    b.e_sigma = k * s0;
+    e_alpha = -b.e / alpha + 0.5 * k * s1_i;
+    e_beta = -b.e / beta + 0.5 * k * s1_j;
+  }
+  // alpha = |cos| (or |sin| when swapped): d|cos|/dtheta = -sign(cos) sin, d|sin|/dtheta = sign(sin) cos.
+  const double dabs_c = c >= 0.0 ? -sn : sn, dabs_s = sn >= 0.0 ? c : -c;
+  b.e_theta = swap ? e_alpha * dabs_s + e_beta * dabs_c : e_alpha * dabs_c + e_beta * dabs_s;
+  return b;
+}
 
 // The ideal corner's value far from both edges: +1 on the quadrants the shape marks, else -1.
 double FarSign(CornerShape shape, double d1, double d2) {
@@ -270,25 +346,63 @@ CornerProfile ShapeProfile(CornerShape shape, const PreparedRho& pr, double mu1,
   return shape == CornerShape::kX ? pr.Corner(mu1, mu2) : pr.LCorner(mu1, mu2);
 }
 
+enum CellKind : char { kFarBoth = 0, kNear1, kNear2, kNearBoth };
+
+// A cell with its whole area far from one edge (edge 2 when far2, else edge 1): the other
+// edge's profile averaged exactly over the pixel, P = A + B Phi(d / s), or a constant (false).
+bool OneEdgeProfile(const Geometry& G, CornerShape shape, bool far2, double ex, double ey, double d1, double d2,
+                    PixelProfile* out) {
+  const double d_far = far2 ? d2 : d1, d_near = far2 ? d1 : d2;
+  const double sg = d_far > 0.0 ? 1.0 : -1.0;
+  double A = 0.0, B = 0.0;
+  if (shape == CornerShape::kX) {  // sg (2 Phi(mu) - 1)
+    A = -sg;
+    B = 2.0 * sg;
+  } else if (d_far > 0.0) {  // outside the L's dark quadrant whatever the near edge says
+    out->f = -1.0;
+    return false;
+  } else {  // 1 - 2 Phi(mu)
+    A = 1.0;
+    B = -2.0;
+  }
+  const double c = far2 ? G.c1 : G.c2, sn = far2 ? G.s1 : G.s2;
+  // The whole pixel beyond 8.5 s of the near edge too: a constant (TailNormal's cut).
+  if (std::abs(d_near) - 0.5 * (std::abs(c) + std::abs(sn)) > 8.5 * G.s) {
+    out->f = A + B * (d_near > 0.0 ? 1.0 : 0.0);
+    return false;
+  }
+  const BoxEdge b = BoxAveragedEdge(d_near, c, sn, G.s, *G.erfcx);
+  const double bt = -sn * ex + c * ey;  // d d_near / d theta at the cell centre
+  out->f = A + B * b.e;
+  out->du = -B * b.e_d * c;
+  out->dv = -B * b.e_d * sn;
+  const double dth = B * (b.e_d * bt + b.e_theta);
+  out->dth1 = far2 ? dth : 0.0;
+  out->dth2 = far2 ? 0.0 : dth;
+  out->ds = B * b.e_sigma;
+  return true;
+}
+
 // The cell's profile; false (and F = +-1, no derivatives) when the whole pixel is far from both
 // edges, as most of the window is: exactly what the sub-samples would give, for no work.
+// kind: the cell's model (CellKind), fixed while the geometry stays near where it was chosen,
+// so that the cost is a smooth function of the parameters between re-classifications.
 bool Profile(const Vec& p, const Geometry& G, const PreparedRho& pr, const SubSamples& sub, CornerShape shape,
-             double cell_dx, double cell_dy, PixelProfile* out_profile) {
+             double cell_dx, double cell_dy, char kind, PixelProfile* out_profile) {
   PixelProfile& out = *out_profile;
   out = PixelProfile{};
-  {
-    const double ex = cell_dx - p[kU], ey = cell_dy - p[kV];
-    const double d1 = G.c1 * ex + G.s1 * ey, d2 = G.c2 * ex + G.s2 * ey;
-    if (std::abs(d1) > G.far_px && std::abs(d2) > G.far_px) {
-      out.f = FarSign(shape, d1, d2);
-      return false;
-    }
+  const double ex_c = cell_dx - p[kU], ey_c = cell_dy - p[kV];
+  const double d1c = G.c1 * ex_c + G.s1 * ey_c, d2c = G.c2 * ex_c + G.s2 * ey_c;
+  if (kind == kFarBoth) {
+    out.f = FarSign(shape, d1c, d2c);
+    return false;
   }
+  if (kind != kNearBoth) return OneEdgeProfile(G, shape, kind == kNear1, ex_c, ey_c, d1c, d2c, out_profile);
   for (int n = 0; n < sub.count; ++n) {
-    const double ex = cell_dx + sub.dx[static_cast<std::size_t>(n)] - p[kU];
-    const double ey = cell_dy + sub.dy[static_cast<std::size_t>(n)] - p[kV];
+    const double ex = ex_c + sub.dx[static_cast<std::size_t>(n)];
+    const double ey = ey_c + sub.dy[static_cast<std::size_t>(n)];
     const double a1 = G.c1 * ex + G.s1 * ey, a2 = G.c2 * ex + G.s2 * ey;
-    const double mu1 = a1 * G.inv_s, mu2 = a2 * G.inv_s;
+    const double mu1 = a1 * G.inv_s_eff, mu2 = a2 * G.inv_s_eff;
     if (std::abs(mu1) > kFar && std::abs(mu2) > kFar) {  // as Corner() would say, without the call
       out.f += FarSign(shape, mu1, mu2);
       continue;
@@ -300,18 +414,18 @@ bool Profile(const Vec& p, const Geometry& G, const PreparedRho& pr, const SubSa
     const double b1 = -G.s1 * ex + G.c1 * ey, b2 = -G.s2 * ex + G.c2 * ey;
     out.du -= f.df_dmu1 * G.c1 + f.df_dmu2 * G.c2;
     out.dv -= f.df_dmu1 * G.s1 + f.df_dmu2 * G.s2;
-    out.dth1 += f.df_dmu1 * b1 * G.inv_s - f.df_drho * G.sin12;
-    out.dth2 += f.df_dmu2 * b2 * G.inv_s + f.df_drho * G.sin12;
+    out.dth1 += f.df_dmu1 * b1 * G.inv_s_eff - f.df_drho * G.sin12;
+    out.dth2 += f.df_dmu2 * b2 * G.inv_s_eff + f.df_drho * G.sin12;
     out.ds -= f.df_dmu1 * mu1 + f.df_dmu2 * mu2;
   }
-  // du, dv and ds above still lack their common factor 1 / s.
-  const double inv = 1.0 / sub.count, inv_s = inv * G.inv_s;
+  // du, dv still lack their common factor 1 / s_eff, ds its d mu / d s = -mu / s_eff * ds_eff / ds.
+  const double inv = 1.0 / sub.count, inv_s = inv * G.inv_s_eff;
   out.f *= inv;
   out.du *= inv_s;
   out.dv *= inv_s;
   out.dth1 *= inv;
   out.dth2 *= inv;
-  out.ds *= inv_s;
+  out.ds *= inv_s * G.ds_eff_ds;
   return true;
 }
 
@@ -331,23 +445,53 @@ void AddScaled(double c, const PixelProfile& q, PixelProfile* acc) {
 struct Scratch {
   std::vector<PixelProfile> cells;
   std::vector<char> edge;  // the cell has derivatives (not far from both edges)
+  std::vector<char> kind;  // CellKind, chosen at `at` with a margin
+  bool classified = false;
+  int generation = 0;  // counts the classifications
+  Vec at = Vec::Zero();
 };
+
+// The cells' kinds at p, each with kClassMarginPx to spare: re-chosen when the corner has moved
+// by more than half the margin, an edge turned by more than 0.005 rad, or s_eff grew by 10 %.
+constexpr double kClassMarginPx = 0.3;
+void Classify(const Vec& p, const Geometry& G, const Window& win, const std::vector<char>& use, Scratch* scratch) {
+  const Vec& q = scratch->at;
+  if (scratch->classified && std::hypot(p[kU] - q[kU], p[kV] - q[kV]) < 0.5 * kClassMarginPx &&
+      std::abs(p[kTh1] - q[kTh1]) < 5e-3 && std::abs(p[kTh2] - q[kTh2]) < 5e-3 && p[kS] <= q[kS] * 1.1)
+    return;
+  scratch->classified = true;
+  ++scratch->generation;
+  scratch->at = p;
+  scratch->at[kS] = std::max(p[kS], kMinBlurPx);
+  const double s_eff = 1.0 / G.inv_s_eff;
+  const double far_px = kFar * s_eff * 1.1 + 0.5 * std::numbers::sqrt2 + kClassMarginPx;
+  scratch->kind.assign(use.size(), kFarBoth);
+  for (int iy = 0; iy < win.ny; ++iy)
+    for (int ix = 0; ix < win.nx; ++ix) {
+      const std::size_t c = static_cast<std::size_t>(iy * win.nx + ix);
+      if (!use[c]) continue;
+      const double ex = win.dx0 + ix - p[kU], ey = win.dy0 + iy - p[kV];
+      const bool near1 = std::abs(G.c1 * ex + G.s1 * ey) <= far_px, near2 = std::abs(G.c2 * ex + G.s2 * ey) <= far_px;
+      scratch->kind[c] = near1 && near2 ? kNearBoth : near1 ? kNear1 : near2 ? kNear2 : kFarBoth;
+    }
+}
 
 // Weighted sum of squared residuals and the normal equations H, g at p.
 // With the 3-tap kernel, a pixel's profile is sum_kl w_k w_l F(cell + (k, l)), w = [a, 1 - 2a, a].
 double Accumulate(const Vec& p, const Window& win, const SubSamples& sub, CornerShape shape, bool taps,
-                  Scratch* scratch, Mat* H, Vec* g) {
+                  Scratch* scratch, Mat* H, Vec* g, bool classify = true) {
   const PreparedRho pr(Rho(p));
   const Geometry G(p, sub);
   const std::vector<char>& use = taps ? win.reached : win.needed;
   std::vector<PixelProfile>& cells = scratch->cells;
   std::vector<char>& edge = scratch->edge;
+  if (classify || !scratch->classified) Classify(p, G, win, win.reached, scratch);
   cells.resize(use.size());
   edge.resize(use.size());
   for (int iy = 0; iy < win.ny; ++iy)
     for (int ix = 0; ix < win.nx; ++ix) {
       const std::size_t c = static_cast<std::size_t>(iy * win.nx + ix);
-      if (use[c]) edge[c] = Profile(p, G, pr, sub, shape, win.dx0 + ix, win.dy0 + iy, &cells[c]) ? 1 : 0;
+      if (use[c]) edge[c] = Profile(p, G, pr, sub, shape, win.dx0 + ix, win.dy0 + iy, scratch->kind[c], &cells[c]) ? 1 : 0;
     }
   const double a = taps ? p[kA] : 0.0;
   const std::array<double, 3> w{a, 1.0 - 2.0 * a, a}, dw{1.0, -2.0, 1.0};
@@ -515,7 +659,7 @@ CornerFit FitCorner(const Window& win, const Eigen::Vector2d& uv0, const Eigen::
   // The pixel's area blurs at least as a box of 1 px (variance 1/12 per axis); the sub-samples
   // model part of it (variance (1 - 1/n^2) / 12), s must supply the rest. Below that bound a
   // sharp edge along the pixel grid leaves s and the position undetermined.
-  const double s_min = std::sqrt((1.0 / 12.0) / (sub.n * sub.n));
+  const double s_min = kMinBlurPx;
   std::array<bool, kNumParams> free{};
   free.fill(true);
   free[kGx] = free[kGy] = o.fit_gradient;
@@ -568,7 +712,11 @@ CornerFit FitCorner(const Window& win, const Eigen::Vector2d& uv0, const Eigen::
       // The normal equations come with the trial's cost: nearly every trial step is taken.
       Mat Hq;
       Vec gq;
+      const int generation = scratch.generation;
       const double new_cost = Accumulate(q, win, sub, shape, o.fit_pixel_kernel, &scratch, &Hq, &gq);
+      // The cells' models were re-chosen at q: compare with p under the same ones.
+      if (scratch.generation != generation)
+        cost = Accumulate(p, win, sub, shape, o.fit_pixel_kernel, &scratch, &H, &g, false);
       if (new_cost <= cost) {
         accepted = true;
         const double decrease = cost - new_cost;

@@ -59,7 +59,7 @@ struct CornerRefineOptions {
   double max_shift_px = 0.5;      // a larger move is refused (kMovedTooFar)
   bool fit_gradient = true;       // gx, gy free (else 0)
   bool fit_pixel_kernel = true;   // a free (else 0): the 3-tap pixel kernel
-  int pixel_subsamples = 3;       // F averaged over n x n points per pixel (its area; 1: s absorbs it)
+  int pixel_subsamples = 3;       // where two edges meet: F averaged over n x n points per pixel (its area)
   // AprilGrid tag corners (RefineTagCorner): the window keeps tag_margin_px from every other edge
   // of the printed pattern (the border cell's inner side, the next tag, a corner square's far
   // sides), whose blurred profile would otherwise leak into it; each arm runs along its edge for

@@ -129,8 +129,8 @@ int Run(int argc, char** argv) {
   start_sum.Print("start");
   refined_sum.Print("refined");
   const double n = std::max(refined_sum.corners, 1);
-  std::printf("refined %d kept %d; mean iterations %.1f, window radius %.1f px, blur %.2f px\n", stats.Refined(),
-              stats.Kept(), iterations / n, radius / n, blur / n);
+  std::printf("%s; mean iterations %.1f, window radius %.1f px, blur %.2f px\n", mfns::host::ToString(stats).c_str(),
+              iterations / n, radius / n, blur / n);
   std::printf("refinement CPU %.2f s (%.3f s per image)\n", cpu_s, cpu_s / std::max(refined_sum.images, 1));
   return 0;
 }
