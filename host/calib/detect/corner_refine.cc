@@ -804,6 +804,12 @@ double BivariateNormalCdf(double h, double k, double rho) {
   return PreparedRho(rho).Cdf(h, k);
 }
 
+PixelEdge PixelAveragedEdge(double d, double theta, double sigma) {
+  if (!(sigma > 0.0)) throw std::invalid_argument("PixelAveragedEdge: sigma must be > 0");
+  const BoxEdge b = BoxAveragedEdge(d, std::cos(theta), std::sin(theta), sigma, ErfcxTable());
+  return {b.e, b.e_d, b.e_sigma, b.e_theta};
+}
+
 CornerProfile BlurredCorner(double mu1, double mu2, double rho, CornerShape shape) {
   if (!(std::abs(rho) <= kMaxAbsRho)) throw std::invalid_argument("BlurredCorner: |rho| must be <= 0.95");
   return ShapeProfile(shape, PreparedRho(rho), mu1, mu2);

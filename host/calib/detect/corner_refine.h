@@ -166,4 +166,14 @@ struct CornerProfile {
 // shape kL: the L-corner's P_L instead of F.
 CornerProfile BlurredCorner(double mu1, double mu2, double rho, CornerShape shape = CornerShape::kX);
 
+// The pixel-area average of one blurred edge, exposed for tests: the mean of
+// Phi((d + cos(theta) x + sin(theta) y) / sigma) over the unit pixel x, y in [-1/2, 1/2] (d: the
+// pixel centre's signed distance from the edge, px; theta: the edge normal's angle; sigma > 0,
+// px) and its partial derivatives, theta's with d held. What the fit uses for a pixel near one
+// edge only.
+struct PixelEdge {
+  double value = 0.0, d_d = 0.0, d_sigma = 0.0, d_theta = 0.0;
+};
+PixelEdge PixelAveragedEdge(double d, double theta, double sigma);
+
 }  // namespace mfns::host
