@@ -233,10 +233,10 @@ double Taper(double rho_px, double r) {
   return 0.5 * (1.0 + std::cos(std::numbers::pi * (t - 0.6) / 0.4));
 }
 
-// The pixel's area: F is averaged over n x n points at the centres of n x n equal sub-squares.
+// Where two edges meet, the pixel's area: F is averaged over n x n points at the centres of n x n
+// equal sub-squares (with their variance added to s, Geometry).
 struct SubSamples {
   int n = 1, count = 1;
-  double reach = 0.0;  // largest distance of a point from the pixel centre (px)
   std::array<double, 64> dx{}, dy{};
   explicit SubSamples(int per_axis) {
     n = std::clamp(per_axis, 1, 8);
@@ -247,7 +247,6 @@ struct SubSamples {
         dy[static_cast<std::size_t>(count)] = (j + 0.5) / n - 0.5;
         ++count;
       }
-    reach = std::numbers::sqrt2 * (0.5 - 0.5 / n) + 1e-9;
   }
 };
 
@@ -265,7 +264,6 @@ struct Geometry {
   double s, inv_s;          // the edge blur of one-edge cells
   double inv_s_eff;         // 1 / s_eff of the sub-sampled cells
   double ds_eff_ds;         // d s_eff / d s
-  double far_px;  // a pixel centre this far from an edge has its whole area beyond kFar s_eff
   const Erfcx* erfcx = &ErfcxTable();
   Geometry(const Vec& p, const SubSamples& sub)
       : c1(std::cos(p[kTh1])), s1(std::sin(p[kTh1])), c2(std::cos(p[kTh2])), s2(std::sin(p[kTh2])),
@@ -273,7 +271,6 @@ struct Geometry {
     const double s_eff = std::sqrt(p[kS] * p[kS] + 1.0 / (12.0 * sub.n * sub.n));
     inv_s_eff = 1.0 / s_eff;
     ds_eff_ds = p[kS] / s_eff;
-    far_px = kFar * s_eff + 0.5 * std::numbers::sqrt2 + 1e-9;
   }
 };
 
