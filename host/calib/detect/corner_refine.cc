@@ -261,21 +261,17 @@ struct PixelProfile {
 // sub-square of variance 1 / (12 n^2) per axis, carried as extra blur: s_eff^2 = s^2 + 1 / (12 n^2).
 struct Geometry {
   double c1, s1, c2, s2, sin12;
-  double s, inv_s;          // the edge blur of one-edge cells
+  double s;                 // the edge blur of one-edge cells
   double inv_s_eff;         // 1 / s_eff of the sub-sampled cells
   double ds_eff_ds;         // d s_eff / d s
   const Erfcx* erfcx = &ErfcxTable();
   Geometry(const Vec& p, const SubSamples& sub)
       : c1(std::cos(p[kTh1])), s1(std::sin(p[kTh1])), c2(std::cos(p[kTh2])), s2(std::sin(p[kTh2])),
-        sin12(std::sin(p[kTh1] - p[kTh2])), s(p[kS]), inv_s(1.0 / p[kS]) {
+        sin12(std::sin(p[kTh1] - p[kTh2])), s(p[kS]) {
     const double s_eff = std::sqrt(p[kS] * p[kS] + 1.0 / (12.0 * sub.n * sub.n));
     inv_s_eff = 1.0 / s_eff;
     ds_eff_ds = p[kS] / s_eff;
   }
-};
-
-struct BoxEdge {
-  double e = 0, e_d = 0, e_sigma = 0, e_theta = 0;
 };
 
 // The unit pixel's average of Phi((d + cos(theta) x + sin(theta) y) / sigma) over x, y in
@@ -292,19 +288,19 @@ NormalCdfPdf TailNormal(double z, const Erfcx& erfcx) {
   return NormalBoth(z, erfcx);
 }
 
-BoxEdge BoxAveragedEdge(double d, double c, double sn, double sigma, const Erfcx& erfcx) {
+PixelEdge BoxAveragedEdge(double d, double c, double sn, double sigma, const Erfcx& erfcx) {
   const bool swap = std::abs(sn) > std::abs(c);  // alpha >= beta below
   const double alpha = swap ? std::abs(sn) : std::abs(c), beta = swap ? std::abs(c) : std::abs(sn);
   double e_alpha = 0.0, e_beta = 0.0;
-  BoxEdge b;
+  PixelEdge b;
   if (beta < 1e-4) {
-    const NormalCdfPdf np = TailNormal((d + 0.5 * alpha) / sigma, erfcx), nm = TailNormal((d - 0.5 * alpha) / sigma, erfcx);
     const double zp = (d + 0.5 * alpha) / sigma, zm = (d - 0.5 * alpha) / sigma;
+    const NormalCdfPdf np = TailNormal(zp, erfcx), nm = TailNormal(zm, erfcx);
     const double psi_p = zp * np.cdf + np.pdf, psi_m = zm * nm.cdf + nm.pdf;
-    b.e = sigma / alpha * (psi_p - psi_m);
-    b.e_d = (np.cdf - nm.cdf) / alpha;
-    b.e_sigma = (np.pdf - nm.pdf) / alpha;
-    e_alpha = -b.e / alpha + (np.cdf + nm.cdf) / (2.0 * alpha);
+    b.value = sigma / alpha * (psi_p - psi_m);
+    b.d_d = (np.cdf - nm.cdf) / alpha;
+    b.d_sigma = (np.pdf - nm.pdf) / alpha;
+    e_alpha = -b.value / alpha + (np.cdf + nm.cdf) / (2.0 * alpha);
   } else {
     double s2 = 0, s1 = 0, s0 = 0, s1_i = 0, s1_j = 0;
     for (int i = -1; i <= 1; i += 2)
@@ -320,15 +316,15 @@ BoxEdge BoxAveragedEdge(double d, double c, double sn, double sigma, const Erfcx
         s1_j += i * psi1;  // w * j
       }
     const double k = sigma / (alpha * beta);
-    b.e = k * sigma * s2;
-    b.e_d = k * s1;
-    b.e_sigma = k * s0;
-    e_alpha = -b.e / alpha + 0.5 * k * s1_i;
-    e_beta = -b.e / beta + 0.5 * k * s1_j;
+    b.value = k * sigma * s2;
+    b.d_d = k * s1;
+    b.d_sigma = k * s0;
+    e_alpha = -b.value / alpha + 0.5 * k * s1_i;
+    e_beta = -b.value / beta + 0.5 * k * s1_j;
   }
   // alpha = |cos| (or |sin| when swapped): d|cos|/dtheta = -sign(cos) sin, d|sin|/dtheta = sign(sin) cos.
   const double dabs_c = c >= 0.0 ? -sn : sn, dabs_s = sn >= 0.0 ? c : -c;
-  b.e_theta = swap ? e_alpha * dabs_s + e_beta * dabs_c : e_alpha * dabs_c + e_beta * dabs_s;
+  b.d_theta = swap ? e_alpha * dabs_s + e_beta * dabs_c : e_alpha * dabs_c + e_beta * dabs_s;
   return b;
 }
 
@@ -368,20 +364,20 @@ bool OneEdgeProfile(const Geometry& G, CornerShape shape, bool far2, double ex, 
     out->f = A + B * (d_near > 0.0 ? 1.0 : 0.0);
     return false;
   }
-  const BoxEdge b = BoxAveragedEdge(d_near, c, sn, G.s, *G.erfcx);
+  const PixelEdge b = BoxAveragedEdge(d_near, c, sn, G.s, *G.erfcx);
   const double bt = -sn * ex + c * ey;  // d d_near / d theta at the cell centre
-  out->f = A + B * b.e;
-  out->du = -B * b.e_d * c;
-  out->dv = -B * b.e_d * sn;
-  const double dth = B * (b.e_d * bt + b.e_theta);
+  out->f = A + B * b.value;
+  out->du = -B * b.d_d * c;
+  out->dv = -B * b.d_d * sn;
+  const double dth = B * (b.d_d * bt + b.d_theta);
   out->dth1 = far2 ? dth : 0.0;
   out->dth2 = far2 ? 0.0 : dth;
-  out->ds = B * b.e_sigma;
+  out->ds = B * b.d_sigma;
   return true;
 }
 
 // The cell's profile; false (and F = +-1, no derivatives) when the whole pixel is far from both
-// edges, as most of the window is: exactly what the sub-samples would give, for no work.
+// edges, as most of the window is.
 // kind: the cell's model (CellKind), fixed while the geometry stays near where it was chosen,
 // so that the cost is a smooth function of the parameters between re-classifications.
 bool Profile(const Vec& p, const Geometry& G, const PreparedRho& pr, const SubSamples& sub, CornerShape shape,
@@ -451,7 +447,9 @@ struct Scratch {
 // The cells' kinds at p, each with kClassMarginPx to spare: re-chosen when the corner has moved
 // by more than half the margin, an edge turned by more than 0.005 rad, or s_eff grew by 10 %.
 constexpr double kClassMarginPx = 0.3;
-void Classify(const Vec& p, const Geometry& G, const Window& win, const std::vector<char>& use, Scratch* scratch) {
+// Classified over win.reached, which holds the cells of both Accumulate modes.
+void Classify(const Vec& p, const Geometry& G, const Window& win, Scratch* scratch) {
+  const std::vector<char>& use = win.reached;
   const Vec& q = scratch->at;
   if (scratch->classified && std::hypot(p[kU] - q[kU], p[kV] - q[kV]) < 0.5 * kClassMarginPx &&
       std::abs(p[kTh1] - q[kTh1]) < 5e-3 && std::abs(p[kTh2] - q[kTh2]) < 5e-3 && p[kS] <= q[kS] * 1.1)
@@ -482,7 +480,7 @@ double Accumulate(const Vec& p, const Window& win, const SubSamples& sub, Corner
   const std::vector<char>& use = taps ? win.reached : win.needed;
   std::vector<PixelProfile>& cells = scratch->cells;
   std::vector<char>& edge = scratch->edge;
-  if (classify || !scratch->classified) Classify(p, G, win, win.reached, scratch);
+  if (classify || !scratch->classified) Classify(p, G, win, scratch);
   cells.resize(use.size());
   edge.resize(use.size());
   for (int iy = 0; iy < win.ny; ++iy)
@@ -653,9 +651,7 @@ CornerFit FitCorner(const Window& win, const Eigen::Vector2d& uv0, const Eigen::
 
   // Levenberg-Marquardt (Marquardt's diagonal scaling); free parameters per the options.
   const SubSamples sub(o.pixel_subsamples);
-  // The pixel's area blurs at least as a box of 1 px (variance 1/12 per axis); the sub-samples
-  // model part of it (variance (1 - 1/n^2) / 12), s must supply the rest. Below that bound a
-  // sharp edge along the pixel grid leaves s and the position undetermined.
+  // s's lower bound: kMinBlurPx says why.
   const double s_min = kMinBlurPx;
   std::array<bool, kNumParams> free{};
   free.fill(true);
@@ -803,8 +799,7 @@ double BivariateNormalCdf(double h, double k, double rho) {
 
 PixelEdge PixelAveragedEdge(double d, double theta, double sigma) {
   if (!(sigma > 0.0)) throw std::invalid_argument("PixelAveragedEdge: sigma must be > 0");
-  const BoxEdge b = BoxAveragedEdge(d, std::cos(theta), std::sin(theta), sigma, ErfcxTable());
-  return {b.e, b.e_d, b.e_sigma, b.e_theta};
+  return BoxAveragedEdge(d, std::cos(theta), std::sin(theta), sigma, ErfcxTable());
 }
 
 CornerProfile BlurredCorner(double mu1, double mu2, double rho, CornerShape shape) {
