@@ -2,7 +2,9 @@
 
 #include <unistd.h>
 
+#include <algorithm>
 #include <atomic>
+#include <bit>
 #include <cstdint>
 #include <cstdio>
 #include <filesystem>
@@ -141,18 +143,24 @@ cv::Mat DecodePgm(const std::string& bytes) {
   if (available > raster) throw PgmError("PGM: trailing bytes after the raster");
 
   cv::Mat image(static_cast<int>(height), static_cast<int>(width), wide ? CV_16UC1 : CV_8UC1);
-  const auto* src = reinterpret_cast<const unsigned char*>(bytes.data() + header.pos());
-  for (int v = 0; v < image.rows; ++v) {
-    for (int u = 0; u < image.cols; ++u) {
-      long sample = *src++;
-      if (wide) sample = (sample << 8) | *src++;
-      if (sample > maxval) throw PgmError("PGM: sample above maxval");
-      if (wide) {
-        image.at<std::uint16_t>(v, u) = static_cast<std::uint16_t>(sample);
-      } else {
-        image.at<unsigned char>(v, u) = static_cast<unsigned char>(sample);
-      }
-    }
+  // OpenCV's vectorized copies instead of a loop over samples (a calibration decodes ~1.3 Mpx
+  // per image; the per-sample loop cost ~16 instructions a pixel): the raster viewed in place
+  // (read only), 16-bit samples byte-swapped from big-endian by swapping the two channels of
+  // an 8-bit 2-channel view of the image, and maxval checked only when below the type's maximum.
+  static_assert(std::endian::native == std::endian::little);
+  auto* src = reinterpret_cast<unsigned char*>(const_cast<char*>(bytes.data() + header.pos()));
+  const cv::Mat samples(image.rows, image.cols, wide ? CV_8UC2 : CV_8UC1, src);
+  if (wide) {
+    cv::Mat swapped(image.rows, image.cols, CV_8UC2, image.data);
+    const int from_to[] = {0, 1, 1, 0};
+    cv::mixChannels(&samples, 1, &swapped, 1, from_to, 2);
+  } else {
+    samples.copyTo(image);
+  }
+  if (maxval < (wide ? 65535 : 255)) {
+    double hi = 0.0;
+    cv::minMaxLoc(image, nullptr, &hi);
+    if (hi > static_cast<double>(maxval)) throw PgmError("PGM: sample above maxval");
   }
   return image;
 }
@@ -160,11 +168,29 @@ cv::Mat DecodePgm(const std::string& bytes) {
 cv::Mat ReadPgm(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
   if (!in) throw PgmError("PGM: cannot open " + path);
-  std::ostringstream buffer;
-  buffer << in.rdbuf();
-  if (in.bad()) throw PgmError("PGM: cannot read " + path);
+  // One read into a buffer of the file's size (a stream copy and its str() cost two more
+  // copies of every image); a file whose size cannot be told (a pipe) is read as a stream.
+  std::string bytes;
+  std::error_code ec;
+  const bool regular = std::filesystem::is_regular_file(path, ec);
+  const std::streamoff size = regular ? static_cast<std::streamoff>(in.seekg(0, std::ios::end).tellg()) : -1;
+  // The largest valid file: 16-bit samples at kMaxPixels and a header of comments.
+  if (size > static_cast<std::streamoff>(2 * kMaxPixels + (1L << 20)))
+    throw PgmError("PGM: file too large (" + path + ")");
+  if (size >= 0 && in) {
+    in.seekg(0, std::ios::beg);
+    bytes.resize(static_cast<std::size_t>(size));
+    in.read(bytes.data(), size);
+    if (in.gcount() != size) throw PgmError("PGM: cannot read " + path);
+  } else {
+    in.clear();
+    std::ostringstream buffer;
+    buffer << in.rdbuf();
+    if (in.bad()) throw PgmError("PGM: cannot read " + path);
+    bytes = buffer.str();
+  }
   try {
-    return DecodePgm(buffer.str());
+    return DecodePgm(bytes);
   } catch (const PgmError& e) {
     throw PgmError(std::string(e.what()) + " (" + path + ")");
   }

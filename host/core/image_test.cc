@@ -129,6 +129,7 @@ TEST_F(PgmTest, RejectsMalformedFiles) {
       "P5\n99999999999 2\n255\n",                    // absurd width
       "P5\n70000 70000\n255\n",                      // over the pixel limit
       "P5\n2 2\n65535\n" + good_raster,              // 16-bit raster too short
+      std::string("P5\n2 1\n1000\n\x03\xE8\x03\xE9", 16), // 16-bit: the last sample 1001 above maxval 1000
   };
   int i = 0;
   for (const std::string& bytes : cases) {
@@ -137,6 +138,7 @@ TEST_F(PgmTest, RejectsMalformedFiles) {
     EXPECT_THROW(ReadPgm(path), PgmError) << "case " << i - 1;
   }
   EXPECT_THROW(ReadPgm(Path("missing.pgm")), PgmError);
+  EXPECT_THROW(ReadPgm(dir_.string()), PgmError);  // a directory: no size to trust
 }
 
 TEST_F(PgmTest, RefusesToWriteOtherTypesOrToAMissingDirectory) {

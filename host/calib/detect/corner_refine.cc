@@ -288,45 +288,127 @@ NormalCdfPdf TailNormal(double z, const Erfcx& erfcx) {
   return NormalBoth(z, erfcx);
 }
 
-PixelEdge BoxAveragedEdge(double d, double c, double sn, double sigma, const Erfcx& erfcx) {
-  const bool swap = std::abs(sn) > std::abs(c);  // alpha >= beta below
-  const double alpha = swap ? std::abs(sn) : std::abs(c), beta = swap ? std::abs(c) : std::abs(sn);
-  double e_alpha = 0.0, e_beta = 0.0;
-  PixelEdge b;
-  if (beta < 1e-4) {
-    const double zp = (d + 0.5 * alpha) / sigma, zm = (d - 0.5 * alpha) / sigma;
-    const NormalCdfPdf np = TailNormal(zp, erfcx), nm = TailNormal(zm, erfcx);
-    const double psi_p = zp * np.cdf + np.pdf, psi_m = zm * nm.cdf + nm.pdf;
-    b.value = sigma / alpha * (psi_p - psi_m);
-    b.d_d = (np.cdf - nm.cdf) / alpha;
-    b.d_sigma = (np.pdf - nm.pdf) / alpha;
-    e_alpha = -b.value / alpha + (np.cdf + nm.cdf) / (2.0 * alpha);
-  } else {
-    double s2 = 0, s1 = 0, s0 = 0, s1_i = 0, s1_j = 0;
-    for (int i = -1; i <= 1; i += 2)
-      for (int j = -1; j <= 1; j += 2) {
-        const double z = (d + 0.5 * i * alpha + 0.5 * j * beta) / sigma;
-        const NormalCdfPdf n = TailNormal(z, erfcx);
-        const double psi1 = z * n.cdf + n.pdf, psi2 = 0.5 * ((z * z + 1.0) * n.cdf + z * n.pdf);
-        const double w = i * j;
-        s2 += w * psi2;
-        s1 += w * psi1;
-        s0 += w * n.cdf;
-        s1_i += j * psi1;  // w * i
-        s1_j += i * psi1;  // w * j
-      }
-    const double k = sigma / (alpha * beta);
-    b.value = k * sigma * s2;
-    b.d_d = k * s1;
-    b.d_sigma = k * s0;
-    e_alpha = -b.value / alpha + 0.5 * k * s1_i;
-    e_beta = -b.value / beta + 0.5 * k * s1_j;
-  }
-  // alpha = |cos| (or |sin| when swapped): d|cos|/dtheta = -sign(cos) sin, d|sin|/dtheta = sign(sin) cos.
+// The terms of one pixel corner z_ij in the sums below.
+struct EdgeCorner {
+  double cdf, psi1, psi2;
+};
+EdgeCorner CornerTerms(double z, const Erfcx& erfcx) {
+  const NormalCdfPdf n = TailNormal(z, erfcx);
+  return {n.cdf, z * n.cdf + n.pdf, 0.5 * ((z * z + 1.0) * n.cdf + z * n.pdf)};
+}
+
+// d alpha / d theta and d beta / d theta into d E / d theta (d held):
+// d|cos|/dtheta = -sign(cos) sin, d|sin|/dtheta = sign(sin) cos.
+double ThetaDerivative(bool swap, double c, double sn, double e_alpha, double e_beta) {
   const double dabs_c = c >= 0.0 ? -sn : sn, dabs_s = sn >= 0.0 ? c : -c;
-  b.d_theta = swap ? e_alpha * dabs_s + e_beta * dabs_c : e_alpha * dabs_c + e_beta * dabs_s;
+  return swap ? e_alpha * dabs_s + e_beta * dabs_c : e_alpha * dabs_c + e_beta * dabs_s;
+}
+
+// The sums over the pixel's corners, from the corners' terms v[2 xs + ys] at the pixel offsets
+// (x, y) = ((2 xs - 1) / 2, (2 ys - 1) / 2), i.e. at z = (d + c x + sn y) / sigma: corner (x, y)
+// is z_ij with i = sign(c) 2x, j = sign(sn) 2y (the roles swapped when alpha = |sn|). Needs
+// beta >= 1e-4 (BoxAveragedEdge).
+PixelEdge CombineCorners(const std::array<EdgeCorner, 4>& v, double c, double sn, double sigma) {
+  const bool swap = std::abs(sn) > std::abs(c);  // alpha >= beta
+  const double alpha = swap ? std::abs(sn) : std::abs(c), beta = swap ? std::abs(c) : std::abs(sn);
+  double p2 = 0, p1 = 0, p0 = 0, qx = 0, qy = 0;  // sums weighted by 4xy, 4xy, 4xy, 2x, 2y
+  for (int xs = 0; xs < 2; ++xs)
+    for (int ys = 0; ys < 2; ++ys) {
+      const EdgeCorner& t = v[static_cast<std::size_t>(2 * xs + ys)];
+      const double x = 2.0 * xs - 1.0, y = 2.0 * ys - 1.0;
+      p2 += x * y * t.psi2;
+      p1 += x * y * t.psi1;
+      p0 += x * y * t.cdf;
+      qx += x * t.psi1;
+      qy += y * t.psi1;
+    }
+  const double sc = c >= 0.0 ? 1.0 : -1.0, ss = sn >= 0.0 ? 1.0 : -1.0;
+  const double k = sigma / (alpha * beta), kij = k * sc * ss;  // i j = sign(c) sign(sn) 4xy
+  PixelEdge b;
+  b.value = kij * sigma * p2;
+  b.d_d = kij * p1;
+  b.d_sigma = kij * p0;
+  const double s1_i = swap ? sc * qx : ss * qy, s1_j = swap ? ss * qy : sc * qx;  // sum j Psi1, sum i Psi1
+  const double e_alpha = -b.value / alpha + 0.5 * k * s1_i;
+  const double e_beta = -b.value / beta + 0.5 * k * s1_j;
+  b.d_theta = ThetaDerivative(swap, c, sn, e_alpha, e_beta);
   return b;
 }
+
+// Whether the edge's normal (c, sn) is far enough from the pixel grid for CombineCorners.
+bool OffGrid(double c, double sn) { return std::min(std::abs(c), std::abs(sn)) >= 1e-4; }
+
+PixelEdge BoxAveragedEdge(double d, double c, double sn, double sigma, const Erfcx& erfcx) {
+  if (OffGrid(c, sn)) {
+    std::array<EdgeCorner, 4> v;
+    for (int xs = 0; xs < 2; ++xs)
+      for (int ys = 0; ys < 2; ++ys)
+        v[static_cast<std::size_t>(2 * xs + ys)] = CornerTerms((d + 0.5 * c * (2 * xs - 1) + 0.5 * sn * (2 * ys - 1)) / sigma, erfcx);
+    return CombineCorners(v, c, sn, sigma);
+  }
+  const bool swap = std::abs(sn) > std::abs(c);
+  const double alpha = swap ? std::abs(sn) : std::abs(c);
+  const double zp = (d + 0.5 * alpha) / sigma, zm = (d - 0.5 * alpha) / sigma;
+  const NormalCdfPdf np = TailNormal(zp, erfcx), nm = TailNormal(zm, erfcx);
+  const double psi_p = zp * np.cdf + np.pdf, psi_m = zm * nm.cdf + nm.pdf;
+  PixelEdge b;
+  b.value = sigma / alpha * (psi_p - psi_m);
+  b.d_d = (np.cdf - nm.cdf) / alpha;
+  b.d_sigma = (np.pdf - nm.pdf) / alpha;
+  const double e_alpha = -b.value / alpha + (np.cdf + nm.cdf) / (2.0 * alpha);
+  b.d_theta = ThetaDerivative(swap, c, sn, e_alpha, 0.0);
+  return b;
+}
+
+// The pixel-corner terms of one evaluation, per edge and vertex of the cell grid, each computed
+// once: neighbouring one-edge pixels share their corners (about 1.2 corners per pixel along an
+// edge's strip instead of 4, each a normal CDF and an exp).
+class CornerCache {
+ public:
+  // A new evaluation at p over win's grid: vertex (vx, vy) sits at cell (vx, vy)'s centre - 1/2.
+  void Start(const Window& win, const Vec& p) {
+    nx1_ = win.nx + 1;
+    const std::size_t n = static_cast<std::size_t>(nx1_) * static_cast<std::size_t>(win.ny + 1);
+    for (std::size_t e = 0; e < 2; ++e) {
+      if (stamp_[e].size() != n) {
+        stamp_[e].assign(n, 0);
+        terms_[e].resize(n);
+      }
+    }
+    ++generation_;
+    x0_ = win.dx0 - 0.5 - p[kU];
+    y0_ = win.dy0 - 0.5 - p[kV];
+  }
+  // Cell (ix, iy)'s pixel average of edge e (0: edge 1) with normal (c, sn), blur sigma.
+  PixelEdge Edge(std::size_t e, int ix, int iy, double c, double sn, double sigma, const Erfcx& erfcx) {
+    std::array<EdgeCorner, 4> v;
+    for (int xs = 0; xs < 2; ++xs)
+      for (int ys = 0; ys < 2; ++ys) v[static_cast<std::size_t>(2 * xs + ys)] = Vertex(e, ix + xs, iy + ys, c, sn, sigma, erfcx);
+    return CombineCorners(v, c, sn, sigma);
+  }
+
+ private:
+  const EdgeCorner& Vertex(std::size_t e, int vx, int vy, double c, double sn, double sigma, const Erfcx& erfcx) {
+    const std::size_t i = static_cast<std::size_t>(vy * nx1_ + vx);
+    EdgeCorner& t = terms_[e][i];
+    if (stamp_[e][i] != generation_) {
+      stamp_[e][i] = generation_;
+      t = CornerTerms((c * (x0_ + vx) + sn * (y0_ + vy)) / sigma, erfcx);
+    }
+    return t;
+  }
+  int nx1_ = 0;
+  unsigned generation_ = 0;
+  double x0_ = 0, y0_ = 0;
+  std::array<std::vector<EdgeCorner>, 2> terms_;
+  std::array<std::vector<unsigned>, 2> stamp_;
+};
+
+// A cell of the grid and the evaluation's corner cache.
+struct CellAt {
+  CornerCache* cache;
+  int ix, iy;
+};
 
 // The ideal corner's value far from both edges: +1 on the quadrants the shape marks, else -1.
 double FarSign(CornerShape shape, double d1, double d2) {
@@ -344,7 +426,7 @@ enum CellKind : char { kFarBoth = 0, kNear1, kNear2, kNearBoth };
 // A cell with its whole area far from one edge (edge 2 when far2, else edge 1): the other
 // edge's profile averaged exactly over the pixel, P = A + B Phi(d / s), or a constant (false).
 bool OneEdgeProfile(const Geometry& G, CornerShape shape, bool far2, double ex, double ey, double d1, double d2,
-                    PixelProfile* out) {
+                    const CellAt& cell, PixelProfile* out) {
   const double d_far = far2 ? d2 : d1, d_near = far2 ? d1 : d2;
   const double sg = d_far > 0.0 ? 1.0 : -1.0;
   double A = 0.0, B = 0.0;
@@ -364,7 +446,8 @@ bool OneEdgeProfile(const Geometry& G, CornerShape shape, bool far2, double ex, 
     out->f = A + B * (d_near > 0.0 ? 1.0 : 0.0);
     return false;
   }
-  const PixelEdge b = BoxAveragedEdge(d_near, c, sn, G.s, *G.erfcx);
+  const PixelEdge b = OffGrid(c, sn) ? cell.cache->Edge(far2 ? 0u : 1u, cell.ix, cell.iy, c, sn, G.s, *G.erfcx)
+                                     : BoxAveragedEdge(d_near, c, sn, G.s, *G.erfcx);
   const double bt = -sn * ex + c * ey;  // d d_near / d theta at the cell centre
   out->f = A + B * b.value;
   out->du = -B * b.d_d * c;
@@ -381,7 +464,7 @@ bool OneEdgeProfile(const Geometry& G, CornerShape shape, bool far2, double ex, 
 // kind: the cell's model (CellKind), fixed while the geometry stays near where it was chosen,
 // so that the cost is a smooth function of the parameters between re-classifications.
 bool Profile(const Vec& p, const Geometry& G, const PreparedRho& pr, const SubSamples& sub, CornerShape shape,
-             double cell_dx, double cell_dy, char kind, PixelProfile* out_profile) {
+             double cell_dx, double cell_dy, char kind, const CellAt& cell, PixelProfile* out_profile) {
   PixelProfile& out = *out_profile;
   out = PixelProfile{};
   const double ex_c = cell_dx - p[kU], ey_c = cell_dy - p[kV];
@@ -390,7 +473,7 @@ bool Profile(const Vec& p, const Geometry& G, const PreparedRho& pr, const SubSa
     out.f = FarSign(shape, d1c, d2c);
     return false;
   }
-  if (kind != kNearBoth) return OneEdgeProfile(G, shape, kind == kNear1, ex_c, ey_c, d1c, d2c, out_profile);
+  if (kind != kNearBoth) return OneEdgeProfile(G, shape, kind == kNear1, ex_c, ey_c, d1c, d2c, cell, out_profile);
   for (int n = 0; n < sub.count; ++n) {
     const double ex = ex_c + sub.dx[static_cast<std::size_t>(n)];
     const double ey = ey_c + sub.dy[static_cast<std::size_t>(n)];
@@ -439,6 +522,7 @@ struct Scratch {
   std::vector<PixelProfile> cells;
   std::vector<char> edge;  // the cell has derivatives (not far from both edges)
   std::vector<char> kind;  // CellKind, chosen at `at` with a margin
+  CornerCache corners;     // the one-edge cells' pixel corners at the current evaluation
   bool classified = false;
   int generation = 0;  // counts the classifications
   Vec at = Vec::Zero();
@@ -471,6 +555,23 @@ void Classify(const Vec& p, const Geometry& G, const Window& win, Scratch* scrat
     }
 }
 
+// H's rows (all of each: Accumulate reads the upper triangle).
+using HRows = std::array<std::array<double, kNumParams>, kNumParams>;
+
+// H += w J J^T and g += w r J over J's entries from kFirst on (0, or kM when only the levels,
+// the gradient and a act). Written out with full rows of a fixed length, which the compiler
+// vectorizes: the triangle's rows of varying length did not, and the 10 x 10 and 5 x 5 products
+// through Eigen's general path cost a tenth of the fit. These updates are ~30 % of the fit.
+template <int kFirst>
+void RankOne(double w, double r, const Vec& __restrict__ J, HRows* __restrict__ h, std::array<double, kNumParams>* __restrict__ g) {
+  for (std::size_t i = kFirst; i < static_cast<std::size_t>(kNumParams); ++i) {
+    const double wj = w * J[static_cast<Eigen::Index>(i)];
+    (*g)[i] += wj * r;
+    std::array<double, kNumParams>& row = (*h)[i];
+    for (std::size_t j = kFirst; j < static_cast<std::size_t>(kNumParams); ++j) row[j] += wj * J[static_cast<Eigen::Index>(j)];
+  }
+}
+
 // Weighted sum of squared residuals and the normal equations H, g at p.
 // With the 3-tap kernel, a pixel's profile is sum_kl w_k w_l F(cell + (k, l)), w = [a, 1 - 2a, a].
 double Accumulate(const Vec& p, const Window& win, const SubSamples& sub, CornerShape shape, bool taps,
@@ -483,18 +584,21 @@ double Accumulate(const Vec& p, const Window& win, const SubSamples& sub, Corner
   if (classify || !scratch->classified) Classify(p, G, win, scratch);
   cells.resize(use.size());
   edge.resize(use.size());
+  scratch->corners.Start(win, p);
   for (int iy = 0; iy < win.ny; ++iy)
     for (int ix = 0; ix < win.nx; ++ix) {
       const std::size_t c = static_cast<std::size_t>(iy * win.nx + ix);
-      if (use[c]) edge[c] = Profile(p, G, pr, sub, shape, win.dx0 + ix, win.dy0 + iy, scratch->kind[c], &cells[c]) ? 1 : 0;
+      if (use[c])
+        edge[c] = Profile(p, G, pr, sub, shape, win.dx0 + ix, win.dy0 + iy, scratch->kind[c], CellAt{&scratch->corners, ix, iy},
+                          &cells[c])
+                      ? 1
+                      : 0;
     }
   const double a = taps ? p[kA] : 0.0;
   const std::array<double, 3> w{a, 1.0 - 2.0 * a, a}, dw{1.0, -2.0, 1.0};
   double cost = 0.0;
   Vec J;
-  // The upper triangle of H, row by row, and g: rank-1 updates written out (the 10 x 10 and
-  // 5 x 5 products through Eigen's general path cost a tenth of the fit).
-  std::array<double, kNumParams*(kNumParams + 1) / 2> h{};
+  alignas(16) HRows h{};
   std::array<double, kNumParams> gg{};
   for (const Pixel& px : win.pixels) {
     PixelProfile f;
@@ -539,17 +643,15 @@ double Accumulate(const Vec& p, const Window& win, const SubSamples& sub, Corner
       J[kS] = lh * f.ds;
       first = 0;
     }
-    for (int i = first; i < kNumParams; ++i) {
-      const double wj = px.w * J[i];
-      gg[static_cast<std::size_t>(i)] += wj * r;
-      double* row = &h[static_cast<std::size_t>(i * kNumParams - i * (i - 1) / 2 - i)];
-      for (int j = i; j < kNumParams; ++j) row[j] += wj * J[j];
+    if (first == 0) {
+      RankOne<0>(px.w, r, J, &h, &gg);
+    } else {
+      RankOne<kM>(px.w, r, J, &h, &gg);
     }
   }
   for (int i = 0; i < kNumParams; ++i) {
     (*g)[i] = gg[static_cast<std::size_t>(i)];
-    for (int j = i; j < kNumParams; ++j)
-      (*H)(i, j) = (*H)(j, i) = h[static_cast<std::size_t>(i * kNumParams - i * (i - 1) / 2 - i + j)];
+    for (int j = i; j < kNumParams; ++j) (*H)(i, j) = (*H)(j, i) = h[static_cast<std::size_t>(i)][static_cast<std::size_t>(j)];
   }
   return cost;
 }
