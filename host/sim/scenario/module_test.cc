@@ -6,6 +6,7 @@
 
 #include "common/rotation/rotation.h"
 #include "host/sim/scenario/scenario.h"
+#include "host/sim/scenario/scenario_test_util.h"
 
 namespace mfns::host {
 namespace {
@@ -195,14 +196,6 @@ TEST(ModuleScenario, FacingFalseKeepsTheBeamsOutOfTheMapsOnly) {
   EXPECT_EQ(TruthMapRig(s).beacons_w[7], s.rig.beacons_w[7]);
 }
 
-std::string ErrorOf(const std::string& yaml) {
-  try {
-    ParseScenarioYaml(yaml, "s.yaml", ".");
-  } catch (const UserError& e) {
-    return e.what();
-  }
-  return "(no error)";
-}
 
 // Explicit maps keep working, and may carry facing as the rig file does.
 TEST(ModuleScenario, ExplicitBeaconsWithFacing) {
@@ -222,32 +215,32 @@ TEST(ModuleScenario, ExplicitBeaconsWithFacing) {
 
 TEST(ModuleScenario, ErrorsNameFileLineAndField) {
   const std::string cyl = "module: {shape: cylinder, diameter_mm: 4200, length_mm: 6000}\n";
-  EXPECT_EQ(ErrorOf("module: {shape: sphere}\n"), "s.yaml:1: module.shape: expected cylinder or box, got 'sphere'");
-  EXPECT_EQ(ErrorOf("module: {shape: box}\n"), "s.yaml:1: module: missing field 'size_mm'");
-  EXPECT_EQ(ErrorOf("module: {shape: box, size_mm: [1, 2]}\n"), "s.yaml:1: module.size_mm: expected 3 numbers, got 2");
-  EXPECT_EQ(ErrorOf("module: {shape: box, size_mm: [100, 2000, 2000]}\n"),
+  EXPECT_EQ(ScenarioErrorOf("module: {shape: sphere}\n"), "s.yaml:1: module.shape: expected cylinder or box, got 'sphere'");
+  EXPECT_EQ(ScenarioErrorOf("module: {shape: box}\n"), "s.yaml:1: module: missing field 'size_mm'");
+  EXPECT_EQ(ScenarioErrorOf("module: {shape: box, size_mm: [1, 2]}\n"), "s.yaml:1: module.size_mm: expected 3 numbers, got 2");
+  EXPECT_EQ(ScenarioErrorOf("module: {shape: box, size_mm: [100, 2000, 2000]}\n"),
             "s.yaml:1: module.size_mm: every side must be 500..200000");
-  EXPECT_EQ(ErrorOf("module: {shape: cylinder, diameter_mm: -1, length_mm: 6000}\n"),
+  EXPECT_EQ(ScenarioErrorOf("module: {shape: cylinder, diameter_mm: -1, length_mm: 6000}\n"),
             "s.yaml:1: module.diameter_mm: must be 500..50000");
-  EXPECT_EQ(ErrorOf("module: {shape: cylinder, diameter: 4200}\n"), "s.yaml:1: module: unknown field 'diameter'");
-  EXPECT_EQ(ErrorOf(cyl + "beacons: {count: 9}\n"),
+  EXPECT_EQ(ScenarioErrorOf("module: {shape: cylinder, diameter: 4200}\n"), "s.yaml:1: module: unknown field 'diameter'");
+  EXPECT_EQ(ScenarioErrorOf(cyl + "beacons: {count: 9}\n"),
             "s.yaml:2: beacons.count: must be 10.." + std::to_string(limits::kMaxBeacons));
-  EXPECT_EQ(ErrorOf(cyl + "beacons:\n  count: " + std::to_string(limits::kMaxBeacons + 1) + "\n"),
+  EXPECT_EQ(ScenarioErrorOf(cyl + "beacons:\n  count: " + std::to_string(limits::kMaxBeacons + 1) + "\n"),
             "s.yaml:3: beacons.count: must be 10.." + std::to_string(limits::kMaxBeacons));
-  EXPECT_EQ(ErrorOf(cyl + "beacons: {layout: spiral, count: 20}\n"),
+  EXPECT_EQ(ScenarioErrorOf(cyl + "beacons: {layout: spiral, count: 20}\n"),
             "s.yaml:2: beacons.layout: expected jittered-grid or random, got 'spiral'");
-  EXPECT_EQ(ErrorOf(cyl + "beacons: {count: 20, jitter: 0.7}\n"), "s.yaml:2: beacons.jitter: must be 0..0.5 (a fraction of the cell)");
-  EXPECT_EQ(ErrorOf(cyl + "beacons: {count: 20, half_angle_deg: 0}\n"), "s.yaml:2: beacons.half_angle_deg: must be in (0, 180]");
-  EXPECT_EQ(ErrorOf(cyl + "beacons: {count: 20, seed: -3}\n"), "s.yaml:2: beacons.seed: expected a non-negative integer");
-  EXPECT_EQ(ErrorOf(cyl + "beacons: {count: 20, facing: maybe}\n"), "s.yaml:2: beacons.facing: expected true or false");
-  EXPECT_EQ(ErrorOf(cyl + "beacons: {count: 20}\nbeacons_mm: [[0, 0, 0]]\n"),
+  EXPECT_EQ(ScenarioErrorOf(cyl + "beacons: {count: 20, jitter: 0.7}\n"), "s.yaml:2: beacons.jitter: must be 0..0.5 (a fraction of the cell)");
+  EXPECT_EQ(ScenarioErrorOf(cyl + "beacons: {count: 20, half_angle_deg: 0}\n"), "s.yaml:2: beacons.half_angle_deg: must be in (0, 180]");
+  EXPECT_EQ(ScenarioErrorOf(cyl + "beacons: {count: 20, seed: -3}\n"), "s.yaml:2: beacons.seed: expected a non-negative integer");
+  EXPECT_EQ(ScenarioErrorOf(cyl + "beacons: {count: 20, facing: maybe}\n"), "s.yaml:2: beacons.facing: expected true or false");
+  EXPECT_EQ(ScenarioErrorOf(cyl + "beacons: {count: 20}\nbeacons_mm: [[0, 0, 0]]\n"),
             "s.yaml:2: beacons: give beacons (generated) or beacons_mm, not both");
-  EXPECT_EQ(ErrorOf("beacons: {count: 20}\n"), "s.yaml:1: beacons: generated beacons need a module");
-  EXPECT_EQ(ErrorOf(cyl + "beacons: {count: 20}\nbeacon_facing: []\n"),
+  EXPECT_EQ(ScenarioErrorOf("beacons: {count: 20}\n"), "s.yaml:1: beacons: generated beacons need a module");
+  EXPECT_EQ(ScenarioErrorOf(cyl + "beacons: {count: 20}\nbeacon_facing: []\n"),
             "s.yaml:3: beacon_facing: generated beacons take their facing from beacons.half_angle_deg");
-  EXPECT_EQ(ErrorOf("beacons_mm: [[1000, 0, 0]]\nbeacon_facing: [[1, 0, 0, 60], [1, 0, 0, 60]]\n"),
+  EXPECT_EQ(ScenarioErrorOf("beacons_mm: [[1000, 0, 0]]\nbeacon_facing: [[1, 0, 0, 60], [1, 0, 0, 60]]\n"),
             "s.yaml:2: beacon_facing: expected 1 entries (one per beacon), got 2");
-  EXPECT_EQ(ErrorOf("beacons_mm: [[1000, 0, 0]]\nbeacon_facing: [[1, 0, 0, 200]]\n"),
+  EXPECT_EQ(ScenarioErrorOf("beacons_mm: [[1000, 0, 0]]\nbeacon_facing: [[1, 0, 0, 200]]\n"),
             "s.yaml:2: beacon_facing[0]: half-angle must be in (0, 180] deg");
 }
 

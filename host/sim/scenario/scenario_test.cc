@@ -4,6 +4,7 @@
 
 #include "common/rig/paper_rig.h"
 #include "common/rotation/rotation.h"
+#include "host/sim/scenario/scenario_test_util.h"
 
 namespace mfns::host {
 namespace {
@@ -95,29 +96,21 @@ TEST(Scenario, FreeFlightStaysInsideTheModule) {
   for (const FrameTruth& f : SimulateTrajectory(s)) EXPECT_LT(f.pose.r_w_wb.cwiseAbs().maxCoeff(), 0.6);
 }
 
-std::string ErrorOf(const std::string& yaml) {
-  try {
-    ParseScenarioYaml(yaml, "s.yaml", ".");
-  } catch (const UserError& e) {
-    return e.what();
-  }
-  return "(no error)";
-}
 
 TEST(Scenario, ErrorsNameTheField) {
-  EXPECT_EQ(ErrorOf("frame_rate: 10\n"), "s.yaml:1: unknown field 'frame_rate'");
-  EXPECT_EQ(ErrorOf("frames: 0\n"), "s.yaml:1: frames: must be 1..1000000");
-  EXPECT_EQ(ErrorOf("trajectory: {kind: spin}\n"), "s.yaml:1: trajectory.kind: expected static, turntable, free-flight or wander, got 'spin'");
-  EXPECT_EQ(ErrorOf("errors:\n  beacon_map: {sigma_mm: -1}\n"), "s.yaml:2: errors.beacon_map.sigma_mm: must not be negative");
-  EXPECT_EQ(ErrorOf("clutter: {stop_camera: w}\n"), "s.yaml:1: clutter.stop_camera: no camera named 'w' in the rig");
-  EXPECT_EQ(ErrorOf("rig: missing.yaml\n"), "s.yaml:1: rig: ./missing.yaml: no such file");
+  EXPECT_EQ(ScenarioErrorOf("frame_rate: 10\n"), "s.yaml:1: unknown field 'frame_rate'");
+  EXPECT_EQ(ScenarioErrorOf("frames: 0\n"), "s.yaml:1: frames: must be 1..1000000");
+  EXPECT_EQ(ScenarioErrorOf("trajectory: {kind: spin}\n"), "s.yaml:1: trajectory.kind: expected static, turntable, free-flight or wander, got 'spin'");
+  EXPECT_EQ(ScenarioErrorOf("errors:\n  beacon_map: {sigma_mm: -1}\n"), "s.yaml:2: errors.beacon_map.sigma_mm: must not be negative");
+  EXPECT_EQ(ScenarioErrorOf("clutter: {stop_camera: w}\n"), "s.yaml:1: clutter.stop_camera: no camera named 'w' in the rig");
+  EXPECT_EQ(ScenarioErrorOf("rig: missing.yaml\n"), "s.yaml:1: rig: ./missing.yaml: no such file");
 }
 
 // Issue 14, defect 10: a key that is a list, or a t0_ns that is not an integer, is named with
 // the file and the line (yaml-cpp's "bad conversion", or a silent default, before).
 TEST(Scenario, WrongNodeTypesNameTheField) {
-  EXPECT_EQ(ErrorOf("? [a, b]\n: 1\n"), "s.yaml:1: a key must be a name, not a list or a map");
-  EXPECT_EQ(ErrorOf("t0_ns: soon\n"), "s.yaml:1: t0_ns: expected a non-negative integer");
+  EXPECT_EQ(ScenarioErrorOf("? [a, b]\n: 1\n"), "s.yaml:1: a key must be a name, not a list or a map");
+  EXPECT_EQ(ScenarioErrorOf("t0_ns: soon\n"), "s.yaml:1: t0_ns: expected a non-negative integer");
 }
 
 // Issue 14, defect 10: a calibration session (target:) needs no beacons, so its rig may be a
@@ -139,9 +132,9 @@ TEST(Scenario, CalibrationScenariosNeedNoBeacons) {
 // Found by scenario_yaml_fuzz (issue 14 item 2): a scenario's own beacons_mm passed unchecked (a
 // beacon 5.9 km out made a rig that ValidateRig refuses); now checked like a rig file's.
 TEST(Scenario, OwnBeaconsAreCheckedLikeARigFile) {
-  EXPECT_EQ(ErrorOf("beacons_mm: [[0, 0, 1000], [-5910000, 0, 0], [0, 100, 1000]]\n"),
+  EXPECT_EQ(ScenarioErrorOf("beacons_mm: [[0, 0, 1000], [-5910000, 0, 0], [0, 100, 1000]]\n"),
             "s.yaml:1: beacons_mm[1]: beacon position outside +-1e6 mm (1 km) of the world origin");
-  EXPECT_EQ(ErrorOf("beacons_mm: [[0, 0, 1000], [0, 0, 1000.5], [0, 100, 1000]]\n").rfind("s.yaml:1: beacons_mm[1]: same position as beacons_mm[0]", 0), 0u);
+  EXPECT_EQ(ScenarioErrorOf("beacons_mm: [[0, 0, 1000], [0, 0, 1000.5], [0, 100, 1000]]\n").rfind("s.yaml:1: beacons_mm[1]: same position as beacons_mm[0]", 0), 0u);
 }
 
 }  // namespace

@@ -7,6 +7,7 @@
 
 #include "common/rotation/rotation.h"
 #include "host/sim/scenario/scenario.h"
+#include "host/sim/scenario/scenario_test_util.h"
 
 namespace mfns::host {
 namespace {
@@ -120,23 +121,15 @@ TEST(Wander, ScenarioSeedMovesTheTrajectoryNotAPinnedMap) {
   for (const FrameTruth& f : fs) EXPECT_GE(WallClearance(s.module, f.pose.r_w_wb), 0.4);
 }
 
-std::string ErrorOf(const std::string& yaml) {
-  try {
-    ParseScenarioYaml(yaml, "s.yaml", ".");
-  } catch (const UserError& e) {
-    return e.what();
-  }
-  return "(no error)";
-}
 
 TEST(Wander, ErrorsNameTheField) {
   const std::string box = "module: {shape: box, size_mm: [2200, 2200, 5000]}\n";
-  EXPECT_EQ(ErrorOf("trajectory: {kind: wander}\n"), "s.yaml:1: trajectory.kind: wander needs a module (module: {shape: ...})");
-  EXPECT_EQ(ErrorOf(box + "trajectory: {kind: wander, max_speed_mm_s: 0}\n"),
+  EXPECT_EQ(ScenarioErrorOf("trajectory: {kind: wander}\n"), "s.yaml:1: trajectory.kind: wander needs a module (module: {shape: ...})");
+  EXPECT_EQ(ScenarioErrorOf(box + "trajectory: {kind: wander, max_speed_mm_s: 0}\n"),
             "s.yaml:2: trajectory.max_speed_mm_s: must be positive");
-  EXPECT_EQ(ErrorOf(box + "trajectory: {kind: wander, margin_mm: -5}\n"), "s.yaml:2: trajectory.margin_mm: must not be negative");
-  EXPECT_EQ(ErrorOf(box + "trajectory: {kind: wander, speed: 3}\n"), "s.yaml:2: trajectory: unknown field 'speed'");
-  EXPECT_EQ(ErrorOf(box + "trajectory: {kind: wander, margin_mm: 1100}\n"),
+  EXPECT_EQ(ScenarioErrorOf(box + "trajectory: {kind: wander, margin_mm: -5}\n"), "s.yaml:2: trajectory.margin_mm: must not be negative");
+  EXPECT_EQ(ScenarioErrorOf(box + "trajectory: {kind: wander, speed: 3}\n"), "s.yaml:2: trajectory: unknown field 'speed'");
+  EXPECT_EQ(ScenarioErrorOf(box + "trajectory: {kind: wander, margin_mm: 1100}\n"),
             "s.yaml:2: trajectory: the module (2200 mm at its narrowest) has no room for 1145 mm (margin and steering band) on both sides");
 }
 
