@@ -208,8 +208,24 @@ RigCalibration CalibrateRig(CalibInput* in, const RigOptions& o) {
   return SolveRig(*in, st, o);
 }
 
+// A camera whose turntable images were all skipped has no mounting to solve for: the solvers
+// would leave C_k_b = I, r_b_bk = 0 with a zero sigma in a rig file that looks calibrated (seen on
+// a camera looking along -z_b whose turntable views missed the target). Refused, naming it.
+void RequireTurntableViews(const CalibInput& in, RigMethod method) {
+  const std::size_t needed = method == RigMethod::kOpenCvHandEye ? 3 : 1;  // opencv-handeye: per camera
+  for (std::size_t k = 0; k < in.cameras.size(); ++k) {
+    std::size_t n = 0;
+    for (const ViewObservation& v : in.views) n += v.camera == static_cast<int>(k) && v.kind == ImageKind::kTurntable ? 1 : 0;
+    if (n < needed)
+      throw UserError("camera " + in.cameras[k].name + ": " + std::to_string(n) + " usable turntable images (" +
+                      std::to_string(needed) + " needed), so its mounting C_k_b, r_b_bk cannot be calibrated: " +
+                      "retake them with the target in view, or calibrate its intrinsics alone (mfns-calib intrinsics)");
+  }
+}
+
 RigCalibration SolveRig(const CalibInput& input, const IntrinsicsStage& st, const RigOptions& o) {
   const CalibInput* in = &input;
+  RequireTurntableViews(input, o.method);
   RigCalibration rig;
   const std::vector<HandEyeView> hv = TurntableViews(*in, st.view_T_w_k);
   switch (o.method) {

@@ -16,6 +16,7 @@
 #include "host/calib/report/compare.h"
 #include "host/testing/synth_calib.h"
 #include "host/calib/app/calib_test_util.h"
+#include "host/util/user_error.h"
 
 namespace mfns::host {
 namespace {
@@ -39,6 +40,34 @@ TEST(PrepareViews, CollinearViewIsSkippedWithTheReason) {
   ASSERT_EQ(in.skipped.size(), 1u);
   EXPECT_EQ(in.skipped[0].image, image);
   EXPECT_NE(in.skipped[0].reason.find("nearly on a line"), std::string::npos) << in.skipped[0].reason;
+}
+
+// A camera whose turntable images are all unusable (a camera facing away from the target when
+// the turntable turns) cannot have its mounting calibrated: the rig is refused with a one-line
+// error naming it, for every method, instead of a rig file with C_k_b = I, r_b_bk = 0 and a zero
+// sigma. Its free images alone still calibrate its intrinsics (PrepareViews passes).
+TEST(SolveRig, ACameraWithoutTurntableImagesIsRefusedByName) {
+  SynthOptions so;
+  so.seed = 4;
+  so.turntable_images = 5;
+  so.free_images = 4;
+  CalibInput in = SynthCorners(MakeSynthScene(so), 0.1, 4);
+  ASSERT_GE(in.cameras.size(), 2u);
+  const std::string name = in.cameras[1].name;
+  std::erase_if(in.views, [](const ViewObservation& v) { return v.camera == 1 && v.kind == ImageKind::kTurntable; });
+  const IntrinsicsStage st = PrepareViews(&in, RigOptions{});
+  for (const RigMethod m : {RigMethod::kMl, RigMethod::kPaper, RigMethod::kOpenCvHandEye}) {
+    RigOptions ro;
+    ro.method = m;
+    try {
+      SolveRig(in, st, ro);
+      ADD_FAILURE() << "method " << static_cast<int>(m) << ": no error";
+    } catch (const UserError& e) {
+      const std::string what = e.what();
+      EXPECT_EQ(what.rfind("camera " + name + ": 0 usable turntable images", 0), 0u) << what;
+      EXPECT_EQ(what.find('\n'), std::string::npos) << what;
+    }
+  }
 }
 
 // Fast version (every preset, also host-asan) of calib_slow_test's 20-seed statistics: over
