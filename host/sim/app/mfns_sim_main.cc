@@ -58,6 +58,7 @@ void RunCommand(const SimCommandLine& cl) {
     opt.threads = cl.threads;
     const CalibDatasetSummary sum = WriteCalibDataset(s, text, opt);
     std::printf("calibration images %d, with the whole target in view %d\n", sum.images, sum.complete);
+    for (const std::string& w : TurntableWarnings(s, sum)) std::fprintf(stderr, "mfns-sim: warning: %s\n", w.c_str());
   }
   if (c == "compare") std::fputs(FormatCompare(ComparePoses(cl.compare_dir, cl.compare_poses)).c_str(), stdout);
   if (c == "preset") {

@@ -253,6 +253,8 @@ CalibDatasetSummary WriteCalibDataset(const Scenario& s, const std::string& scen
         << "\nturntable_angle_sigma_arcsec: "
         << Num(s.errors.turntable_angle ? RadToDeg(s.errors.turntable_angle_sigma) * 3600.0 : 0.0) << "\nimages:\n";
   CalibDatasetSummary sum;
+  sum.turntable_images.assign(static_cast<std::size_t>(s.rig.num_cameras), 0);
+  sum.turntable_complete.assign(static_cast<std::size_t>(s.rig.num_cameras), 0);
   for (std::size_t i = 0; i < plans.size(); ++i) {
     const ImagePlan& p = plans[i];
     const char* name = s.rig.cameras[static_cast<std::size_t>(p.camera)].name.data();
@@ -261,6 +263,8 @@ CalibDatasetSummary WriteCalibDataset(const Scenario& s, const std::string& scen
       truth << "  - {camera: " << name << ", image: \"" << Stem(p.index) << "\", kind: free, C_k_w: " << Mat9(p.pose.C_k_w)
             << ", r_w_wk_mm: " << Vec3Mm(p.pose.r_w_wk) << "}\n";
     } else {
+      ++sum.turntable_images[static_cast<std::size_t>(p.camera)];
+      sum.turntable_complete[static_cast<std::size_t>(p.camera)] += complete[i];
       images << name << ',' << Stem(p.index) << ",turntable," << Num(RadToDeg(p.main_cmd)) << ','
              << Num(RadToDeg(p.aux_cmd)) << '\n';
       truth << "  - {camera: " << name << ", image: \"" << Stem(p.index)
@@ -278,6 +282,18 @@ CalibDatasetSummary WriteCalibDataset(const Scenario& s, const std::string& scen
   WriteRigYaml(dir / "truth-rig.yaml", s.rig);
   WriteFileAtomic(dir / "scenario.yaml", scenario_text);
   return sum;
+}
+
+std::vector<std::string> TurntableWarnings(const Scenario& s, const CalibDatasetSummary& sum) {
+  std::vector<std::string> out;
+  for (std::size_t k = 0; k < sum.turntable_images.size() && k < sum.turntable_complete.size(); ++k) {
+    if (sum.turntable_images[k] == 0 || sum.turntable_complete[k] > 0) continue;
+    out.push_back("camera " + std::string(s.rig.cameras[k].name.data()) + ": none of its " +
+                  std::to_string(sum.turntable_images[k]) +
+                  " turntable images shows the whole target: the turntable cannot turn it to face the target "
+                  "with this mount (turntable: C_p_b), and mfns-calib rig will refuse the camera");
+  }
+  return out;
 }
 
 }  // namespace mfns::host

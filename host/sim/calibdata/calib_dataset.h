@@ -14,6 +14,7 @@
 
 #include <filesystem>
 #include <string>
+#include <vector>
 
 #include "host/sim/scenario/scenario.h"
 
@@ -28,7 +29,15 @@ struct CalibDatasetOptions {
 struct CalibDatasetSummary {
   int images = 0;
   int complete = 0;  // images in which every target corner is visible
+  // Per camera (the rig's order): its turntable images, and those with every corner visible. A
+  // camera with none cannot have its mounting calibrated (mfns-calib rig refuses it): the
+  // turntable cannot turn it to face the target with the scenario's mount (turntable: C_p_b).
+  std::vector<int> turntable_images, turntable_complete;
 };
+
+// The warnings for a summary: one line per camera whose turntable images never show the whole
+// target (names from the scenario's rig); empty when every camera has at least one.
+std::vector<std::string> TurntableWarnings(const Scenario& s, const CalibDatasetSummary& sum);
 
 // Throws UserError when the scenario has no target or on I/O failure.
 CalibDatasetSummary WriteCalibDataset(const Scenario& s, const std::string& scenario_text,

@@ -49,6 +49,31 @@ TEST(CalibDataset, ARigWithoutBeaconsIsEnough) {
   std::filesystem::remove_all(dir);
 }
 
+// A camera the turntable cannot turn towards the target (one looking along -z_b with the paper's
+// mount; seen on a user rig) gets a warning naming it: its turntable images never show the
+// whole target, so mfns-calib rig would refuse it. The paper rig's cameras get none.
+TEST(CalibDataset, ACameraTheTurntableCannotFaceToTheTargetIsNamed) {
+  const auto dir = TempDir();
+  CalibDatasetOptions opt;
+  opt.out_dir = dir;
+  opt.progress = false;
+  Scenario s = SmallSession(false);
+  s.calibration.free_images = 1;
+  const CalibDatasetSummary good = WriteCalibDataset(s, "", opt);
+  ASSERT_EQ(good.turntable_complete.size(), static_cast<std::size_t>(s.rig.num_cameras));
+  for (int k = 0; k < s.rig.num_cameras; ++k) EXPECT_EQ(good.turntable_images[static_cast<std::size_t>(k)], 3);
+  EXPECT_TRUE(TurntableWarnings(s, good).empty());
+  RigCamera& cam = s.rig.cameras[2];
+  cam.C_k_b << 1, 0, 0, 0, -1, 0, 0, 0, -1;  // along -z_b
+  const CalibDatasetSummary bad = WriteCalibDataset(s, "", opt);
+  EXPECT_EQ(bad.turntable_complete[2], 0);
+  EXPECT_GT(bad.turntable_complete[0], 0);
+  const std::vector<std::string> w = TurntableWarnings(s, bad);
+  ASSERT_EQ(w.size(), 1u);
+  EXPECT_EQ(w[0].rfind("camera " + std::string(cam.name.data()) + ": none of its 3 turntable images", 0), 0u) << w[0];
+  std::filesystem::remove_all(dir);
+}
+
 // Every turntable image's corners follow from the truth files alone: the turntable pose from
 // the true angles, the rig from truth-rig.yaml, the corner from the target definition.
 TEST(CalibDataset, TruthChainIsConsistent) {
