@@ -47,11 +47,7 @@ TEST(PrepareViews, CollinearViewIsSkippedWithTheReason) {
 // error naming it, for every method, instead of a rig file with C_k_b = I, r_b_bk = 0 and a zero
 // sigma. Its free images alone still calibrate its intrinsics (PrepareViews passes).
 TEST(SolveRig, ACameraWithoutTurntableImagesIsRefusedByName) {
-  SynthOptions so;
-  so.seed = 4;
-  so.turntable_images = 5;
-  so.free_images = 4;
-  CalibInput in = SynthCorners(MakeSynthScene(so), 0.1, 4);
+  CalibInput in = SynthCorners(MakeSynthScene({.seed = 4, .turntable_images = 5, .free_images = 4}), 0.1, 4);
   ASSERT_GE(in.cameras.size(), 2u);
   const std::string name = in.cameras[1].name;
   std::erase_if(in.views, [](const ViewObservation& v) { return v.camera == 1 && v.kind == ImageKind::kTurntable; });
