@@ -211,11 +211,10 @@ RigCalibration CalibrateRig(CalibInput* in, const RigOptions& o) {
 // A camera whose turntable images were all skipped has no mounting to solve for: the solvers
 // would leave C_k_b = I, r_b_bk = 0 with a zero sigma in a rig file that looks calibrated (seen on
 // a camera looking along -z_b whose turntable views missed the target). Refused, naming it.
-void RequireTurntableViews(const CalibInput& in, RigMethod method) {
+void RequireTurntableViews(const CalibInput& in, const IntrinsicsStage& st, RigMethod method) {
   const std::size_t needed = method == RigMethod::kOpenCvHandEye ? 3 : 1;  // opencv-handeye: per camera
   for (std::size_t k = 0; k < in.cameras.size(); ++k) {
-    std::size_t n = 0;
-    for (const ViewObservation& v : in.views) n += v.camera == static_cast<int>(k) && v.kind == ImageKind::kTurntable ? 1 : 0;
+    const std::size_t n = TurntableViews(in, st.view_T_w_k, static_cast<int>(k)).size();
     if (n < needed)
       throw UserError("camera " + in.cameras[k].name + ": " + std::to_string(n) + " usable turntable images (" +
                       std::to_string(needed) + " needed), so its mounting C_k_b, r_b_bk cannot be calibrated: " +
@@ -225,7 +224,7 @@ void RequireTurntableViews(const CalibInput& in, RigMethod method) {
 
 RigCalibration SolveRig(const CalibInput& input, const IntrinsicsStage& st, const RigOptions& o) {
   const CalibInput* in = &input;
-  RequireTurntableViews(input, o.method);
+  RequireTurntableViews(input, st, o.method);
   RigCalibration rig;
   const std::vector<HandEyeView> hv = TurntableViews(*in, st.view_T_w_k);
   switch (o.method) {
@@ -279,8 +278,7 @@ RigCalibration SolveRig(const CalibInput& input, const IntrinsicsStage& st, cons
       all.r_b_bk.assign(in->cameras.size(), Eigen::Vector3d::Zero());
       std::size_t most = 0;
       for (std::size_t k = 0; k < in->cameras.size(); ++k) {
-        const std::vector<HandEyeView> one = TurntableViews(*in, st.view_T_w_k, static_cast<int>(k));
-        if (one.size() < 3) continue;
+        const std::vector<HandEyeView> one = TurntableViews(*in, st.view_T_w_k, static_cast<int>(k));  // >= 3
         const HandEyeResult he = SolveHandEyeOpenCv(one, static_cast<int>(in->cameras.size()), in->C_p_b, in->r_p_pb);
         all.C_k_b[k] = he.C_k_b[k];
         all.r_b_bk[k] = he.r_b_bk[k];
