@@ -30,7 +30,8 @@
 //    also score best among all consistent poses of the frame set (else the chain restarts).
 //    Within max_seed_s of the last accepted pose, the prediction seeds the chain with its
 //    bounds (after a gap too long for the gate), so that one frame set settles it, two more
-//    when reflections are in view (blobs the pose leaves unexplained). When nothing is
+//    when reflections are in view (blobs the pose leaves unexplained) and the pose rests on
+//    three beacons (on four or more, its residuals are tested instead). When nothing is
 //    consistent near the prediction, a lost-in-space fix on its own still counts. (The
 //    followed poses: Acquisition, acquisition.h; the tracker decides when one is accepted.)
 // 3. An accepted pose is reported as fix, or degraded (fewer than fix_min_beacons beacons,

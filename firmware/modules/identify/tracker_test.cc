@@ -389,6 +389,57 @@ TEST(TrackerTest, LargeMapStallIsBridgedBySeededSearch) {
   EXPECT_GT(cases, 0);
 }
 
+// After a stall longer than max_coast_s (0.5 s here; no frame from any camera), the last pose still seeds
+// re-identification (max_seed_s). With spots in view that no beacon explains, a seeded
+// survivor on three beacons waits min_acquire_frames frame sets (two beacons and a reflection
+// fit an exact pose); one on four beacons has residuals to test and is accepted from the first
+// list near the prediction. Four beacons in view (random 64-beacon cylinders, facing in the
+// map, 4 spots per frame set), so that no lost-in-space fix is confirmed on its own (that needs
+// five).
+TEST(TrackerTest, SeededSurvivorOnFourBeaconsIsAcceptedAtOnce) {
+  std::mt19937_64 rng(2812);
+  static Rig rig;
+  TrackOptions o;
+  o.max_coast_s = 0.5;  // so that a short stall, whose prediction bounds are narrow, is re-identified
+  const Eigen::Vector3d v_w(0.05, 0.0, 0.0), omega_b(0.0, 0.0, 0.05);  // 5 cm/s, 3 deg/s
+  constexpr int kGapFrom = 20, kGapTo = 44, kFrames = 60;               // a 0.8 s stall at 30 Hz
+  const auto pose_at = [&](const BodyPose& start, int f) {
+    const double t = static_cast<double>(f) * kFrameNs * 1e-9;
+    return BodyPose{start.C_w_b * ExpSO3(omega_b * t), start.r_w_wb + v_w * t};
+  };
+  int cases = 0;
+  for (int trial = 0; cases < testing::Trials(6, 3) && trial < 400; ++trial) {
+    rig = testing::RandomCylinderRig(64, true, &rng);
+    const BodyPose start = testing::RandomCylinderPose(&rng, 2.1, 6.0, 0.8);
+    bool four = true;  // four beacons in view before the stall and for 5 frame sets after it
+    for (int f : {0, kGapFrom - 1, kGapTo, kGapTo + 4}) {
+      testing::Observe(rig, pose_at(start, f), 0.1, &rng, &g_scene);
+      four = four && g_scene.NumVisibleBeacons() == 4;
+    }
+    if (!four) continue;
+    ++cases;
+    ASSERT_TRUE(g_tracker.Reset(rig));
+    g_tracker.SetPose(start, 0, 0.0, 0.0);
+    Sweep run;
+    int recovered = -1;
+    for (int f = 0; f < kFrames; ++f) {
+      testing::Observe(rig, pose_at(start, f), 0.1, &rng, &g_scene);
+      testing::AddSpurious(rig, 4, &rng, &g_scene);
+      const auto t_ns = static_cast<std::uint64_t>(f) * kFrameNs;
+      if (f >= kGapFrom && f < kGapTo) {
+        g_tracker.Track(g_scene.blobs.data(), 0, t_ns, o, &g_result, 0U);
+        continue;
+      }
+      Step(rig, g_scene, t_ns, o, &run);
+      if (f >= kGapTo && recovered < 0 && g_result.status != TrackStatus::kLost) recovered = f - kGapTo;
+    }
+    std::printf("trial %d: posed again %d frame sets after the stall (acquired %d)\n", trial, recovered, run.acquired);
+    EXPECT_EQ(run.wrong, 0);
+    EXPECT_EQ(recovered, 0) << "trial " << trial;
+  }
+  EXPECT_EQ(cases, testing::Trials(6, 3));
+}
+
 // After a gap with two beacons in view, a third comes into view with reflections flickering
 // beside the beacons (a new blob every frame set) and spots elsewhere: two beacons and a
 // reflection fit a pose exactly, centimetres from the truth, and two beacons and two
