@@ -63,6 +63,7 @@ bool NavLoop::Reload(const Rig& rig, std::uint64_t generation, const char** why)
   }
   BodyPose last;
   const bool had_pose = navigator_.LastPose(&last);
+  const bool verified = navigator_.LastVerified();
   const Rig* old = rig_;
   rig_ = &rig;
   const bool ok = navigator_.Init(rig, config_.navigator, why);
@@ -71,7 +72,7 @@ bool NavLoop::Reload(const Rig& rig, std::uint64_t generation, const char** why)
     navigator_.Init(*old, config_.navigator, nullptr);
   }
   // Either way the track goes on from the last pose.
-  if (had_pose) navigator_.SetInitialPose(last, config_.reload_sigma_m, config_.reload_sigma_rad);
+  if (had_pose) navigator_.SetInitialPose(last, config_.reload_sigma_m, config_.reload_sigma_rad, verified);
   if (ok) config_.param_generation = generation;
   return ok;
 }

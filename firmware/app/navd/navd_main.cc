@@ -158,6 +158,7 @@ int Run(int argc, char** argv) {
   config.initial_sigma_m = opt.initial_sigma_mm * 1e-3;
   config.initial_sigma_rad = DegToRad(opt.initial_sigma_deg);
   config.windowed_detection = opt.windowed_detection;
+  config.navigator.track.verify_three_beacons = !opt.three_beacon_fixes;
   auto loop = std::make_unique<NavLoop>(rig, source.get(), &trigger, &outputs, &log);
   const char* reason = nullptr;
   if (!loop->Configure(config, &reason)) {

@@ -29,7 +29,7 @@ bool HasMavlinkOutput(const NavdOptions& o) {
 enum : int {
   kParams = 1000, kRealtime, kSource, kDevice, kY16, kBuffers, kRate, kTrigger, kPulse, kOutput, kLog, kFrames, kTimeout,
   kDeadline, kSigma, kHealthEvery, kRetryEvery, kSetAside, kInitialPose, kInitialSigma, kPidFile, kQuiet, kHelp,
-  kMavlinkSysid, kMavlinkCompid, kMavlinkFrame, kNoWindowed
+  kMavlinkSysid, kMavlinkCompid, kMavlinkFrame, kNoWindowed, kThreeBeaconFixes
 };
 
 const option kLongOptions[] = {
@@ -50,6 +50,7 @@ const option kLongOptions[] = {
     {"mavlink-compid", required_argument, nullptr, kMavlinkCompid},
     {"mavlink-frame", required_argument, nullptr, kMavlinkFrame},
     {"no-windowed-detection", no_argument, nullptr, kNoWindowed},
+    {"three-beacon-fixes", no_argument, nullptr, kThreeBeaconFixes},
     {"realtime", no_argument, nullptr, kRealtime},         {"quiet", no_argument, nullptr, kQuiet},               {"help", no_argument, nullptr, kHelp},
     {nullptr, 0, nullptr, 0},
 };
@@ -149,6 +150,9 @@ const char* NavdUsage() {
          "  --realtime              replay: deliver each frame set at its recorded time, not as fast as read\n"
          "  --no-windowed-detection detect in full frames also while tracking (default: windows about the\n"
          "                          predicted beacons plus a stripe, docs/navd.md)\n"
+         "  --three-beacon-fixes    a track found on three beacons is a fix at once (default: degraded,\n"
+         "                          'unverified', until a pose on four; only where every steady light\n"
+         "                          the cameras see is a mapped beacon, docs/navd.md)\n"
          "  --help                  this text\n";
 }
 
@@ -293,6 +297,7 @@ OptionsStatus ParseNavdOptions(int argc, char** argv, NavdOptions* opt, char* wh
       case kQuiet: opt->quiet = true; break;
       case kRealtime: opt->realtime = true; break;
       case kNoWindowed: opt->windowed_detection = false; break;
+      case kThreeBeaconFixes: opt->three_beacon_fixes = true; break;
       case kHelp: opt->help = true; return OptionsStatus::kHelp;
       default: {
         const char* bad = (optind >= 1 && optind <= argc) ? argv[optind - 1] : "?";

@@ -55,6 +55,11 @@ TEST(NavdOptions, TheDesignCommandLine) {
   ASSERT_EQ(Parse({"--params", "p", "--source", "replay:d", "--no-windowed-detection"}, &off, &why), OptionsStatus::kOk)
       << why;
   EXPECT_FALSE(off.windowed_detection);
+  EXPECT_FALSE(o.three_beacon_fixes);  // session 28: three-beacon tracks unverified unless asked
+  NavdOptions lab;
+  ASSERT_EQ(Parse({"--params", "p", "--source", "replay:d", "--three-beacon-fixes"}, &lab, &why), OptionsStatus::kOk)
+      << why;
+  EXPECT_TRUE(lab.three_beacon_fixes);
 }
 
 // --initial-pose is in the poses CSV's terms: the pose it gives, logged, reads back the same

@@ -15,6 +15,7 @@ NavReason ToNavReason(TrackReason r) {
     case TrackReason::kFewBeacons: return NavReason::kFewBeacons;
     case TrackReason::kLargeResidual: return NavReason::kLargeResidual;
     case TrackReason::kLargeCovariance: return NavReason::kLargeCovariance;
+    case TrackReason::kUnverified: return NavReason::kUnverified;
     case TrackReason::kTooFewBlobs:
     case TrackReason::kTooFewBeacons: return NavReason::kTooFewBeacons;
     case TrackReason::kAcquiring: return NavReason::kAcquiring;
@@ -81,7 +82,7 @@ bool Navigator::Init(const Rig& rig, const NavigatorOptions& options, const char
 void Navigator::Step(const BlobObs* blobs, int num_blobs, std::uint64_t t_ns, std::uint32_t delivered,
                      bool cameras_down, NavOutput* out) {
   if (pending_pose_) {
-    tracker_.SetPose(initial_pose_, t_ns, initial_sigma_m_, initial_sigma_rad_);
+    tracker_.SetPose(initial_pose_, t_ns, initial_sigma_m_, initial_sigma_rad_, initial_verified_);
     pending_pose_ = false;
   }
   const TrackStatus s = tracker_.Track(blobs, num_blobs, t_ns, options_.track, &result_, delivered);
@@ -139,8 +140,9 @@ void Navigator::JudgeBeacons(const BlobObs* blobs, int num_blobs, std::uint32_t 
   }
 }
 
-void Navigator::SetInitialPose(const BodyPose& pose, double sigma_m, double sigma_rad) {
+void Navigator::SetInitialPose(const BodyPose& pose, double sigma_m, double sigma_rad, bool verified) {
   initial_pose_ = pose;
+  initial_verified_ = verified;
   initial_sigma_m_ = sigma_m;
   initial_sigma_rad_ = sigma_rad;
   pending_pose_ = true;

@@ -81,8 +81,10 @@ class Navigator {
   // its 1-sigma errors (m, rad): taken at the next Step, as of that frame set's time, so that
   // its first frame set with >= 3 beacons is a fix without the acquisition (tracker.h SetPose).
   // Init forgets a pending pose.
-  void SetInitialPose(const BodyPose& pose, double sigma_m, double sigma_rad);
+  void SetInitialPose(const BodyPose& pose, double sigma_m, double sigma_rad, bool verified = true);
   // The pose of the last Step, when it was not lost (fix or degraded).
+  // Whether the track of the last pose was verified (TrackOptions::verify_three_beacons).
+  bool LastVerified() const { return tracker_.verified(); }
   bool LastPose(BodyPose* pose) const;
   const TrackCounters& counters() const { return tracker_.counters(); }
   // The tracker's outcome of the last Step (diagnostics: lost-in-space status, followed poses).
@@ -101,6 +103,7 @@ class Navigator {
   bool pending_pose_ = false;
   BodyPose initial_pose_;
   double initial_sigma_m_ = 0.0, initial_sigma_rad_ = 0.0;
+  bool initial_verified_ = true;
   bool have_last_ = false;
   BodyPose last_pose_;
   double covariance_scale_ = 1.0;  // published covariance / the solve's (map error)

@@ -45,6 +45,7 @@ const char* ToString(TrackReason r) {
     case TrackReason::kFewBeacons: return "few beacons";
     case TrackReason::kLargeResidual: return "large residual";
     case TrackReason::kLargeCovariance: return "large covariance";
+    case TrackReason::kUnverified: return "unverified: three beacons only";
     case TrackReason::kTooFewBlobs: return "too few blobs";
     case TrackReason::kTooFewBeacons: return "too few beacons matched";
     case TrackReason::kAcquiring: return "acquiring: several poses explain the blobs";
@@ -73,6 +74,7 @@ bool Tracker::Reset(const Rig& rig) {
   prev_num_blobs_ = -1;
   has_pose_ = false;
   last_fix_ = false;
+  verified_ = given_seed_ = false;
   motion_.Forget();
   acquisition_.Clear();
   counters_ = TrackCounters{};
@@ -85,10 +87,12 @@ bool Tracker::Reset(const Rig& rig) {
   return true;
 }
 
-void Tracker::SetPose(const BodyPose& pose, std::uint64_t t_ns, double sigma_m, double sigma_rad) {
+void Tracker::SetPose(const BodyPose& pose, std::uint64_t t_ns, double sigma_m, double sigma_rad, bool verified) {
   prev_num_blobs_ = -1;
   has_pose_ = true;
   last_fix_ = false;  // its 1-sigma alone: the pose-space gate
+  verified_ = verified;  // given (a dock, a carried-over track) or a confirmed fix
+  given_seed_ = true;
   motion_.Start(pose, t_ns, sigma_m, sigma_rad);
   acquisition_.Clear();
 }
@@ -800,12 +804,22 @@ void Tracker::KeepBlobs(std::uint64_t t_ns) {
 // The pose in *r is accepted: it feeds the motion model, ends the acquisition, and is judged
 // fix or degraded.
 void Tracker::Accept(std::uint64_t t_ns, const TrackOptions& o, TrackResult* r) {
+  // The track goes on (keeping its verification) when tracking continued it, when a pose given
+  // by SetPose seeded it, or when the last pose was accepted within velocity_window_s (a
+  // re-identification near it: the prediction's bounds are a few centimetres).
+  const bool continues = r->source == TrackSource::kTracked || given_seed_ ||
+                         (motion_.known() && Seconds(t_ns, motion_.last_t_ns()) <= o.velocity_window_s);
   const double sigma_m = r->solve.has_covariance ? PositionSigma(r->solve.covariance) : 0.0;
   const double sigma_rad = r->solve.has_covariance ? AttitudeSigma(r->solve.covariance) : 0.0;
   motion_.Add(r->pose, t_ns, sigma_m, sigma_rad, noise_.MapToCentroidRatio(), limits_.motion,
               r->solve.has_covariance ? &r->solve.covariance : nullptr);
   has_pose_ = true;
   acquisition_.Clear();
+  // Three beacons fit their pose exactly: a new track is verified only by a pose with residuals
+  // to test (verify_three_beacons).
+  if (!continues) verified_ = false;
+  given_seed_ = false;
+  if (r->matches.num_beacons >= 4 && r->solve.has_covariance && ResidualsFitTheNoise(r->solve, o)) verified_ = true;
   RememberTracks(r->matches);
   // Fix or degraded, judged on the pose's whole 1-sigma: centroid noise and the map's error
   // (the covariance Navigator publishes), so that a fix never carries a 1-sigma above the bounds.
@@ -817,6 +831,8 @@ void Tracker::Accept(std::uint64_t t_ns, const TrackOptions& o, TrackResult* r) 
     r->reason = TrackReason::kLargeResidual;
   else if (!r->solve.has_covariance || sigma_r > o.max_position_sigma_m || sigma_a > o.max_attitude_sigma_rad)
     r->reason = TrackReason::kLargeCovariance;
+  else if (o.verify_three_beacons && !verified_)
+    r->reason = TrackReason::kUnverified;
   else {
     r->status = TrackStatus::kFix;
     r->reason = TrackReason::kNone;

@@ -36,7 +36,8 @@
 //    followed poses: Acquisition, acquisition.h; the tracker decides when one is accepted.)
 // 3. An accepted pose is reported as fix, or degraded (fewer than fix_min_beacons beacons,
 //    residual above degraded_rms_px, or 1-sigma position / attitude above their bounds, the
-//    1-sigma counting the map's error: map_error_px beside the solve's sigma_px);
+//    1-sigma counting the map's error: map_error_px beside the solve's sigma_px; or a track
+//    that has stood on three beacons only since it was found: verify_three_beacons);
 //    otherwise the frame is lost with a reason.
 //
 // Pixel conversions and the expected residuals come from one NoiseModel (noise_model.h): the
@@ -76,6 +77,7 @@ enum class TrackReason : unsigned char {
   kFewBeacons,       // fewer than fix_min_beacons beacons
   kLargeResidual,    // residual RMS above degraded_rms_px or fix_rms_sigmas of the noise
   kLargeCovariance,  // 1-sigma position or attitude above its bound
+  kUnverified,       // a track that has stood on three beacons only since it began (verify_three_beacons)
   // kLost:
   kTooFewBlobs,      // fewer than 3 blobs and nothing to track
   kTooFewBeacons,    // tracking matched fewer than 3 beacons and re-identification failed
@@ -211,6 +213,18 @@ struct TrackOptions {
   // noise and the map's error) within this one-sided normal quantile (3.72: p = 1e-4) for its
   // degrees of freedom (Tracker::ResidualsFitTheNoise). 0: not tested.
   double residual_test_sigmas = 3.72;
+  // A track that began on exactly three beacons (an acquisition or a re-acquisition: three
+  // beacons fit their pose exactly) is published degraded, reason kUnverified, until one of its
+  // poses rests on four beacons or more whose residuals fit the noise (ResidualsFitTheNoise). An
+  // unmapped steady light (a reflection that moves with the scene, a lamp, an indicator LED)
+  // with two beacons, or two with one, fits a wrong pose exactly, and the motion does not refute
+  // it (docs/acquisition.md, session 28: 29 wrong fixes 0.18-0.75 m and 8-38 deg off in
+  // 64-128-beacon stations with 25 unmapped points; 220, up to 4 m off, in 12-24-beacon ones).
+  // A track that goes on keeps its verification (tracked, or re-identified within
+  // velocity_window_s of its last pose or near a pose given by SetPose, which is verified).
+  // false: three beacons make a fix, as before; only where every steady light the cameras can
+  // see is a mapped beacon (a dark lab like the paper's).
+  bool verify_three_beacons = true;
   int lis_fix_min_beacons = 4;       // a lost-in-space fix on its own needs this many beacons
                                      // (three fit exactly, so a reflection among them shows not)
   double chain_stale_s = 1.0;        // a followed pose unconfirmed this long restarts it all
@@ -315,7 +329,13 @@ class Tracker {
   // bounds by gate_sigmas of them. While the gate covering them exceeds max_gate_px, the pose
   // seeds lost-in-space instead (only poses within the bounds are sought): a three-beacon
   // frame set is then settled at once, without the acquisition's motion.
-  void SetPose(const BodyPose& pose, std::uint64_t t_ns, double sigma_m = 0.0, double sigma_rad = 0.0);
+  // verified: the pose is known to be right (a dock, a confirmed fix); false for a pose carried
+  // over from a track that was not (TrackOptions::verify_three_beacons). A track that the pose
+  // seeds, by tracking or by re-identification near it, keeps that.
+  void SetPose(const BodyPose& pose, std::uint64_t t_ns, double sigma_m = 0.0, double sigma_rad = 0.0,
+               bool verified = true);
+  // Whether the track has been verified (TrackOptions::verify_three_beacons).
+  bool verified() const { return verified_; }
 
   // Identifies and solves one frame set; t_ns is its capture time (monotonic, ns). cameras: bit k
   // set when camera k delivered a frame in this frame set (a camera set aside or timed out
@@ -441,6 +461,8 @@ class Tracker {
   // model alone may still seed re-acquisition (MotionModel::known) up to max_seed_s.
   bool has_pose_ = false;
   bool last_fix_ = false;  // the last accepted pose was a fix on >= 4 beacons (PredictionGatePx)
+  bool verified_ = false;  // the track has had a pose on >= 4 beacons that fit the noise (Accept)
+  bool given_seed_ = false;  // SetPose's pose seeds the track: nothing accepted since
   MotionModel motion_;
   Acquisition acquisition_;  // poses followed while lost-in-space is ambiguous
   // This frame set's acquired pose (its matches; none otherwise): a beacon with two blobs in

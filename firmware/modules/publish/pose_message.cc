@@ -69,6 +69,7 @@ const char* ToString(NavReason r) {
     case NavReason::kAcquiring: return "acquiring";
     case NavReason::kNoHypothesis: return "no hypothesis";
     case NavReason::kClockFault: return "clock fault";
+    case NavReason::kUnverified: return "unverified";
     case NavReason::kCount: break;
   }
   return "unknown";

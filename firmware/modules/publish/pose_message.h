@@ -82,6 +82,7 @@ enum class NavReason : std::uint8_t {
   kNoHypothesis,      // no pose explains the blobs, or the hypothesis budget ran out (lost)
   kClockFault,        // the frame set's timestamp was not after the previous one: the pose is
                       // stamped with the previous time plus one frame period (degraded)
+  kUnverified,        // a track that has stood on exactly three beacons since it began (degraded)
   kCount
 };
 const char* ToString(NavReason r);

@@ -38,7 +38,8 @@ void RunNavMatrixCommand(const NavMatrixArgs& a) {
   const MatrixSpec spec = MatrixSpecFromArgs(a);
   const int jobs = a.jobs > 0 ? a.jobs : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
   const std::vector<RunSpec> runs = ExpandMatrix(spec);
-  const NavMatrixOptions options;
+  NavMatrixOptions options;
+  options.navigator.track.verify_three_beacons = !a.three_beacon_fixes;
   const MatrixLimits limits;
   std::fprintf(stderr, "navmatrix: %zu runs of %d frame sets on %d threads\n", runs.size(), spec.frames, jobs);
   const auto start = std::chrono::steady_clock::now();

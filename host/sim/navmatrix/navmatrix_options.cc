@@ -27,6 +27,9 @@ CLI::App* AddNavMatrixOptions(CLI::App& app, NavMatrixArgs* a) {
   cmd->add_option("--out", a->out, "Also write the table to this markdown file");
   cmd->add_option("--trace", a->trace, "Also write every run's frame sets (status, reason, errors) to this CSV file");
   cmd->add_flag("--check", a->check, "Exit 1 when a requirement of issue 13 fails");
+  cmd->add_flag("--three-beacon-fixes", a->three_beacon_fixes,
+                "A track found on three beacons is a fix at once (mfns-navd's flag; default: degraded, "
+                "'unverified', until a pose on four)");
   return cmd;
 }
 

@@ -25,6 +25,7 @@ struct NavMatrixArgs {
   std::string out;
   std::string trace;
   bool check = false;
+  bool three_beacon_fixes = false;  // TrackOptions::verify_three_beacons = false, as mfns-navd's flag
 };
 
 // Adds the `navmatrix` subcommand and its options (values into *a) to app; runs nothing.

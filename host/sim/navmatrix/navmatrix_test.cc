@@ -315,23 +315,56 @@ TEST(NavMatrixSpec, RowsAggregateSeedsAndRequirementsNameTheFailingRow) {
 
 // The harness against a known outcome: issue 4's must-show (the paper's turntable sweep, cold
 // start, centroid noise only; navd_must_show renders and detects it) acquires in about 22 frame
-// sets and then fixes every frame set with >= 3 beacons. At blob level the same holds.
+// sets and then poses every frame set with >= 3 beacons. At blob level the same holds. The
+// acquisition, and the re-acquisition after the sweep's 2.3 s gap with two beacons, rest on
+// three beacons, so by default the track is published degraded ("unverified",
+// TrackOptions::verify_three_beacons) until a pose on four beacons, then fix;
+// with three-beacon fixes allowed (the paper's dark lab: every light is a beacon), every posed
+// frame set after the acquisition is a fix, as issue 4 asked. The poses are the same.
 TEST(NavMatrix, PaperSweepAtBlobLevelAcquiresThenFixesEveryFrameSet) {
   const Scenario s = MatrixScenario({.preset = "paper-turntable", .seed = 1, .frames = 360, .spurious = 0});
-  std::vector<FrameRecord> frames;
+  NavMatrixOptions lab;
+  lab.navigator.track.verify_three_beacons = false;
+  std::vector<FrameRecord> frames, lab_frames;
   const RunResult r = RunNavigation(s, NavMatrixOptions{}, &frames);
-  std::printf("paper-turntable: first >= 4 in view at %d, first fix at %d, posed %d of %d, fixes %d, worst fix %.2f mm "
-              "%.3f deg\n",
-              r.first_in_view, r.first_fix, r.posed_after_fix, r.eligible_after_fix, r.fixes,
-              r.worst_fix_position_m * 1e3, RadToDeg(r.worst_fix_attitude_rad));
+  const RunResult l = RunNavigation(s, lab, &lab_frames);
+  for (const RunResult* x : {&l, &r})
+    std::printf("paper-turntable%s: first >= 4 in view at %d, first fix at %d, posed %d of %d, fixes %d, worst fix "
+                "%.2f mm %.3f deg\n",
+                x == &l ? " (three-beacon fixes)" : "", x->first_in_view, x->first_fix, x->posed_after_fix,
+                x->eligible_after_fix, x->fixes, x->worst_fix_position_m * 1e3, RadToDeg(x->worst_fix_attitude_rad));
   ASSERT_EQ(frames.size(), 360u);
-  EXPECT_GE(r.first_fix, 10);  // 3-4 beacons in view: an acquisition over frame sets, not at once
-  EXPECT_LT(r.first_fix, 40);
-  EXPECT_GT(r.eligible_after_fix, 250);
-  EXPECT_EQ(r.posed_after_fix, r.eligible_after_fix);
-  EXPECT_EQ(r.wrong_fixes, 0);
-  EXPECT_EQ(r.wrong_degraded, 0);
-  EXPECT_LT(r.worst_fix_position_m, 0.02);
+  ASSERT_EQ(lab_frames.size(), 360u);
+  EXPECT_GE(l.first_fix, 10);  // 3-4 beacons in view: an acquisition over frame sets, not at once
+  EXPECT_LT(l.first_fix, 40);
+  EXPECT_GT(l.eligible_after_fix, 250);
+  EXPECT_EQ(l.posed_after_fix, l.eligible_after_fix);
+  int first_pose = -1, unverified = 0, other_degraded = 0;
+  for (std::size_t i = 0; i < frames.size(); ++i) {
+    const bool posed = frames[i].status != fw::NavStatus::kLost;
+    EXPECT_EQ(posed, lab_frames[i].status != fw::NavStatus::kLost) << "frame set " << i;
+    if (posed && first_pose < 0) first_pose = static_cast<int>(i);
+    if (frames[i].status == fw::NavStatus::kDegraded && lab_frames[i].status == fw::NavStatus::kFix) {
+      EXPECT_EQ(frames[i].reason, fw::NavReason::kUnverified) << "frame set " << i;
+      // A (re-)acquired track is unverified from its start: never right after a fix.
+      EXPECT_TRUE(i > 0 && frames[i - 1].status != fw::NavStatus::kFix) << "frame set " << i << ": unverified after a fix";
+      ++unverified;
+    } else {
+      other_degraded += frames[i].status != lab_frames[i].status;
+    }
+  }
+  std::printf("default: first pose at %d (unverified, degraded), %d frame sets unverified, first fix at %d\n",
+              first_pose, unverified, r.first_fix);
+  EXPECT_EQ(first_pose, l.first_fix);
+  EXPECT_GT(unverified, 0);
+  EXPECT_EQ(other_degraded, 0);
+  EXPECT_EQ(r.fixes + unverified, l.fixes);
+  EXPECT_GT(r.first_fix, l.first_fix);
+  for (const RunResult* x : {&l, &r}) {
+    EXPECT_EQ(x->wrong_fixes, 0);
+    EXPECT_EQ(x->wrong_degraded, 0);
+    EXPECT_LT(x->worst_fix_position_m, 0.02);
+  }
 }
 
 // station-cylinder with 64 and 128 beacons (2 seeds each, facing in the map) and free-flight
@@ -471,6 +504,57 @@ TEST(NavMatrix, ReflectionsMovingWithTheSceneGiveNoWrongFix) {
   EXPECT_GT(result.counters.steady_unexplained, 0u);
   EXPECT_EQ(with_tracks.wrong_fixes, 0);
   EXPECT_GT(with_tracks.fixes, 20);
+}
+
+// Unmapped steady lights and no flickering spots (static_reflections, spurious 0): two beacons
+// and one such light, or one beacon and two, fit a wrong three-beacon pose exactly, and the
+// motion keeps it consistent frame set after frame set. With three-beacon fixes allowed, such
+// acquisitions were published as fixes (the matrix of docs/acquisition.md, session 28: 29 in
+// 64-128-beacon stations 0.18-0.75 m off, 220 in 12-24-beacon ones up to 4 m off). By default a
+// track found on three beacons is degraded ("unverified") until a pose on four beacons fits the
+// noise: the same poses, never a wrong fix. (The wrong poses are then published degraded, with
+// that reason: the image cannot tell them from the truth.)
+TEST(NavMatrix, UnmappedStaticLightsGiveNoWrongFix) {
+  struct Case {
+    const char* preset;
+    int beacons;
+    std::uint64_t seed;
+    int lights;
+    int frames;  // past the wrong fixes (measured: box 64 at 440-449, box 24 at 262-266, box 12 at 221-222)
+  };
+  // (In the two small maps every pose of these spans is such an alias.)
+  for (const Case c : {Case{"station-box", 64, 2, 25, 460}, Case{"station-box", 24, 5, 8, 280},
+                       Case{"station-box", 12, 6, 8, 240}}) {
+    RunSpec r;
+    r.preset = c.preset;
+    r.count = r.map_beacons = c.beacons;
+    r.seed = c.seed;
+    r.frames = c.frames;
+    r.spurious = 0;
+    r.static_reflections = c.lights;
+    NavMatrixOptions lab;
+    lab.navigator.track.verify_three_beacons = false;
+    std::vector<FrameRecord> frames, lab_frames;
+    const RunResult d = RunNavigation(MatrixScenario(r), NavMatrixOptions{}, &frames);
+    const RunResult l = RunNavigation(MatrixScenario(r), lab, &lab_frames);
+    int unverified = 0, posed = 0, lab_posed = 0;
+    for (std::size_t i = 0; i < frames.size(); ++i) {
+      unverified += frames[i].reason == fw::NavReason::kUnverified;
+      posed += frames[i].status != fw::NavStatus::kLost;
+      lab_posed += lab_frames[i].status != fw::NavStatus::kLost;
+    }
+    std::printf("%s %d seed %d, %d unmapped lights: three-beacon fixes: fixes %d, wrong %d; default: fixes %d, "
+                "degraded %d (%d unverified), wrong fixes %d, wrong degraded %d\n",
+                c.preset, c.beacons, static_cast<int>(c.seed), c.lights, l.fixes, l.wrong_fixes, d.fixes, d.degraded,
+                unverified, d.wrong_fixes, d.wrong_degraded);
+    EXPECT_GT(l.wrong_fixes, 0) << c.beacons << ": the hazard is not in this run";
+    EXPECT_EQ(d.wrong_fixes, 0) << c.beacons;
+    EXPECT_GE(d.wrong_degraded, l.wrong_fixes) << c.beacons;  // the same poses, degraded
+    EXPECT_EQ(posed, lab_posed) << c.beacons;
+    if (c.beacons == 64) {
+      EXPECT_GT(d.fixes, 300);  // the true track still fixes (391 measured)
+    }
+  }
 }
 
 }  // namespace
