@@ -337,6 +337,50 @@ TEST(TrackerTest, KidnappedBodyIsReidentified) {
   EXPECT_GE(g_tracker.counters().lis_runs, 1U);
 }
 
+// The pose at frame set f (30 Hz) of a path from `start` at constant v_w (m/s, world) and
+// omega_b (rad/s, body).
+BodyPose ConstantRatePose(const BodyPose& start, const Eigen::Vector3d& v_w, const Eigen::Vector3d& omega_b, int f) {
+  const double t = static_cast<double>(f) * kFrameNs * 1e-9;
+  return BodyPose{start.C_w_b * ExpSO3(omega_b * t), start.r_w_wb + v_w * t};
+}
+
+// The slow path of the stall tests: 5 cm/s along x_w and 3 deg/s about the body's z axis.
+BodyPose SlowPathPose(const BodyPose& start, int f) {
+  return ConstantRatePose(start, Eigen::Vector3d(0.05, 0.0, 0.0), Eigen::Vector3d(0.0, 0.0, 0.05), f);
+}
+
+// Frame sets [0, frames) of the slow path, no frame from any camera in [from, to) (a stall:
+// nothing seen, nothing refuted), `spurious` spots per frame set.
+struct Stall {
+  int from = 0, to = 0, frames = 0;
+  int spurious = 0;
+};
+
+// Tracks the slow path from `start`, given (SetPose), through the stall; every published pose is
+// checked (Step, into *run). Returns the frame sets from the stall's end to the first pose after
+// it (-1: none); *lost_before: frame sets before the stall without a pose.
+int TrackThroughStall(const Rig& rig, const BodyPose& start, const Stall& st, const TrackOptions& o,
+                      std::mt19937_64* rng, Sweep* run, int* lost_before) {
+  EXPECT_TRUE(g_tracker.Reset(rig));
+  g_tracker.SetPose(start, 0, 0.0, 0.0);
+  int recovered = -1;
+  *lost_before = 0;
+  for (int f = 0; f < st.frames; ++f) {
+    testing::Observe(rig, SlowPathPose(start, f), 0.1, rng, &g_scene);
+    testing::AddSpurious(rig, st.spurious, rng, &g_scene);
+    const auto t_ns = static_cast<std::uint64_t>(f) * kFrameNs;
+    if (f >= st.from && f < st.to) {
+      g_tracker.Track(g_scene.blobs.data(), 0, t_ns, o, &g_result, 0U);
+      continue;
+    }
+    Step(rig, g_scene, t_ns, o, run);
+    const bool posed = g_result.status != TrackStatus::kLost;
+    if (f < st.from) *lost_before += !posed;
+    if (f >= st.to && recovered < 0 && posed) recovered = f - st.to;
+  }
+  return recovered;
+}
+
 // After a gap in a large map (no frame from any camera for 1.5 s: nothing seen, nothing
 // refuted), the prediction seeds the re-identification within its grown bounds (0.13 m,
 // 0.25 rad): found again within a few frame sets, never wrong, with 2 reflections per camera.
@@ -346,6 +390,7 @@ TEST(TrackerTest, LargeMapStallIsBridgedBySeededSearch) {
   rig = testing::RandomCylinderRig(128, true, &rng);
   ASSERT_TRUE(g_tracker.Reset(rig));
   const TrackOptions o;
+  constexpr Stall kStall{.from = 30, .to = 75, .frames = 115, .spurious = 6};
   int worst = 0, cases = 0;
   for (int trial = 0; trial < testing::Trials(4, 2); ++trial) {
     BodyPose start;
@@ -353,86 +398,47 @@ TEST(TrackerTest, LargeMapStallIsBridgedBySeededSearch) {
       start = testing::RandomCylinderPose(&rng, 2.1, 6.0, 0.8);
       testing::Observe(rig, start, 0.1, &rng, &g_scene);
     } while (g_scene.NumVisibleBeacons() < 6);
-    // 5 cm/s along the axis, 3 deg/s about the body's z axis.
-    const Eigen::Vector3d v_w(0.05, 0.0, 0.0), omega_b(0.0, 0.0, 0.05);
-    ASSERT_TRUE(g_tracker.Reset(rig));
-    g_tracker.SetPose(start, 0, 0.0, 0.0);
     Sweep run;
-    constexpr int kGapFrom = 30, kGapTo = 75, kFrames = 115;
-    int recovered = -1;
-    for (int f = 0; f < kFrames; ++f) {
-      const double t = static_cast<double>(f) * kFrameNs * 1e-9;
-      BodyPose p = start;
-      p.r_w_wb += v_w * t;
-      p.C_w_b = start.C_w_b * ExpSO3(omega_b * t);
-      testing::Observe(rig, p, 0.1, &rng, &g_scene);
-      testing::AddSpurious(rig, 6, &rng, &g_scene);
-      const auto t_ns = static_cast<std::uint64_t>(f) * kFrameNs;
-      if (f >= kGapFrom && f < kGapTo) {
-        // No frame from any camera (stalled): nothing seen, nothing refuted.
-        g_tracker.Track(g_scene.blobs.data(), 0, t_ns, o, &g_result, 0U);
-        continue;
-      }
-      Step(rig, g_scene, t_ns, o, &run);
-      if (f < kGapFrom) {
-        EXPECT_NE(g_result.status, TrackStatus::kLost) << "frame " << f;
-      }
-      if (f >= kGapTo && recovered < 0 && g_result.status != TrackStatus::kLost) recovered = f - kGapTo;
-    }
+    int lost_before = 0;
+    const int recovered = TrackThroughStall(rig, start, kStall, o, &rng, &run, &lost_before);
     std::printf("trial %d: track found again %d frame sets after the gap\n", trial, recovered);
+    EXPECT_EQ(lost_before, 0) << "trial " << trial << ": lost before the gap";
     EXPECT_EQ(run.wrong, 0);
     EXPECT_GE(recovered, 0) << "trial " << trial << ": never found again";
-    worst = std::max(worst, recovered < 0 ? kFrames : recovered);
+    worst = std::max(worst, recovered < 0 ? kStall.frames : recovered);
     ++cases;
   }
   EXPECT_LE(worst, 10);  // measured 0-2
   EXPECT_GT(cases, 0);
 }
 
-// After a stall longer than max_coast_s (0.5 s here; no frame from any camera), the last pose still seeds
-// re-identification (max_seed_s). With spots in view that no beacon explains, a seeded
-// survivor on three beacons waits min_acquire_frames frame sets (two beacons and a reflection
-// fit an exact pose); one on four beacons has residuals to test and is accepted from the first
-// list near the prediction. Four beacons in view (random 64-beacon cylinders, facing in the
-// map, 4 spots per frame set), so that no lost-in-space fix is confirmed on its own (that needs
-// five).
+// After a stall longer than max_coast_s (0.5 s here; no frame from any camera), the last pose
+// still seeds re-identification (max_seed_s). With spots in view that no beacon explains, a
+// seeded survivor on three beacons waits min_acquire_frames frame sets (two beacons and a
+// reflection fit an exact pose); one on four beacons has residuals to test and is accepted from
+// the first list near the prediction. Four beacons in view (random 64-beacon cylinders, facing
+// in the map, 4 spots per frame set), so that no lost-in-space fix is confirmed on its own (that
+// needs five).
 TEST(TrackerTest, SeededSurvivorOnFourBeaconsIsAcceptedAtOnce) {
   std::mt19937_64 rng(2812);
   static Rig rig;
   TrackOptions o;
   o.max_coast_s = 0.5;  // so that a short stall, whose prediction bounds are narrow, is re-identified
-  const Eigen::Vector3d v_w(0.05, 0.0, 0.0), omega_b(0.0, 0.0, 0.05);  // 5 cm/s, 3 deg/s
-  constexpr int kGapFrom = 20, kGapTo = 44, kFrames = 60;               // a 0.8 s stall at 30 Hz
-  const auto pose_at = [&](const BodyPose& start, int f) {
-    const double t = static_cast<double>(f) * kFrameNs * 1e-9;
-    return BodyPose{start.C_w_b * ExpSO3(omega_b * t), start.r_w_wb + v_w * t};
-  };
+  constexpr Stall kStall{.from = 20, .to = 44, .frames = 60, .spurious = 4};  // 0.8 s at 30 Hz
   int cases = 0;
   for (int trial = 0; cases < testing::Trials(6, 3) && trial < 400; ++trial) {
     rig = testing::RandomCylinderRig(64, true, &rng);
     const BodyPose start = testing::RandomCylinderPose(&rng, 2.1, 6.0, 0.8);
     bool four = true;  // four beacons in view before the stall and for 5 frame sets after it
-    for (int f : {0, kGapFrom - 1, kGapTo, kGapTo + 4}) {
-      testing::Observe(rig, pose_at(start, f), 0.1, &rng, &g_scene);
+    for (int f : {0, kStall.from - 1, kStall.to, kStall.to + 4}) {
+      testing::Observe(rig, SlowPathPose(start, f), 0.1, &rng, &g_scene);
       four = four && g_scene.NumVisibleBeacons() == 4;
     }
     if (!four) continue;
     ++cases;
-    ASSERT_TRUE(g_tracker.Reset(rig));
-    g_tracker.SetPose(start, 0, 0.0, 0.0);
     Sweep run;
-    int recovered = -1;
-    for (int f = 0; f < kFrames; ++f) {
-      testing::Observe(rig, pose_at(start, f), 0.1, &rng, &g_scene);
-      testing::AddSpurious(rig, 4, &rng, &g_scene);
-      const auto t_ns = static_cast<std::uint64_t>(f) * kFrameNs;
-      if (f >= kGapFrom && f < kGapTo) {
-        g_tracker.Track(g_scene.blobs.data(), 0, t_ns, o, &g_result, 0U);
-        continue;
-      }
-      Step(rig, g_scene, t_ns, o, &run);
-      if (f >= kGapTo && recovered < 0 && g_result.status != TrackStatus::kLost) recovered = f - kGapTo;
-    }
+    int lost_before = 0;
+    const int recovered = TrackThroughStall(rig, start, kStall, o, &rng, &run, &lost_before);
     std::printf("trial %d: posed again %d frame sets after the stall (acquired %d)\n", trial, recovered, run.acquired);
     EXPECT_EQ(run.wrong, 0);
     EXPECT_EQ(recovered, 0) << "trial " << trial;
@@ -459,12 +465,7 @@ struct ThirdBeaconRun {
 constexpr int kGapFrom = 20, kThirdFrom = 45, kPathFrames = 90, kReflections = 2;
 
 BodyPose PathPoseFrom(const BodyPose& start, int f) {
-  const Eigen::Vector3d v_w(0.02, 0.0, 0.01), omega_b(0.0, 0.03, 0.02);
-  const double t = static_cast<double>(f) * kFrameNs * 1e-9;
-  BodyPose p = start;
-  p.r_w_wb += v_w * t;
-  p.C_w_b = start.C_w_b * ExpSO3(omega_b * t);
-  return p;
+  return ConstantRatePose(start, Eigen::Vector3d(0.02, 0.0, 0.01), Eigen::Vector3d(0.0, 0.03, 0.02), f);
 }
 
 // A cylinder map and a path along which exactly three beacons are in view, two in one camera and
