@@ -819,7 +819,8 @@ void Tracker::Accept(std::uint64_t t_ns, const TrackOptions& o, TrackResult* r) 
   // to test (verify_three_beacons).
   if (!continues) verified_ = false;
   given_seed_ = false;
-  if (r->matches.num_beacons >= 4 && r->solve.has_covariance && ResidualsFitTheNoise(r->solve, o)) verified_ = true;
+  if (!verified_ && r->matches.num_beacons >= 4 && r->solve.has_covariance && ResidualsFitTheNoise(r->solve, o))
+    verified_ = true;
   RememberTracks(r->matches);
   // Fix or degraded, judged on the pose's whole 1-sigma: centroid noise and the map's error
   // (the covariance Navigator publishes), so that a fix never carries a 1-sigma above the bounds.
