@@ -77,6 +77,7 @@ bool LisOptions::IsValid(const char** why) const {
   else if (!(miss_weight >= 0.0) || !std::isfinite(miss_weight)) bad = "miss_weight";
   else if (!(min_score_margin > 0.0) || !std::isfinite(min_score_margin)) bad = "min_score_margin";
   else if (max_missing < 0) bad = "max_missing";
+  else if (raw_matches_per_miss < 0) bad = "raw_matches_per_miss";
   else if (min_beacons < 3 || min_beacons > limits::kMaxBeacons) bad = "min_beacons";
   else if (confirm_beacons != 0 && confirm_beacons < min_beacons + 1) bad = "confirm_beacons";
   else if (!(max_rms_px > 0.0)) bad = "max_rms_px";
@@ -333,14 +334,21 @@ void LostInSpace::Score(const BodyPose& pose, const LisOptions& o, LisResult* re
   result->cost += kCostReprojectionPerBeacon * nb;
   matcher_.MatchPose(pose, o.hypothesis_match, &match_scratch_);
   // Too few beacons, or refuted even allowing for the raw pose's error at the margins.
-  if (match_scratch_.num_beacons < o.min_beacons || match_scratch_.num_missing > o.max_missing + 1) return;
+  const int beacons = match_scratch_.num_beacons, missing = match_scratch_.num_missing;
+  if (beacons < o.min_beacons) return;
+  // A raw pose that misses few beacons against many it explains is refined first and judged
+  // as refined: in a dense view the raw truth misses far beacons (raw_matches_per_miss).
+  const bool worth_refining =
+      o.confirm_beacons > 0 && beacons >= o.confirm_beacons &&
+      missing <= o.max_missing + (o.raw_matches_per_miss > 0 ? beacons / o.raw_matches_per_miss : 0);
+  if (missing > o.max_missing + 1 && !worth_refining) return;
   scratch_.pose = pose;
   scratch_.refined = false;
   scratch_.set.CopyFrom(match_scratch_);
   scratch_.score = scratch_.set.Score(o.miss_weight);
-  if (o.confirm_beacons > 0 && scratch_.set.num_beacons >= o.confirm_beacons && scratch_.set.num_missing == 0) {
+  if (worth_refining) {
     result->cost += kCostRefine;
-    if (!Refine(&scratch_, o)) return;
+    if (!Refine(&scratch_, o) || scratch_.set.num_missing > o.max_missing + 1) return;
     Confirm(&scratch_, o, result);
   }
   Insert(scratch_, o);

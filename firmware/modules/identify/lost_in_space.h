@@ -24,7 +24,9 @@
 // 4. Solution poses outside the workspace box are refused; the others are scored by
 //    reprojecting the whole beacon map with visibility (match.h): matched blobs minus
 //    miss_weight per beacon predicted well inside an image with no blob there. The best
-//    distinct poses (up to limits::kMaxLisCandidates) are kept.
+//    distinct poses (up to limits::kMaxLisCandidates) are kept. A raw pose with
+//    confirm_beacons beacons that misses few against them (raw_matches_per_miss: far beacons
+//    of a dense view fall outside the raw gate) is refined at once and judged as refined.
 // 5. Each kept pose is refined with the joint solver (solve.h) and re-matched, until its
 //    identities settle. A refined pose with a missing beacon is refuted; the rest are the
 //    poses consistent with the blobs.
@@ -98,6 +100,13 @@ struct LisOptions {
   int confirm_beacons = 5;        // a pose with this many beacons, none missing and few
                                   // expected false alarms ends the search (0: never)
   double max_false_alarms = 1e-3;  // (see FalseAlarms)
+  // A raw P3P pose with confirm_beacons beacons or more is refined (and may confirm) when it
+  // misses at most max_missing plus one beacon per this many it explains (0: none beyond
+  // max_missing). Its three blobs' noise, levered out to far beacons, leaves some of a dense
+  // view outside the raw gate (measured in 256-beacon cylinders: 1-11 missing against 12-36
+  // explained, none once refined; such searches ran 20 frame sets short of a fix); a wrong
+  // pose misses more beacons than it explains (8-43 against 5-12).
+  int raw_matches_per_miss = 2;
   double pair_angle_tolerance_rad = 0.01;  // slack of the co-visibility table's angle ranges
   // Maps with at least this many beacons score a P3P pose only when some fourth selected blob
   // sees a beacon within fourth_blob_max_rad of its ray (its list of three-beacon poses could
