@@ -650,6 +650,7 @@ bool Tracker::Acquire(std::uint64_t t_ns, const TrackOptions& o, TrackResult* r)
   if (acquisition_.seeded() && ContinuingBlobs(o) > 0)
     counters_.continuity_refuted += static_cast<std::uint32_t>(
         acquisition_.Retain([&](const BodyPose& p) { return KeepsContinuingBlobs(p, o); }));
+  if (acquisition_.seeded() && o.prune_to_steady) counters_.steady_pruned += static_cast<std::uint32_t>(PruneToSteady(o));
   r->acquisition_poses = acquisition_.size();
   // The last pose must be confirmed by this frame set. A chain seeded by an accepted pose
   // holds the truth when the frame sets had three true beacons; one started from
@@ -713,6 +714,34 @@ bool Tracker::Acquire(std::uint64_t t_ns, const TrackOptions& o, TrackResult* r)
   }
   acquisition_.Clear();
   return true;
+}
+
+// A seeded chain holding one pose on steady blobs only (three beacons or more) and others that
+// each name a new blob (a track of one frame set: a reflection flickering beside a beacon)
+// keeps the one (TrackOptions::prune_to_steady). Returns how many poses were dropped.
+int Tracker::PruneToSteady(const TrackOptions& o) {
+  if (steady_ == nullptr || acquisition_.size() < 2) return 0;
+  int on_steady = 0, kept = -1;
+  for (int i = 0; i < acquisition_.size(); ++i) {
+    matcher_.MatchPose(acquisition_.pose(i), o.lis.refine_match, &set_);
+    if (set_.num_beacons >= 3 && OnSteadyBlobs(set_)) {
+      ++on_steady;
+      kept = i;
+    } else if (!OnNewBlob(set_)) {
+      return 0;  // a pose that is neither: nothing tells them apart
+    }
+  }
+  if (on_steady != 1) return 0;
+  const BodyPose keep = acquisition_.pose(kept);
+  return acquisition_.Retain(
+      [&](const BodyPose& p) { return p.r_w_wb == keep.r_w_wb && p.C_w_b == keep.C_w_b; });
+}
+
+// Whether some matched blob began its image track in this frame set.
+bool Tracker::OnNewBlob(const MatchSet& matches) const {
+  for (int m = 0; m < matches.num_matches; ++m)
+    if (blob_tracks_.age(matches.matches[static_cast<std::size_t>(m)].blob) == 1) return true;
+  return false;
 }
 
 // Whether every matched blob is steady (BlobTracks); true without blob tracks.

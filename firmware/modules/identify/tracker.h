@@ -225,6 +225,13 @@ struct TrackOptions {
   // false: three beacons make a fix, as before; only where every steady light the cameras can
   // see is a mapped beacon (a dark lab like the paper's).
   bool verify_three_beacons = true;
+  // A seeded chain (a re-acquisition after a gap) in which exactly one followed pose rests on
+  // steady blobs only, with three beacons or more, while every other names a blob that is new
+  // (a reflection flickering beside a beacon), keeps that one (Tracker::PruneToSteady). Not
+  // sound as a fix: an unmapped steady light with two beacons fits such a pose too, when the
+  // truth (two beacons) is in no list (docs/acquisition.md, sessions 28-29); the track it starts
+  // is a new one, so on three beacons it is published unverified (verify_three_beacons).
+  bool prune_to_steady = true;
   int lis_fix_min_beacons = 4;       // a lost-in-space fix on its own needs this many beacons
                                      // (three fit exactly, so a reflection among them shows not)
   double chain_stale_s = 1.0;        // a followed pose unconfirmed this long restarts it all
@@ -310,6 +317,7 @@ struct TrackCounters {
   std::uint32_t continuity_refuted = 0;   // a followed pose that names a continuing blob another beacon
   std::uint32_t anchored_searches = 0;    // lost-in-space searches (near a pose, or cold) with continuing blobs anchored
   std::uint32_t unsteady_refused = 0;     // an acquired three-beacon pose on a blob that is not steady
+  std::uint32_t steady_pruned = 0;        // followed poses on a new blob dropped for the one on steady blobs
   std::uint32_t residual_refused = 0;     // a stand-alone LIS fix or acquired pose: residuals beyond the noise
   SolveCounters solve;
 };
@@ -392,6 +400,8 @@ class Tracker {
   bool SurvivorIsBest(std::uint64_t t_ns, const TrackOptions& o);
   bool LeavesSteadyBlob(const MatchSet& matches) const;
   bool OnSteadyBlobs(const MatchSet& matches) const;
+  bool OnNewBlob(const MatchSet& matches) const;
+  int PruneToSteady(const TrackOptions& o);
   void PredictionGatePx(const BodyPose& predicted, double since_s, const TrackOptions& o, double* gate,
                         double* with_map) const;
   double ImageSigmaPx(const BodyPose& pose, const Matrix6d& cov) const;
