@@ -764,6 +764,55 @@ TEST(NavLoop, InitialPoseAndReloadKeepTheTrack) {
   EXPECT_FALSE(loop->Configure(bad, &why));
 }
 
+// A parameter reload carries the track's verification (NavLoop::Reload passes
+// Navigator::LastVerified to SetInitialPose): a track found on three beacons (cold, the default
+// verify_three_beacons) stays unverified across a reload until a pose on four beacons, and a
+// verified track stays a fix across the next one.
+TEST(NavLoop, AReloadKeepsTheTracksVerification) {
+  TrackedSweep s;
+  NavLoopConfig c = Config();
+  c.navigator.track.verify_three_beacons = true;
+  ASSERT_EQ(s.source.Start(), SourceStatus::kOk);
+  ASSERT_TRUE(s.loop.Configure(c, nullptr));
+  const auto stamp = [](int n) { return 1'000'000'000ull + static_cast<std::uint64_t>(n) * kFrameNs; };
+  PoseRecord rec;
+  int wrong = 0, n = 0;
+  const auto unverified = [&] { return rec.status == NavStatus::kDegraded && rec.reason == NavReason::kUnverified; };
+  for (; n < 200 && !unverified(); ++n) s.StepStamped(n, stamp(n), &rec, &wrong);
+  ASSERT_TRUE(unverified()) << "no unverified track within 200 frame sets";
+  Rig recalibrated = s.rig;  // (the loop keeps the rig by reference)
+  recalibrated.cameras[0].r_b_bk.x() += 0.0003;
+  const char* why = nullptr;
+  ASSERT_TRUE(s.loop.Reload(recalibrated, 2, &why)) << why;
+  // Until a pose on four beacons: no fix, and the poses are unverified.
+  int after_reload = 0, fixes_on_three = 0;
+  for (; n < 400; ++n) {
+    s.StepStamped(n, stamp(n), &rec, &wrong);
+    if (rec.status != NavStatus::kLost && rec.num_beacons >= 4) break;
+    after_reload += unverified() ? 1 : 0;
+    fixes_on_three += rec.status == NavStatus::kFix ? 1 : 0;
+  }
+  EXPECT_GT(after_reload, 0);
+  EXPECT_EQ(fixes_on_three, 0);
+  ASSERT_EQ(rec.status, NavStatus::kFix) << "the first pose on four beacons verifies the track (frame set " << n << ")";
+  // Verified now: on to a frame set on three beacons, reload there, and the track goes on as fixes.
+  for (++n; n < 600 && !(rec.status == NavStatus::kFix && rec.num_beacons == 3); ++n)
+    s.StepStamped(n, stamp(n), &rec, &wrong);
+  ASSERT_EQ(rec.num_beacons, 3);
+  Rig again = recalibrated;
+  again.cameras[0].r_b_bk.x() -= 0.0003;
+  ASSERT_TRUE(s.loop.Reload(again, 3, &why)) << why;
+  int posed = 0, fixes = 0;
+  for (const int end = n + 10; n < end; ++n) {
+    s.StepStamped(n, stamp(n), &rec, &wrong);
+    posed += rec.status != NavStatus::kLost ? 1 : 0;
+    fixes += rec.status == NavStatus::kFix ? 1 : 0;
+  }
+  EXPECT_GT(posed, 5);
+  EXPECT_EQ(fixes, posed);
+  EXPECT_EQ(wrong, 0);
+}
+
 // A lost frame set after a fix carries no pose numbers (NaN in the record, the datagram and
 // the CSV), so a reader that skips the status cannot take the last pose for a new one.
 TEST(NavLoop, ALostFrameSetPublishesNaNNotTheLastPose) {
