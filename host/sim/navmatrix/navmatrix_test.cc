@@ -562,19 +562,22 @@ TEST(NavMatrix, UnmappedStaticLightsGiveNoWrongFix) {
 // A re-acquisition after a gap whose seeded chain holds the truth, on steady blobs, and poses on
 // reflections flickering beside a beacon (each names a blob that is new) keeps the one on steady
 // blobs (TrackOptions::prune_to_steady), published unverified while it rests on three beacons.
-// Box 64 seeds 2 and 4 (the matrix's facing row): posed after the first fix 883 -> 947 of 1001
-// frame sets with >= 3 beacons in view (docs/acquisition.md, session 29), no wrong pose either
-// way. With unmapped steady lights beside the spots the rule can keep an alias (two beacons and
+// Box 64 seeds 2 and 4 (the matrix's facing row, 600 frame sets): posed after the first fix
+// 883 -> 947 of 1001 frame sets with >= 3 beacons in view (docs/acquisition.md, session 29), no
+// wrong pose either way; here the runs stop after the frame sets the rule changes. With unmapped steady lights beside the spots the rule can keep an alias (two beacons and
 // such a light, the truth on two beacons in no list: box 64 seed 2, frame sets 442-449, 176 mm
 // off): it is published degraded, never as a fix; as a fix (three-beacon fixes allowed) it
 // would be wrong.
 TEST(NavMatrix, SeededChainsKeepThePoseOnSteadyBlobs) {
   int posed = 0, posed_before = 0, eligible = 0;
-  for (const std::uint64_t seed : {std::uint64_t{2}, std::uint64_t{4}}) {
+  // (Each run as far as its last frame set the rule changes: seed 2 at 198-216, seed 4 at 72-84,
+  // 118-121 and 249-269.)
+  for (const auto& [seed, frames] : {std::pair<std::uint64_t, int>{2, 220}, std::pair<std::uint64_t, int>{4, 275}}) {
     RunSpec r;
     r.preset = "station-box";
     r.count = r.map_beacons = 64;
     r.seed = seed;
+    r.frames = frames;
     NavMatrixOptions before;
     before.navigator.track.prune_to_steady = false;
     const RunResult d = RunNavigation(MatrixScenario(r), NavMatrixOptions{}, nullptr);
@@ -590,7 +593,7 @@ TEST(NavMatrix, SeededChainsKeepThePoseOnSteadyBlobs) {
     posed_before += b.posed_after_fix;
     eligible += d.eligible_after_fix;
   }
-  EXPECT_GE(posed - posed_before, eligible / 25);  // (64 of 1001 measured)
+  EXPECT_GE(posed - posed_before, eligible / 10);  // (57 of 434 measured)
 
   RunSpec r;
   r.preset = "station-box";
