@@ -14,6 +14,16 @@
 namespace mfns::host {
 namespace {
 
+// A run of the 64-beacon box (the matrix's map), as the regression cases below replay it.
+RunSpec Box64Run(std::uint64_t seed, int frames) {
+  RunSpec r;
+  r.preset = "station-box";
+  r.count = r.map_beacons = 64;
+  r.seed = seed;
+  r.frames = frames;
+  return r;
+}
+
 using fw::NavStatus;
 
 // ---- (a) Scoring, on synthetic inputs -------------------------------------------------------
@@ -450,11 +460,7 @@ TEST(NavMatrix, ReducedMatrixNeverPublishesAWrongFix) {
 TEST(NavMatrix, SeenWrongFixesStayFixed) {
   std::vector<RunSpec> runs;
   for (const std::uint64_t seed : {12u, 13u}) {
-    RunSpec r;
-    r.preset = "station-box";
-    r.count = r.map_beacons = 64;
-    r.seed = seed;
-    r.frames = 360;
+    RunSpec r = Box64Run(seed, 360);
     r.spurious = 3;
     runs.push_back(r);
   }
@@ -483,12 +489,8 @@ TEST(NavMatrix, SeenWrongFixesStayFixed) {
 // (TrackOptions::continue_blob_tracks, which keeps that track and avoids the situation: 80
 // fixes, the rule not needed), and with it.
 TEST(NavMatrix, ReflectionsMovingWithTheSceneGiveNoWrongFix) {
-  RunSpec r;
-  r.preset = "station-box";
-  r.count = r.map_beacons = 64;
-  r.seed = 4;
+  RunSpec r = Box64Run(4, 450);
   r.facing = false;
-  r.frames = 450;
   r.static_reflections = 20;
   NavMatrixOptions as_found;
   as_found.navigator.track.continue_blob_tracks = false;
@@ -557,35 +559,31 @@ TEST(NavMatrix, UnmappedStaticLightsGiveNoWrongFix) {
   }
 }
 
-}  // namespace
-
 // A re-acquisition after a gap whose seeded chain holds the truth, on steady blobs, and poses on
 // reflections flickering beside a beacon (each names a blob that is new) keeps the one on steady
 // blobs (TrackOptions::prune_to_steady), published unverified while it rests on three beacons.
 // Box 64 seeds 2 and 4 (the matrix's facing row, 600 frame sets): posed after the first fix
 // 883 -> 947 of 1001 frame sets with >= 3 beacons in view (docs/acquisition.md, session 29), no
-// wrong pose either way; here the runs stop after the frame sets the rule changes. With unmapped steady lights beside the spots the rule can keep an alias (two beacons and
-// such a light, the truth on two beacons in no list: box 64 seed 2, frame sets 442-449, 176 mm
-// off): it is published degraded, never as a fix; as a fix (three-beacon fixes allowed) it
-// would be wrong.
+// wrong pose either way; here the runs stop after the frame sets the rule changes (seed 2 at
+// 198-216, seed 4 at 72-84, 118-121 and 249-269). With unmapped steady lights beside the spots
+// the rule can keep an alias (two beacons and such a light, the truth on two beacons in no
+// list: box 64 seed 2, frame sets 442-449, 176 mm off): it is published degraded, never as a
+// fix; as a fix (three-beacon fixes allowed) it would be wrong.
 TEST(NavMatrix, SeededChainsKeepThePoseOnSteadyBlobs) {
+  const std::vector<RunSpec> runs = {Box64Run(2, 220), Box64Run(4, 275)};
+  NavMatrixOptions before;
+  before.navigator.track.prune_to_steady = false;
+  const std::vector<RunResult> with = RunMatrix(runs, NavMatrixOptions{}, 2, nullptr);
+  const std::vector<RunResult> without = RunMatrix(runs, before, 2, nullptr);
   int posed = 0, posed_before = 0, eligible = 0;
-  // (Each run as far as its last frame set the rule changes: seed 2 at 198-216, seed 4 at 72-84,
-  // 118-121 and 249-269.)
-  for (const auto& [seed, frames] : {std::pair<std::uint64_t, int>{2, 220}, std::pair<std::uint64_t, int>{4, 275}}) {
-    RunSpec r;
-    r.preset = "station-box";
-    r.count = r.map_beacons = 64;
-    r.seed = seed;
-    r.frames = frames;
-    NavMatrixOptions before;
-    before.navigator.track.prune_to_steady = false;
-    const RunResult d = RunNavigation(MatrixScenario(r), NavMatrixOptions{}, nullptr);
-    const RunResult b = RunNavigation(MatrixScenario(r), before, nullptr);
+  for (std::size_t i = 0; i < runs.size(); ++i) {
+    const RunResult& d = with[i];
+    const RunResult& b = without[i];
+    const auto seed = static_cast<int>(runs[i].seed);
     std::printf("station-box 64 seed %d: posed after the first fix %d of %d (without the rule %d of %d); wrong %d + %d "
                 "(%d + %d)\n",
-                static_cast<int>(seed), d.posed_after_fix, d.eligible_after_fix, b.posed_after_fix,
-                b.eligible_after_fix, d.wrong_fixes, d.wrong_degraded, b.wrong_fixes, b.wrong_degraded);
+                seed, d.posed_after_fix, d.eligible_after_fix, b.posed_after_fix, b.eligible_after_fix, d.wrong_fixes,
+                d.wrong_degraded, b.wrong_fixes, b.wrong_degraded);
     EXPECT_EQ(d.wrong_fixes + d.wrong_degraded + b.wrong_fixes + b.wrong_degraded, 0) << seed;
     EXPECT_EQ(d.first_fix, b.first_fix) << seed;
     EXPECT_GT(d.counters.steady_pruned, 0u) << seed;
@@ -595,11 +593,7 @@ TEST(NavMatrix, SeededChainsKeepThePoseOnSteadyBlobs) {
   }
   EXPECT_GE(posed - posed_before, eligible / 10);  // (57 of 434 measured)
 
-  RunSpec r;
-  r.preset = "station-box";
-  r.count = r.map_beacons = 64;
-  r.seed = 2;
-  r.frames = 460;
+  RunSpec r = Box64Run(2, 460);
   r.static_reflections = 25;
   NavMatrixOptions lab;
   lab.navigator.track.verify_three_beacons = false;
@@ -612,3 +606,4 @@ TEST(NavMatrix, SeededChainsKeepThePoseOnSteadyBlobs) {
 }
 
 }  // namespace
+}  // namespace mfns::host
