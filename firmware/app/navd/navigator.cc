@@ -7,6 +7,10 @@ namespace mfns::fw {
 namespace {
 // Beacons a pose degraded by its residuals must stand on to judge the beacons by it.
 constexpr int kJudgeDegradedBeacons = 6;
+// Beacons a fix must stand on to judge the others: three fit any pose exactly, so a three-beacon
+// fix on a moved beacon is bent by it and would flag the good beacons it leaves out (seen: the
+// paper sweep with beacon 9 moved 5 mm flagged beacon 4 from such fixes).
+constexpr int kJudgeFixBeacons = 4;
 }  // namespace
 
 NavReason ToNavReason(TrackReason r) {
@@ -113,10 +117,11 @@ void Navigator::Step(const BlobObs* blobs, int num_blobs, std::uint64_t t_ns, st
   out->num_matches = result_.matches.num_matches;
   for (int i = 0; i < out->num_matches; ++i)
     out->matches[static_cast<std::size_t>(i)] = result_.matches.matches[static_cast<std::size_t>(i)];
-  // Beacons are judged on fixes, and on poses degraded by their residuals that stand on
-  // enough beacons for one bad beacon to stand out (a moved beacon degrades every pose it is in
-  // until it is flagged and down-weighted).
-  if (s == TrackStatus::kFix ||
+  // Beacons are judged on fixes, on poses degraded by their residuals that stand on enough
+  // beacons for one bad beacon to stand out (a moved beacon degrades every pose it is in until
+  // it is flagged), and on tracking's poses that left the one beacon out that refused the others
+  // (TrackOptions::leave_one_out: fewer beacons there, but the motion model picked the one).
+  if ((s == TrackStatus::kFix && r.num_beacons >= kJudgeFixBeacons) || result_.left_out_beacon >= 0 ||
       (result_.reason == TrackReason::kLargeResidual && r.num_beacons >= kJudgeDegradedBeacons))
     JudgeBeacons(blobs, num_blobs, delivered, *out);
   // The calibration's part after the judging: a miscalibrated camera shifts the pose, which
@@ -131,13 +136,15 @@ void Navigator::Step(const BlobObs* blobs, int num_blobs, std::uint64_t t_ns, st
 // Beacon health on a fix, and the weights of the beacons whose state changed.
 void Navigator::JudgeBeacons(const BlobObs* blobs, int num_blobs, std::uint32_t delivered, const NavOutput& out) {
   const std::uint32_t cameras = delivered & ((std::uint32_t{1} << limits::kMaxCameras) - 1U);
-  if (health_.Update(rig_, out.pose, out.covariance, blobs, num_blobs, out.matches.data(), out.num_matches, cameras) == 0 ||
-      !options_.down_weight_inconsistent)
+  if (health_.Update(rig_, out.pose, out.covariance, blobs, num_blobs, out.matches.data(), out.num_matches, cameras) == 0)
     return;
+  BeaconSet inconsistent;
   for (int b = 0; b < rig_.num_beacons; ++b) {
     const auto sb = static_cast<std::size_t>(b);
-    rig_.beacon_sigmas[sb] = std::max(own_sigma_m_[sb], health_.SuggestedSigmaM(b));
+    if (options_.down_weight_inconsistent) rig_.beacon_sigmas[sb] = std::max(own_sigma_m_[sb], health_.SuggestedSigmaM(b));
+    if (health_.stats(b).state == BeaconState::kInconsistent) inconsistent.Set(b);
   }
+  if (options_.exclude_inconsistent) tracker_.SetExcludedBeacons(inconsistent);
 }
 
 void Navigator::SetInitialPose(const BodyPose& pose, double sigma_m, double sigma_rad, bool verified) {

@@ -35,6 +35,12 @@ struct NavigatorOptions {
   // back to its own when it clears. False: counted and reported, never down-weighted.
   BeaconHealthOptions health;
   bool down_weight_inconsistent = true;
+  // An inconsistent beacon is also left out of identification (tracking, lost-in-space:
+  // Tracker::SetExcludedBeacons) until it clears: where the beacons are near (the paper sweep:
+  // 5 mm is 5-13 px) its blob falls outside the tight gates, and every pose that predicts it
+  // would be refused however little it weighs. Beacon health still looks for it (its nearest
+  // free blob), so it clears when it is back where the map says.
+  bool exclude_inconsistent = true;
   // With the calibration's 1-sigma in the rig (Rig::has_sigma, from the parameter blob), the
   // published covariance adds the pose error it causes (CalibrationCovariance: each camera
   // parameter propagated through the solve at its solution, the parameters independent).

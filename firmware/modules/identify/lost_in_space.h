@@ -215,6 +215,11 @@ class LostInSpace {
   // host).
   bool Reset(const Rig& rig);
 
+  // Beacons never predicted (matched or missing) in scoring and refinement until the next call
+  // (none after Reset; BeaconMatcher::SetExcluded). A hypothesis on one of them refines onto the
+  // others.
+  void SetExcluded(const BeaconSet& beacons) { matcher_.SetExcluded(beacons); }
+
   // Identifies blobs[0..num_blobs) (num_blobs <= limits::kMaxObservations). Never allocates.
   // With a prior, only poses near it are sought and listed (complete then means: every
   // consistent pose near the prior).

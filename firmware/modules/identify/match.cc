@@ -33,6 +33,7 @@ void BeaconMatcher::Reset(const Rig& rig) {
   rig_ = &rig;
   facing_margin_ = -1.0;
   blobs_ = nullptr;
+  excluded_.Reset();
   count_.fill(0);
   for (int k = 0; k < rig.num_cameras && k < limits::kMaxCameras; ++k) {
     const CameraIntrinsics& in = rig.cameras[static_cast<std::size_t>(k)].intrinsics;
@@ -112,6 +113,7 @@ void BeaconMatcher::MatchPose(const BodyPose& pose, const MatchOptions& o, Match
       Eigen::Vector2d uv;
       bool inner = false;
       const auto sm = static_cast<std::size_t>(m);
+      if (excluded_.Has(m)) continue;
       if (rig_->has_facing && !BeaconFacesCos(*rig_, m, centre_w, cos_wide_[sm])) continue;
       if (!Predict(k, pose, rig_->beacons_w[static_cast<std::size_t>(m)], o.gate_px, o.miss_margin_px, &uv, &inner))
         continue;

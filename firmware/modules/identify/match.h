@@ -172,6 +172,13 @@ class BeaconMatcher {
   bool Predict(int k, const BodyPose& pose, const Eigen::Vector3d& P_w, double grow_px, double margin_px,
                Eigen::Vector2d* uv_px, bool* inner) const;
 
+  // Beacons left out of every prediction until the next call (none at Reset): never matched,
+  // never missing. Beacon health's inconsistent beacons (moved, or a reflection in their
+  // place: their blob would be missed by the tight gates or bend the pose) and the tracker's
+  // leave-one-out solves (Tracker::LeaveOneOut).
+  void SetExcluded(const BeaconSet& beacons) { excluded_ = beacons; }
+  const BeaconSet& excluded() const { return excluded_; }
+
   int BlobsInCamera(int k) const { return count_[static_cast<std::size_t>(k)]; }
   int BlobOfCamera(int k, int j) const { return index_[static_cast<std::size_t>(k)][static_cast<std::size_t>(j)]; }
 
@@ -187,6 +194,7 @@ class BeaconMatcher {
   mutable std::array<double, limits::kMaxBeacons> cos_wide_{}, cos_narrow_{};
   const BlobObs* blobs_ = nullptr;
   std::uint32_t cameras_ = kAllCameras;
+  BeaconSet excluded_;
   std::array<int, limits::kMaxCameras> count_{};
   std::array<std::array<short, limits::kMaxBlobsPerFrame>, limits::kMaxCameras> index_{};
 };

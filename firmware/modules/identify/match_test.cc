@@ -78,5 +78,26 @@ TEST_F(BlindCellsTest, BlindCellsStillMatchAndOnlyTheirCameraAndCellsCount) {
   EXPECT_EQ(BlindCellBits(1, 0xFFFFFFFFu), 0x3Fu << 10);
 }
 
+// An excluded beacon (beacon health's inconsistent ones, the tracker's leave-one-out) is never
+// matched and never missing, wherever its blob is; the others are as before, until the next call.
+TEST_F(BlindCellsTest, ExcludedBeaconsAreNeitherMatchedNorMissing) {
+  BeaconSet excluded;
+  excluded.Set(0);
+  excluded.Set(3);
+  matcher_.SetExcluded(excluded);
+  const MatchSet all = Match({0, 1, 2, 3}, kAllCameras);
+  EXPECT_EQ(all.num_matches, 2);
+  EXPECT_FALSE(all.beacons.Has(0));
+  EXPECT_FALSE(all.beacons.Has(3));
+  EXPECT_EQ(all.num_predicted, 2);
+  EXPECT_EQ(Match({1, 2}, kAllCameras).num_missing, 0);  // 0 and 3 unseen: not missing
+  EXPECT_EQ(Match({2}, kAllCameras).num_missing, 1);     // 1 still is
+  matcher_.SetExcluded(BeaconSet{});
+  EXPECT_EQ(Match({1, 2}, kAllCameras).num_missing, 2);
+  matcher_.SetExcluded(excluded);
+  matcher_.Reset(rig_);  // Reset forgets them
+  EXPECT_EQ(Match({0, 1, 2, 3}, kAllCameras).num_matches, 4);
+}
+
 }  // namespace
 }  // namespace mfns::fw

@@ -47,6 +47,8 @@ bool TrackOptions::IsValid(const char** why) const {
   else if (!(chain_slack_m >= 0.0) || !(chain_slack_rad >= 0.0)) bad = "chain_slack";
   else if (min_acquire_frames < 2) bad = "min_acquire_frames";
   else if (lis_fix_min_beacons < 3) bad = "lis_fix_min_beacons";
+  else if (leave_one_out_min_beacons < 5 || leave_one_out_max_beacons < leave_one_out_min_beacons)
+    bad = "leave_one_out_min_beacons / leave_one_out_max_beacons";
   else if (!(residual_test_sigmas >= 0.0) || !std::isfinite(residual_test_sigmas)) bad = "residual_test_sigmas";
   else if (lis_budget_per_frame < 1) bad = "lis_budget_per_frame";
   else if (!positive(chain_stale_s)) bad = "chain_stale_s";

@@ -87,6 +87,11 @@ bool Tracker::Reset(const Rig& rig) {
   return true;
 }
 
+void Tracker::SetExcludedBeacons(const BeaconSet& beacons) {
+  matcher_.SetExcluded(beacons);
+  lis_.SetExcluded(beacons);
+}
+
 void Tracker::SetPose(const BodyPose& pose, std::uint64_t t_ns, double sigma_m, double sigma_rad, bool verified) {
   prev_num_blobs_ = -1;
   has_pose_ = true;
@@ -174,6 +179,13 @@ bool Tracker::TrackPredicted(std::uint64_t t_ns, double since_s, const TrackOpti
     refuted = set_.num_missing > o.max_missing;
     if (!refuted && has_pose_) {
       if (TrackFrom(predicted, bounds, gate, o, r, &refuted)) {
+        // Residuals beyond the noise: one bad beacon (moved, or a reflection taken for it) may
+        // bend the pose; leaving it out gives a better one (degraded all the same).
+        if (o.leave_one_out && !ResidualsFitTheNoise(r->solve, o)) LeaveOneOut(predicted, bounds, gate, o, r);
+        Publish(TrackSource::kTracked, t_ns, o, r);
+        return true;
+      }
+      if (!ambiguity_refused_ && o.leave_one_out && LeaveOneOut(predicted, bounds, gate, o, r)) {
         Publish(TrackSource::kTracked, t_ns, o, r);
         return true;
       }
@@ -256,6 +268,50 @@ bool Tracker::TrackFrom(const BodyPose& predicted, const PoseBounds& bounds, dou
     ambiguity_refused_ = true;
     return false;
   }
+  return true;
+}
+
+// The pose on every beacon near `predicted` was refused (tracking's trials, or a lost-in-space
+// fix's residuals). Each of those beacons is left out in turn (of matching: never missing) and
+// the blobs are tracked again from `predicted` (TrackFrom: its trials of ambiguous beacons, the
+// innovation test); a leave-out fits when that gives a pose on >= 4 beacons whose residuals
+// fit the noise. Exactly one must fit: its pose is in *r, with left_out_beacon. With >= 5
+// beacons a wrong leave-out keeps the bad beacon among four, whose residuals refuse it.
+bool Tracker::LeaveOneOut(const BodyPose& predicted, const PoseBounds& bounds, double gate_px, const TrackOptions& o,
+                          TrackResult* r) {
+  matcher_.MatchPose(predicted, MatchOptions{gate_px, o.miss_margin_px, false}, &loo_set_);
+  const int n = loo_set_.num_beacons;
+  if (n < o.leave_one_out_min_beacons || n > o.leave_one_out_max_beacons) return false;
+  const BeaconSet excluded = matcher_.excluded(), candidates = loo_set_.beacons;
+  const bool refused = ambiguity_refused_;
+  const TrackCounters counters = counters_;  // the trials below are not tracking's own
+  int fits = 0, left_out = -1;
+  for (int b = 0; b < rig_->num_beacons && fits < 2; ++b) {
+    if (!candidates.Has(b)) continue;
+    BeaconSet without = excluded;
+    without.Set(b);
+    matcher_.SetExcluded(without);
+    ambiguity_refused_ = false;
+    bool refuted = false;
+    if (!TrackFrom(predicted, bounds, gate_px, o, &loo_result_, &refuted) || loo_result_.matches.num_beacons < 4 ||
+        !ResidualsFitTheNoise(loo_result_.solve, o))
+      continue;
+    if (++fits > 1) break;
+    left_out = b;
+    loo_best_ = loo_result_;
+  }
+  matcher_.SetExcluded(excluded);
+  ambiguity_refused_ = refused;
+  counters_ = counters;
+  if (fits != 1) {
+    ++counters_.left_out_undecided;
+    return false;
+  }
+  ++counters_.left_out;
+  r->pose = loo_best_.pose;
+  r->matches = loo_best_.matches;
+  r->solve = loo_best_.solve;
+  r->left_out_beacon = left_out;
   return true;
 }
 
@@ -863,6 +919,8 @@ void Tracker::Accept(std::uint64_t t_ns, const TrackOptions& o, TrackResult* r) 
     r->reason = TrackReason::kLargeCovariance;
   else if (o.verify_three_beacons && !verified_)
     r->reason = TrackReason::kUnverified;
+  else if (r->left_out_beacon >= 0)
+    r->reason = TrackReason::kLargeResidual;  // the pose on every beacon was refused
   else {
     r->status = TrackStatus::kFix;
     r->reason = TrackReason::kNone;
@@ -993,6 +1051,7 @@ TrackStatus Tracker::TrackOnce(const BlobObs* blobs, int num_blobs, std::uint64_
   r->lis_run = false;
   r->lis_status = LisStatus::kBadInput;
   r->acquisition_poses = 0;
+  r->left_out_beacon = -1;
   r->source = TrackSource::kNone;
   acquired_matches_.num_matches = 0;  // (Acquire sets them for this frame set's Unambiguous)
   if (rig_ == nullptr || !o.IsValid() || num_blobs < 0 || num_blobs > limits::kMaxObservations ||
@@ -1091,7 +1150,9 @@ TrackStatus Tracker::SettleLis(std::uint64_t t_ns, bool use_prior, const TrackOp
     if (!Unambiguous(o, r)) return Lost(TrackReason::kAmbiguous, r);
     if (!ResidualsFitTheNoise(r->solve, o)) {
       ++counters_.residual_refused;
-      return Lost(TrackReason::kLargeResidual, r);
+      const BodyPose refused = r->pose;
+      if (!o.leave_one_out || !LeaveOneOut(refused, PoseBounds{o.twin_m, o.twin_rad}, o.hold_gate_px, o, r))
+        return Lost(TrackReason::kLargeResidual, r);
     }
     if (replaces_prior) {
       has_pose_ = false;

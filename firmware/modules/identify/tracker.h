@@ -232,6 +232,23 @@ struct TrackOptions {
   // truth (two beacons) is in no list (docs/acquisition.md, sessions 28-29); the track it starts
   // is a new one, so on three beacons it is published unverified (verify_three_beacons).
   bool prune_to_steady = true;
+  // When tracking's solve on every matched beacon is refused (a beacon missing from the tight
+  // gate, residuals beyond the noise) and the prediction matched four beacons or more with one
+  // blob each, each beacon is left out in turn (Tracker::LeaveOneOut): when exactly one
+  // leave-out fits the blobs and the prediction (ResidualsFitTheNoise, the innovation test),
+  // that pose is published degraded (kLargeResidual) with TrackResult::left_out_beacon, and the
+  // track goes on. A beacon moved after the survey (5-13 px off at the paper sweep's range)
+  // would otherwise lose every pose it is in; the navigator judges beacon health on these poses.
+  bool leave_one_out = true;
+  // Beacons the refused solve must stand on (>= 5): each leave-out then keeps four, whose
+  // residuals test it. With four, every leave-out fits its three exactly and only the
+  // prediction could choose, but a track that reached them through three-beacon poses on the
+  // moved beacon predicts its bias: the leave-out of a good beacon would be chosen (measured on
+  // the paper sweep, docs/navd.md).
+  int leave_one_out_min_beacons = 5;
+  // ... and at most this many: one tracking per beacon (with its trials) bounds the cost, and
+  // among more the solve's outlier rejection takes one bad beacon out itself.
+  int leave_one_out_max_beacons = 8;
   int lis_fix_min_beacons = 4;       // a lost-in-space fix on its own needs this many beacons
                                      // (three fit exactly, so a reflection among them shows not)
   double chain_stale_s = 1.0;        // a followed pose unconfirmed this long restarts it all
@@ -297,6 +314,7 @@ struct TrackResult {
   bool lis_run = false;          // lost-in-space ran this frame
   LisStatus lis_status = LisStatus::kBadInput;
   int acquisition_poses = 0;     // poses still followed (kAcquiring)
+  int left_out_beacon = -1;      // the beacon a leave-one-out pose left out (degraded), or -1
 };
 
 // A counter per outcome, for health reporting.
@@ -319,6 +337,8 @@ struct TrackCounters {
   std::uint32_t unsteady_refused = 0;     // an acquired three-beacon pose on a blob that is not steady
   std::uint32_t steady_pruned = 0;        // followed poses on a new blob dropped for the one on steady blobs
   std::uint32_t residual_refused = 0;     // a stand-alone LIS fix or acquired pose: residuals beyond the noise
+  std::uint32_t left_out = 0;             // tracked poses published with one beacon left out (LeaveOneOut)
+  std::uint32_t left_out_undecided = 0;   // ... refused: no leave-out, or several, fit
   SolveCounters solve;
 };
 static_assert(std::tuple_size_v<decltype(TrackCounters::by_status)> == static_cast<std::size_t>(TrackStatus::kCount),
@@ -353,6 +373,11 @@ class Tracker {
 
   const TrackCounters& counters() const { return counters_; }
 
+  // Beacons left out of matching, in tracking and in lost-in-space, until the next call (none
+  // after Reset): Navigator passes beacon health's inconsistent beacons (a beacon moved after
+  // the survey: its blob would fall outside the tight gates and refuse every pose it is in).
+  void SetExcludedBeacons(const BeaconSet& beacons);
+
  private:
   // Where a second exact three-beacon solution would be indistinguishable from the solution:
   // within max_m / max_rad of *centre (nullptr: of the solution itself).
@@ -379,6 +404,8 @@ class Tracker {
   bool AgreeWith(const TrackResult& best, int num_trials, const TrackOptions& o);
   bool PublishAmbiguous(const TrackOptions& o, TrackResult* r);
   bool DecideByMotion(const BodyPose& predicted, const PoseBounds& bounds, const TrackOptions& o, TrackResult* r);
+  bool LeaveOneOut(const BodyPose& predicted, const PoseBounds& bounds, double gate_px, const TrackOptions& o,
+                   TrackResult* r);
   bool Unambiguous(const TrackOptions& o, TrackResult* r);
   void ContinueTracks(const TrackOptions& o);
   void RememberTracks(const MatchSet& matches);
@@ -462,6 +489,8 @@ class Tracker {
   int num_trials_ = 0;              // competitors in trials_ (TrackFrom)
   double ambiguity_spread_m_ = 0.0, ambiguity_spread_rad_ = 0.0;  // by this much (AgreeWith)
   TrackResult trial_, trial_result_;
+  TrackResult loo_result_, loo_best_;  // a leave-out's tracking, and the one that fits (LeaveOneOut)
+  MatchSet loo_set_;        // the beacons LeaveOneOut leaves out in turn
   static constexpr int kMaxTrials = 1 << limits::kMaxAmbiguousMatches;
   std::array<Trial, kMaxTrials> trials_{};
   P3pRayTriple twin_;
