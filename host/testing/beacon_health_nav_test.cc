@@ -95,22 +95,28 @@ Outcome Navigate(const Flight& f, const Rig& rig, int watched) {
   return r;
 }
 
-// expect_flag: the paper's turntable sweep (10 beacons, 3-6 in view at 0.6-1.6 m) is not held
-// to the 50 frame sets: its moved beacon (9) is camera 2's only beacon from the first frame set
-// on, every view of its first 64 in-view frame sets has 3 or 4 beacons, all with it, and
-// neither a three-beacon view (an exact fit) nor a four-beacon one (one of four is off, not
-// which) can single it out (docs/navd.md, "Beacon health"). Its five-beacon views (frame sets
-// 210-225) can: the tracker leaves it out (TrackOptions::leave_one_out) and beacon health
-// flags it there (missing: its blob lies beyond the 12 px search), and never another beacon.
+// max_in_view: the frame sets in view by which the beacon must be flagged inconsistent (0: not
+// held to it). The paper's turntable sweep (10 beacons, 3-6 in view at 0.6-1.6 m) is not: its
+// moved beacon (9) is camera 2's only beacon from the first frame set on, every view of its
+// first 64 in-view frame sets has 3 or 4 beacons, all with it, and neither a three-beacon view
+// (an exact fit) nor a four-beacon one (one of four is off, not which) can single it out
+// (docs/navd.md, "Beacon health"). Its five-beacon views (frame sets 210-225) can: the tracker
+// leaves it out (TrackOptions::leave_one_out) and beacon health flags it there (missing: its
+// blob lies beyond the 12 px search), and never another beacon. Cylinder 128 seed 2: the fixes
+// the moved beacon bent before its flag (after 71 in view) pushed two neighbours over the
+// threshold with it, flagged for the rest of the run until one beacon turned inconsistent per
+// update (BeaconHealth::Update).
 TEST(BeaconHealthNavTest, AMovedBeaconIsFlaggedAndNeverMakesAWrongFix) {
   struct Case {
     RunSpec spec;
-    bool expect_flag;
+    int max_in_view;
+    bool leaves_out;  // poses with the moved beacon left out must be published
   } cases[] = {
-      {{.preset = "paper-turntable", .seed = 1, .frames = 300}, false},
-      {{.preset = "free-flight", .seed = 2, .frames = 300}, true},
-      {{.preset = "station-box", .count = 64, .seed = 3, .frames = 300}, true},
-      {{.preset = "station-cylinder", .count = 128, .seed = 4, .frames = 300}, true},
+      {{.preset = "paper-turntable", .seed = 1, .frames = 300}, 0, true},
+      {{.preset = "free-flight", .seed = 2, .frames = 300}, 50, false},
+      {{.preset = "station-box", .count = 64, .seed = 3, .frames = 300}, 50, false},
+      {{.preset = "station-cylinder", .count = 128, .seed = 4, .frames = 300}, 50, false},
+      {{.preset = "station-cylinder", .count = 128, .seed = 2, .frames = 300}, 0, false},
   };
   for (const Case& c : cases) {
     const RunSpec& spec = c.spec;
@@ -135,12 +141,12 @@ TEST(BeaconHealthNavTest, AMovedBeaconIsFlaggedAndNeverMakesAWrongFix) {
     EXPECT_EQ(with.inconsistent_frames, 0) << spec.preset;
     EXPECT_FALSE(base.flagged_at_end) << spec.preset;
     EXPECT_TRUE(with.flagged_at_end) << spec.preset;
-    if (!c.expect_flag) {
-      EXPECT_GT(with.left_out, 0u) << spec.preset << ": its five-beacon views";
-      continue;
+    if (c.leaves_out) {
+      EXPECT_GT(with.left_out, 0u) << spec.preset;
     }
+    if (c.max_in_view == 0) continue;
     EXPECT_GT(with.in_view_until_flag, 0) << spec.preset << ": never flagged";
-    EXPECT_LE(with.in_view_until_flag, 50) << spec.preset;
+    EXPECT_LE(with.in_view_until_flag, c.max_in_view) << spec.preset;
     // Down-weighted, it leaves the fixes that had a fourth beacon only through it.
     EXPECT_GE(with.fixes, 0.5 * base.fixes) << spec.preset;
   }

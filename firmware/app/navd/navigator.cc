@@ -7,10 +7,6 @@ namespace mfns::fw {
 namespace {
 // Beacons a pose degraded by its residuals must stand on to judge the beacons by it.
 constexpr int kJudgeDegradedBeacons = 6;
-// Beacons a fix must stand on to judge the others: three fit any pose exactly, so a three-beacon
-// fix on a moved beacon is bent by it and would flag the good beacons it leaves out (seen: the
-// paper sweep with beacon 9 moved 5 mm flagged beacon 4 from such fixes).
-constexpr int kJudgeFixBeacons = 4;
 }  // namespace
 
 NavReason ToNavReason(TrackReason r) {
@@ -121,7 +117,7 @@ void Navigator::Step(const BlobObs* blobs, int num_blobs, std::uint64_t t_ns, st
   // beacons for one bad beacon to stand out (a moved beacon degrades every pose it is in until
   // it is flagged), and on tracking's poses that left the one beacon out that refused the others
   // (TrackOptions::leave_one_out: fewer beacons there, but the motion model picked the one).
-  if ((s == TrackStatus::kFix && r.num_beacons >= kJudgeFixBeacons) || result_.left_out_beacon >= 0 ||
+  if ((s == TrackStatus::kFix && r.num_beacons >= options_.judge_fix_min_beacons) || result_.left_out_beacon >= 0 ||
       (result_.reason == TrackReason::kLargeResidual && r.num_beacons >= kJudgeDegradedBeacons))
     JudgeBeacons(blobs, num_blobs, delivered, *out);
   // The calibration's part after the judging: a miscalibrated camera shifts the pose, which

@@ -41,12 +41,20 @@ struct NavigatorOptions {
   // would be refused however little it weighs. Beacon health still looks for it (its nearest
   // free blob), so it clears when it is back where the map says.
   bool exclude_inconsistent = true;
+  // Beacons a fix must stand on for beacon health to judge the others by it: three fit any pose
+  // exactly, so a three-beacon fix on a moved beacon is bent by it and would flag the good
+  // beacons it leaves out (seen: the paper sweep with beacon 9 moved 5 mm flagged beacon 4).
+  int judge_fix_min_beacons = 4;
   // With the calibration's 1-sigma in the rig (Rig::has_sigma, from the parameter blob), the
   // published covariance adds the pose error it causes (CalibrationCovariance: each camera
   // parameter propagated through the solve at its solution, the parameters independent).
   // The tracker's fix/degraded bounds stay on centroid noise and map error.
   bool fold_calibration_sigma = true;
   bool IsValid(const char** why = nullptr) const {
+    if (judge_fix_min_beacons < limits::kMinNavBeacons) {
+      if (why != nullptr) *why = "judge_fix_min_beacons";
+      return false;
+    }
     return track.IsValid(why) && (!infer_facing || facing.IsValid(why)) && health.IsValid(why);
   }
 };

@@ -14,7 +14,10 @@
 //     (which inflates its sigma in the navigator's rig) does not clear it.
 //   - kMissing: no blob near it in at least `missing_fraction` of the window (dead, or occluded
 //     for a while); it clears when it is seen again in most of the window.
-// Both need `min_observations` in-view observations in the window. The navigator down-weights an
+// Both need `min_observations` in-view observations in the window. At most one beacon turns
+// inconsistent per update, the worst; the windows of the beacons still ok then start over (they
+// were judged against fixes the flagged beacon bent), and so do beacons flagged inconsistent
+// within the last window of updates (back to ok: flagged on such fixes, before the bad one). The navigator down-weights an
 // inconsistent beacon (its map sigma inflated to what its residuals show, SuggestedSigmaM) and
 // reports every flagged one (health datagram, --log).
 //
@@ -92,13 +95,17 @@ class BeaconHealth {
   };
   void Observe(const Rig& rig, int beacon, int camera, const BodyPose& pose, const Eigen::Matrix<double, 6, 6>& cov,
                const BlobObs* blobs, int num_blobs, int used_blob, const std::array<bool, limits::kMaxObservations>& taken);
-  bool Judge(int beacon);  // true when its state changed
+  // The state its window says (*mean_z2: of its seen observations); Apply sets it (true: changed).
+  BeaconState Judge(int beacon, double* mean_z2);
+  bool Apply(int beacon, BeaconState next);
 
   BeaconHealthOptions options_;
   int num_beacons_ = 0;
   std::array<BeaconStats, limits::kMaxBeacons> stats_{};
   std::array<Window, limits::kMaxBeacons> windows_{};
   std::array<double, limits::kMaxBeacons> sigma_m_{};  // each beacon's map sigma at Reset
+  std::uint32_t updates_ = 0;                              // Update calls since Reset
+  std::array<std::uint32_t, limits::kMaxBeacons> flagged_at_{};  // updates_ when it turned inconsistent
 };
 
 }  // namespace mfns::fw

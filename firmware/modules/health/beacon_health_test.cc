@@ -130,6 +130,38 @@ TEST(BeaconHealthTest, AMovedBeaconIsFlaggedWithinFiftyFrameSetsInView) {
   }
 }
 
+// Two beacons moved after the survey (8 and 4 mm): one turns inconsistent per update, the
+// worst; the other's window starts over (and a beacon flagged just before a worse one gets its
+// flag judged again, once), so both end flagged, no other beacon ever, and neither flips for
+// good (5 stations, 400 frame sets).
+TEST(BeaconHealthTest, TwoMovedBeaconsAreBothFlaggedAndNoOther) {
+  for (std::uint64_t seed = 1; seed <= 5; ++seed) {
+    static Flight f;
+    f.station = MakeStation(seed);
+    f.rng.seed(200 + seed);
+    ASSERT_TRUE(f.health.Reset(f.station.believed, Options()));
+    const int a = static_cast<int>(seed * 7 % 60), b = static_cast<int>((seed * 7 + 13) % 60);
+    for (const auto& [m, mm] : {std::pair{a, 8.0}, std::pair{b, 4.0}}) {
+      Eigen::Vector3d& P = f.station.truth.beacons_w[static_cast<std::size_t>(m)];
+      P += 1e-3 * mm * P.normalized().unitOrthogonal();
+    }
+    int false_flags = 0;
+    for (int t = 0; t < 400; ++t) {
+      if (!f.Step()) continue;
+      for (int m = 0; m < 60; ++m)
+        false_flags += m != a && m != b && f.health.stats(m).state == BeaconState::kInconsistent ? 1 : 0;
+    }
+    std::printf("seed %d: beacons %d (8 mm) and %d (4 mm): states %s / %s, flags %u / %u\n", static_cast<int>(seed), a, b,
+                ToString(f.health.stats(a).state), ToString(f.health.stats(b).state), f.health.stats(a).flags,
+                f.health.stats(b).flags);
+    EXPECT_EQ(f.health.stats(a).state, BeaconState::kInconsistent) << seed;
+    EXPECT_EQ(f.health.stats(b).state, BeaconState::kInconsistent) << seed;
+    EXPECT_LE(f.health.stats(a).flags + f.health.stats(b).flags, 4u) << seed;
+    EXPECT_EQ(false_flags, 0) << seed;
+    EXPECT_EQ(f.health.NumFlagged(), 2) << seed;
+  }
+}
+
 // A dead beacon (no blob where it should be) is reported missing, and clears once lit again.
 TEST(BeaconHealthTest, ADeadBeaconIsMissingUntilItIsLitAgain) {
   static Flight f;
