@@ -51,6 +51,12 @@ BodyPose RandomPose(std::mt19937_64* rng) {
   return p;
 }
 
+BeaconHealthOptions Options() {
+  BeaconHealthOptions o;
+  o.sigma_px = kSigmaPx;
+  return o;
+}
+
 // One frame set: the truth's blobs (kSigmaPx, 2 spurious), the fix on the believed map with the
 // true identities (outliers rejected as the navigator's solve does), and the health update.
 // False when no fix.
@@ -61,6 +67,18 @@ struct Flight {
   Scene scene;
   SolveResult solve;
   std::array<Match, limits::kMaxMatches> matches{}, used{};
+
+  // A station of seed `seed`, the noise from rng_seed, beacon health reset.
+  bool Start(std::uint64_t seed, std::uint64_t rng_seed) {
+    station = MakeStation(seed);
+    rng.seed(rng_seed);
+    return health.Reset(station.believed, Options());
+  }
+  // Beacon m moved by shift_m along the wall (across the ray from the centre) after the survey.
+  void Move(int m, double shift_m) {
+    Eigen::Vector3d& P = station.truth.beacons_w[static_cast<std::size_t>(m)];
+    P += shift_m * P.normalized().unitOrthogonal();
+  }
 
   bool Step() {
     const BodyPose truth = RandomPose(&rng);
@@ -87,24 +105,15 @@ struct Flight {
   }
 };
 
-BeaconHealthOptions Options() {
-  BeaconHealthOptions o;
-  o.sigma_px = kSigmaPx;
-  return o;
-}
-
 // A beacon moved 5 mm along the wall (across the ray from the centre) after the survey: flagged
 // inconsistent within 50 frame sets of being in view, its suggested sigma near the move, and no
 // other beacon flagged inconsistent over the flight (5 stations, 300 frame sets each).
 TEST(BeaconHealthTest, AMovedBeaconIsFlaggedWithinFiftyFrameSetsInView) {
   for (std::uint64_t seed = 1; seed <= 5; ++seed) {
     static Flight f;
-    f.station = MakeStation(seed);
-    f.rng.seed(100 + seed);
-    ASSERT_TRUE(f.health.Reset(f.station.believed, Options()));
+    ASSERT_TRUE(f.Start(seed, 100 + seed));
     const int moved = static_cast<int>(seed * 7 % 60);
-    const Eigen::Vector3d radial = f.station.truth.beacons_w[static_cast<std::size_t>(moved)].normalized();
-    f.station.truth.beacons_w[static_cast<std::size_t>(moved)] += 5e-3 * radial.unitOrthogonal();
+    f.Move(moved, 5e-3);
     int in_view_until_flag = -1, fixes = 0, false_flags = 0;
     for (int t = 0; t < 300; ++t) {
       if (!f.Step()) continue;
@@ -137,14 +146,10 @@ TEST(BeaconHealthTest, AMovedBeaconIsFlaggedWithinFiftyFrameSetsInView) {
 TEST(BeaconHealthTest, TwoMovedBeaconsAreBothFlaggedAndNoOther) {
   for (std::uint64_t seed = 1; seed <= 5; ++seed) {
     static Flight f;
-    f.station = MakeStation(seed);
-    f.rng.seed(200 + seed);
-    ASSERT_TRUE(f.health.Reset(f.station.believed, Options()));
+    ASSERT_TRUE(f.Start(seed, 200 + seed));
     const int a = static_cast<int>(seed * 7 % 60), b = static_cast<int>((seed * 7 + 13) % 60);
-    for (const auto& [m, mm] : {std::pair{a, 8.0}, std::pair{b, 4.0}}) {
-      Eigen::Vector3d& P = f.station.truth.beacons_w[static_cast<std::size_t>(m)];
-      P += 1e-3 * mm * P.normalized().unitOrthogonal();
-    }
+    f.Move(a, 8e-3);
+    f.Move(b, 4e-3);
     int false_flags = 0;
     for (int t = 0; t < 400; ++t) {
       if (!f.Step()) continue;
