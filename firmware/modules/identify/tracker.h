@@ -246,9 +246,11 @@ struct TrackOptions {
   // moved beacon predicts its bias: the leave-out of a good beacon would be chosen (measured on
   // the paper sweep, docs/navd.md).
   int leave_one_out_min_beacons = 5;
-  // ... and at most this many: one tracking per beacon (with its trials) bounds the cost, and
-  // among more the solve's outlier rejection takes one bad beacon out itself.
-  int leave_one_out_max_beacons = 8;
+  // ... and at most this many: one tracking per beacon (with its trials) bounds the cost. Not
+  // fewer: a moved beacon whose blob falls outside the tight gate is "missing" and refuses every
+  // pose of a view of 9-11 beacons too (box 128 seed 3: never flagged with 8, 66 fixes of 249;
+  // flagged after 8 frame sets in view with 32, 242 fixes).
+  int leave_one_out_max_beacons = 32;
   int lis_fix_min_beacons = 4;       // a lost-in-space fix on its own needs this many beacons
                                      // (three fit exactly, so a reflection among them shows not)
   double chain_stale_s = 1.0;        // a followed pose unconfirmed this long restarts it all
