@@ -115,8 +115,8 @@ void Navigator::Step(const BlobObs* blobs, int num_blobs, std::uint64_t t_ns, st
     out->matches[static_cast<std::size_t>(i)] = result_.matches.matches[static_cast<std::size_t>(i)];
   // Beacons are judged on fixes, on poses degraded by their residuals that stand on enough
   // beacons for one bad beacon to stand out (a moved beacon degrades every pose it is in until
-  // it is flagged), and on tracking's poses that left the one beacon out that refused the others
-  // (TrackOptions::leave_one_out: fewer beacons there, but the motion model picked the one).
+  // it is flagged), and on tracking's poses that left out the one beacon whose removal alone made
+  // the others fit the noise (TrackOptions::leave_one_out: >= 4 beacons left, residuals tested).
   if ((s == TrackStatus::kFix && r.num_beacons >= options_.judge_fix_min_beacons) || result_.left_out_beacon >= 0 ||
       (result_.reason == TrackReason::kLargeResidual && r.num_beacons >= kJudgeDegradedBeacons))
     JudgeBeacons(blobs, num_blobs, delivered, *out);

@@ -920,7 +920,7 @@ void Tracker::Accept(std::uint64_t t_ns, const TrackOptions& o, TrackResult* r) 
   else if (o.verify_three_beacons && !verified_)
     r->reason = TrackReason::kUnverified;
   else if (r->left_out_beacon >= 0)
-    r->reason = TrackReason::kLargeResidual;  // the pose on every beacon was refused
+    r->reason = TrackReason::kLargeResidual;  // the pose on every beacon was refused or did not fit
   else {
     r->status = TrackStatus::kFix;
     r->reason = TrackReason::kNone;
