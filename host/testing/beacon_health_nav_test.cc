@@ -105,9 +105,14 @@ Outcome Navigate(const Flight& f, const Rig& rig, int watched) {
 // blob lies beyond the 12 px search), and never another beacon. Cylinder 128 seed 2: the fixes
 // the moved beacon bent before its flag (after 71 in view) pushed two neighbours over the
 // threshold with it, flagged for the rest of the run until one beacon turned inconsistent per
-// update (BeaconHealth::Update). Box 128 seed 3: the moved beacon's blob falls outside the tight
-// gate in views of 9-11 beacons, refusing every pose; never flagged (66 fixes of 249) until the
-// leave-one-out took up to 32 beacons (TrackOptions::leave_one_out_max_beacons).
+// update (BeaconHealth::Update); since near misses are excused (below) it is flagged after 8.
+// Box 128 seed 3: the moved beacon's blob falls outside the tight gate in views of 9-11
+// beacons, refusing every pose; never flagged (66 fixes of 249) until the leave-one-out took
+// up to 32 beacons (TrackOptions::leave_one_out_max_beacons). Free-flight seed 4: in views of
+// 8-9 beacons its blob lay 6.5 px off, beyond the 4 px tight gate, so every pose missed it and
+// was refuted (lost-in-space and tracking: lost for 30 frame sets at a time, flagged after 160
+// in view, 141 fixes of 299) until one near miss was excused on poses of >= 5 beacons
+// (LisOptions::near_miss_min_beacons): flagged after 8, 262 fixes.
 TEST(BeaconHealthNavTest, AMovedBeaconIsFlaggedAndNeverMakesAWrongFix) {
   struct Case {
     RunSpec spec;
@@ -116,9 +121,10 @@ TEST(BeaconHealthNavTest, AMovedBeaconIsFlaggedAndNeverMakesAWrongFix) {
   } cases[] = {
       {{.preset = "paper-turntable", .seed = 1, .frames = 300}, 0, true},
       {{.preset = "free-flight", .seed = 2, .frames = 300}, 50, false},
+      {{.preset = "free-flight", .seed = 4, .frames = 300}, 50, false},
       {{.preset = "station-box", .count = 64, .seed = 3, .frames = 300}, 50, false},
       {{.preset = "station-cylinder", .count = 128, .seed = 4, .frames = 300}, 50, false},
-      {{.preset = "station-cylinder", .count = 128, .seed = 2, .frames = 300}, 0, false},
+      {{.preset = "station-cylinder", .count = 128, .seed = 2, .frames = 300}, 50, false},
       {{.preset = "station-box", .count = 128, .seed = 3, .frames = 300}, 50, false},
   };
   for (const Case& c : cases) {

@@ -77,6 +77,8 @@ bool LisOptions::IsValid(const char** why) const {
   else if (!(miss_weight >= 0.0) || !std::isfinite(miss_weight)) bad = "miss_weight";
   else if (!(min_score_margin > 0.0) || !std::isfinite(min_score_margin)) bad = "min_score_margin";
   else if (max_missing < 0) bad = "max_missing";
+  else if (near_miss_min_beacons < 0) bad = "near_miss_min_beacons";
+  else if (!(near_miss_px > 0.0) || !std::isfinite(near_miss_px)) bad = "near_miss_px";
   else if (raw_matches_per_miss < 0) bad = "raw_matches_per_miss";
   else if (min_beacons < 3 || min_beacons > limits::kMaxBeacons) bad = "min_beacons";
   else if (confirm_beacons != 0 && confirm_beacons < min_beacons + 1) bad = "confirm_beacons";
@@ -229,7 +231,11 @@ void LostInSpace::Insert(const Candidate& c, const LisOptions& o) {
   for (int i = 0; i < num_cand_; ++i) {
     Candidate& k = cand_[static_cast<std::size_t>(i)];
     if (!SamePose(k, c, o)) continue;
-    if (c.score > k.score || (c.refined && !k.refined && c.score >= k.score)) k = c;
+    // (At an equal score a refined pose beats a raw one, and one whose miss is excused - a
+    // near miss, LisOptions::near_miss_min_beacons - one whose is not.)
+    const bool excused = c.refined && k.refined && c.score == k.score &&
+                         UnexcusedMissing(c.set, o) < UnexcusedMissing(k.set, o);
+    if (c.score > k.score || (c.refined && !k.refined && c.score >= k.score) || excused) k = c;
     return;
   }
   if (num_cand_ < limits::kMaxLisCandidates) {
@@ -250,10 +256,11 @@ void LostInSpace::Insert(const Candidate& c, const LisOptions& o) {
 // Solve, re-match with the tight gate, until the identities stop changing (bounded).
 bool LostInSpace::Refine(Candidate* c, const LisOptions& o) {
   c->refined = true;
+  const MatchOptions tight = WithNearMisses(o.refine_match, o);
   // A P3P pose fits its three blobs exactly: when those are all it matches, it is already the
   // least-squares solution; only the tight re-match remains.
   if (c->set.num_matches == 3 && c->set.sum_sq_px < 1e-12) {
-    matcher_.MatchPose(c->pose, o.refine_match, &match_scratch_);
+    matcher_.MatchPose(c->pose, tight, &match_scratch_);
     if (SameSet(match_scratch_, c->set)) {
       c->set.CopyFrom(match_scratch_);
       c->rms_px = 0.0;
@@ -267,7 +274,7 @@ bool LostInSpace::Refine(Candidate* c, const LisOptions& o) {
     if (s != SolveStatus::kOk && s != SolveStatus::kNotConverged) return false;
     c->pose = solve_.pose;
     c->rms_px = solve_.rms_px;
-    matcher_.MatchPose(c->pose, o.refine_match, &match_scratch_);
+    matcher_.MatchPose(c->pose, tight, &match_scratch_);
     const bool stable = SameSet(match_scratch_, c->set);
     c->set.CopyFrom(match_scratch_);
     if (stable) break;
@@ -357,13 +364,14 @@ void LostInSpace::Score(const BodyPose& pose, const LisOptions& o, LisResult* re
 // A refined pose ends the search when chance would explain its matches in fewer than
 // max_false_alarms of the hypotheses tried so far.
 void LostInSpace::Confirm(Candidate* c, const LisOptions& o, LisResult* result) {
-  if (c->set.num_beacons < o.confirm_beacons || c->set.num_missing != 0) return;
+  if (c->set.num_beacons < o.confirm_beacons || UnexcusedMissing(c->set, o) != 0) return;
   int blobs_per_image = 0;
   for (int k = 0; k < rig_->num_cameras; ++k) blobs_per_image = std::max(blobs_per_image, matcher_.BlobsInCamera(k));
   const double fa = FalseAlarms(c->set.num_matches, c->set.num_predicted, blobs_per_image, o.refine_match.gate_px,
                                 image_area_px2_, std::max(1, result->poses_scored));
   if (fa > o.max_false_alarms) return;
   result->confirmed = true;
+  confirmed_ = *c;
   result->false_alarms = fa;
 }
 
@@ -755,7 +763,7 @@ LisStatus LostInSpace::Decide(bool budget_out, const LisOptions& o, LisResult* r
     Candidate& c = cand_[static_cast<std::size_t>(i)];
     if (!c.refined) res.cost += kCostRefine;
     if (!c.refined && !Refine(&c, o)) continue;
-    if (c.set.num_missing > o.max_missing || !NearPrior(c.pose, 0.0, 0.0) || !KeepsAnchors(c, o)) continue;
+    if (UnexcusedMissing(c.set, o) > o.max_missing || !NearPrior(c.pose, 0.0, 0.0) || !KeepsAnchors(c, o)) continue;
     bool merged = false;
     for (int j = 0; j < kept && !merged; ++j) {
       Candidate& k = cand_[static_cast<std::size_t>(j)];
@@ -785,6 +793,10 @@ LisStatus LostInSpace::Decide(bool budget_out, const LisOptions& o, LisResult* r
   // The best pose's full identities (the kept list may be truncated).
   matcher_.MatchPose(best.pose, o.refine_match, &res.matches);
   if (best.set.num_beacons < o.min_beacons) return res.status = none;
+  // A search cut short by a confirmed pose fixes on that pose or not at all: its list is
+  // incomplete, so the best of the others is no elimination (seen when the confirmed pose was
+  // merged into a twin whose near miss was not excused: a three-beacon pose 3.5 m off won).
+  if (res.confirmed && !SamePose(best, confirmed_, o)) return res.status = LisStatus::kBudgetExhausted;
   if (res.best_score - res.second_score < o.min_score_margin) return res.status = LisStatus::kAmbiguous;
   if (budget_out && !res.confirmed) return res.status = LisStatus::kBudgetExhausted;
   // The fix: a last solve over the final identities gives covariance and residuals.

@@ -96,6 +96,15 @@ struct LisOptions {
   double miss_weight = 1.0;       // score penalty per missing beacon
   double min_score_margin = 2.0;  // best - second-best consistent score needed for a fix
   int max_missing = 0;            // a refined pose with more missing beacons is refuted
+  // ... not counting one beacon whose prediction has a free blob within near_miss_px (a blob
+  // the pose matched to no beacon), when the pose explains at least near_miss_min_beacons
+  // beacons (0: never). A beacon moved since the survey leaves its blob beyond the tight
+  // re-match, so that the true pose missed it and every pose was refuted (free-flight, a beacon
+  // moved 5 mm: its blob 6.5 px off; no fix in 8-9-beacon views until it left the view); the
+  // tracker then leaves it out and beacon health flags it. A wrong pose rarely explains five
+  // beacons and leaves a blob beside a sixth; its score still counts the miss.
+  int near_miss_min_beacons = 5;
+  double near_miss_px = 15.0;     // (> 0)
   int min_beacons = 3;            // distinct beacons of a fix (>= 3)
   int confirm_beacons = 5;        // a pose with this many beacons, none missing and few
                                   // expected false alarms ends the search (0: never)
@@ -167,6 +176,20 @@ struct LisResult {
   std::array<double, limits::kMaxLisCandidates> consistent_scores{};
   bool complete = false;
 };
+
+// The missing beacons that refute a refined pose (LisResult, the tracker's solves): all of them,
+// less one near miss when the pose explains near_miss_min_beacons beacons or more.
+template <int kCapacity>
+int UnexcusedMissing(const MatchList<kCapacity>& m, const LisOptions& o) {
+  const bool excuse = o.near_miss_min_beacons > 0 && m.num_beacons >= o.near_miss_min_beacons && m.num_near_missing > 0;
+  return m.num_missing - (excuse ? 1 : 0);
+}
+
+// A tight re-match `tight` that also counts near misses (when LisOptions enables them).
+inline MatchOptions WithNearMisses(MatchOptions tight, const LisOptions& o) {
+  tight.near_miss_px = o.near_miss_min_beacons > 0 ? o.near_miss_px : 0.0;
+  return tight;
+}
 
 // A blob whose beacon is known before the search (LisPrior::anchors): its index in the blob
 // list given to Identify / Begin, and the beacon.
@@ -353,6 +376,7 @@ class LostInSpace {
   bool overflow_ = false;
   std::array<Candidate, limits::kMaxLisCandidates> cand_{};
   Candidate scratch_{};
+  Candidate confirmed_{};  // the pose that ended the search (LisResult::confirmed)
   SolveResult solve_{};
   MatchSet match_scratch_{};
 };

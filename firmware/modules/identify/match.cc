@@ -13,6 +13,7 @@ bool MatchOptions::IsValid(const char** why) const {
   if (!(gate_px > 0.0) || !std::isfinite(gate_px)) bad = "gate_px";
   else if (!(miss_margin_px >= 0.0) || !std::isfinite(miss_margin_px)) bad = "miss_margin_px";
   else if (!(facing_margin_rad >= 0.0) || !std::isfinite(facing_margin_rad)) bad = "facing_margin_rad";
+  else if (!(near_miss_px >= 0.0) || !std::isfinite(near_miss_px)) bad = "near_miss_px";
   if (why != nullptr) *why = bad != nullptr ? bad : "ok";
   return bad == nullptr;
 }
@@ -93,6 +94,7 @@ void BeaconMatcher::MatchPose(const BodyPose& pose, const MatchOptions& o, Match
   out->num_beacons = 0;
   out->num_predicted = 0;
   out->num_missing = 0;
+  out->num_near_missing = 0;
   out->sum_sq_px = 0.0;
   if (rig_ == nullptr || blobs_ == nullptr) return;
   if (rig_->has_facing) CacheFacing(o.facing_margin_rad);
@@ -108,6 +110,9 @@ void BeaconMatcher::MatchPose(const BodyPose& pose, const MatchOptions& o, Match
     std::array<Candidate, 2 * limits::kMaxBeacons> cand;
     int n_cand = 0;
     BeaconSet inner_set;
+    std::array<Eigen::Vector2d, limits::kMaxBeacons> inner_uv;
+    std::array<int, limits::kMaxBeacons> inner_beacon{};
+    int n_inner = 0;
     const Eigen::Vector3d centre_w = pose.C_w_b * rig_->cameras[sk].r_b_bk + pose.r_w_wb;
     for (int m = 0; m < rig_->num_beacons; ++m) {
       Eigen::Vector2d uv;
@@ -120,7 +125,11 @@ void BeaconMatcher::MatchPose(const BodyPose& pose, const MatchOptions& o, Match
       if (inner && rig_->has_facing && !BeaconFacesCos(*rig_, m, centre_w, cos_narrow_[sm])) inner = false;
       if (inner && o.skip_blind_cells && Blind(k, uv)) inner = false;  // glare or unwritten rows hide it
       if (InImage(rig_->cameras[sk].intrinsics, uv)) ++out->num_predicted;
-      if (inner) inner_set.Set(m);
+      if (inner) {
+        inner_set.Set(m);
+        inner_uv[static_cast<std::size_t>(n_inner)] = uv;
+        inner_beacon[static_cast<std::size_t>(n_inner++)] = m;
+      }
       // Nearest and second-nearest blob of this camera.
       double d1 = gate_sq * 4.0 + 1.0, d2 = d1;
       int j1 = -1, j2 = -1;
@@ -163,8 +172,35 @@ void BeaconMatcher::MatchPose(const BodyPose& pose, const MatchOptions& o, Match
     }
     out->beacons |= matched;
     out->num_missing += inner_set.Minus(matched).Count();
+    if (o.near_miss_px > 0.0)
+      out->num_near_missing +=
+          NearMissing(k, inner_uv.data(), inner_beacon.data(), n_inner, matched, &used, o.near_miss_px);
   }
   out->num_beacons = out->beacons.Count();
+}
+
+int BeaconMatcher::NearMissing(int k, const Eigen::Vector2d* inner_uv, const int* inner_beacon, int num_inner,
+                               const BeaconSet& matched, std::array<bool, limits::kMaxBlobsPerFrame>* used,
+                               double radius_px) const {
+  const auto sk = static_cast<std::size_t>(k);
+  int near = 0;
+  for (int i = 0; i < num_inner; ++i) {
+    if (matched.Has(inner_beacon[i])) continue;
+    double best = radius_px * radius_px;
+    int slot = -1;
+    for (int j = 0; j < count_[sk]; ++j) {
+      if ((*used)[static_cast<std::size_t>(j)]) continue;
+      const double d = (blobs_[index_[sk][static_cast<std::size_t>(j)]].uv_px - inner_uv[i]).squaredNorm();
+      if (d <= best) {
+        best = d;
+        slot = j;
+      }
+    }
+    if (slot < 0) continue;
+    (*used)[static_cast<std::size_t>(slot)] = true;
+    ++near;
+  }
+  return near;
 }
 
 }  // namespace mfns::fw

@@ -55,6 +55,11 @@ struct MatchOptions {
   // track is followed; mfns-navd's lost-in-space turns it off (Navigator::Init): with no track,
   // the missing beacons are what tells a pose from its twins.
   bool skip_blind_cells = true;
+  // A missing beacon whose prediction has a free blob (one this pose matched to no beacon)
+  // within this distance is also counted in MatchList::num_near_missing (0: not counted): a
+  // beacon moved since the survey leaves its blob beyond the tight gate, a wrong pose mostly
+  // leaves nothing there. Each free blob excuses one beacon.
+  double near_miss_px = 0.0;
 
   bool IsValid(const char** why = nullptr) const;
 };
@@ -69,6 +74,7 @@ struct MatchList {
   int num_beacons = 0;        // distinct matched beacons
   int num_predicted = 0;      // (camera, beacon) pairs predicted inside the image
   int num_missing = 0;        // predicted well inside with no blob matched
+  int num_near_missing = 0;   // of those, with a free blob within MatchOptions::near_miss_px
   double sum_sq_px = 0.0;     // sum of squared match distances
 
   // Matched observations minus miss_weight per missing beacon.
@@ -89,7 +95,7 @@ struct MatchList {
     return true;
   }
   // Keeps the matches for which keep(index, match) is true, in order, and recounts the
-  // beacons (num_predicted, num_missing and sum_sq_px stay as they were).
+  // beacons (num_predicted, num_missing, num_near_missing and sum_sq_px stay as they were).
   template <class Keep>
   void Retain(Keep keep) {
     int n = 0;
@@ -112,6 +118,7 @@ struct MatchList {
     num_beacons = o.num_beacons;
     num_predicted = o.num_predicted;
     num_missing = o.num_missing;
+    num_near_missing = o.num_near_missing;
     sum_sq_px = o.sum_sq_px;
   }
 };
@@ -185,6 +192,10 @@ class BeaconMatcher {
  private:
   // FacingCosine of every beacon for +-margin (a cache: MatchPose is called per hypothesis).
   void CacheFacing(double margin_rad) const;
+  // How many of camera k's missing beacons (predicted at inner_uv, beacons inner_beacon; those
+  // in `matched` are not missing) have a blob not `used` within radius_px; each blob counts once.
+  int NearMissing(int k, const Eigen::Vector2d* inner_uv, const int* inner_beacon, int num_inner,
+                  const BeaconSet& matched, std::array<bool, limits::kMaxBlobsPerFrame>* used, double radius_px) const;
   // Whether image point uv of camera k lies in one of its blind cells (SetBlobs' camera set).
   bool Blind(int k, const Eigen::Vector2d& uv) const;
 

@@ -1,5 +1,6 @@
 // The matcher's missing-beacon test against blind cells (issue 14): a camera half saturated (a
-// lamp, the sun in a window) must not refute the pose with the beacons its saturated half hides.
+// lamp, the sun in a window) must not refute the pose with the beacons its saturated half hides;
+// excluded beacons (beacon health) and near misses (a beacon moved since the survey, issue 16).
 #include "firmware/modules/identify/match.h"
 
 #include <gtest/gtest.h>
@@ -32,7 +33,7 @@ class BlindCellsTest : public ::testing::Test {
     matcher_.Reset(rig_);
   }
 
-  MatchSet Match(const std::vector<int>& seen, std::uint32_t cameras) {
+  MatchSet Match(const std::vector<int>& seen, std::uint32_t cameras, const MatchOptions& o = MatchOptions{}) {
     blobs_.clear();
     for (int m : seen) {
       BlobObs b;
@@ -40,9 +41,12 @@ class BlindCellsTest : public ::testing::Test {
       b.uv_px = uv_[static_cast<std::size_t>(m)];
       blobs_.push_back(b);
     }
+    return MatchBlobs(cameras, o);
+  }
+  MatchSet MatchBlobs(std::uint32_t cameras, const MatchOptions& o) {
     matcher_.SetBlobs(blobs_.data(), static_cast<int>(blobs_.size()), cameras);
     MatchSet out;
-    matcher_.MatchPose(pose_, MatchOptions{}, &out);
+    matcher_.MatchPose(pose_, o, &out);
     return out;
   }
 
@@ -97,6 +101,49 @@ TEST_F(BlindCellsTest, ExcludedBeaconsAreNeitherMatchedNorMissing) {
   matcher_.SetExcluded(excluded);
   matcher_.Reset(rig_);  // Reset forgets them
   EXPECT_EQ(Match({0, 1, 2, 3}, kAllCameras).num_matches, 4);
+}
+
+// A missing beacon with a free blob within near_miss_px of its prediction (a beacon moved since
+// the survey: its blob beyond the tight gate) is also a near miss; a blob another beacon matched,
+// or one beyond the radius, excuses nothing, and each free blob counts once.
+TEST_F(BlindCellsTest, NearMissesNeedAFreeBlobWithinTheirRadius) {
+  MatchOptions o;
+  o.gate_px = 4.0;
+  o.near_miss_px = 15.0;
+  for (int m : {0, 1, 2, 3}) {
+    BlobObs b;
+    b.camera = 0;
+    b.uv_px = uv_[static_cast<std::size_t>(m)];
+    blobs_.push_back(b);
+  }
+  blobs_[0].uv_px += Eigen::Vector2d(7.0, -5.0);  // beacon 0 "moved": 8.6 px
+  MatchSet s = MatchBlobs(kAllCameras, o);
+  EXPECT_EQ(s.num_matches, 3);
+  EXPECT_EQ(s.num_missing, 1);
+  EXPECT_EQ(s.num_near_missing, 1);
+  o.near_miss_px = 0.0;  // not counted
+  EXPECT_EQ(MatchBlobs(kAllCameras, o).num_near_missing, 0);
+  o.near_miss_px = 8.0;  // beyond the radius
+  EXPECT_EQ(MatchBlobs(kAllCameras, o).num_near_missing, 0);
+  o.near_miss_px = 15.0;
+  // Beacons 0 and 1 missing, a free blob beside 0 only: one near miss.
+  blobs_.erase(blobs_.begin() + 1);
+  s = MatchBlobs(kAllCameras, o);
+  EXPECT_EQ(s.num_missing, 2);
+  EXPECT_EQ(s.num_near_missing, 1);
+  // Beacon 0 missing, its blob gone: the blobs within any radius are matched to their own
+  // beacons and excuse nothing; a free one (a reflection 300 px away) does within 1000 px.
+  blobs_.erase(blobs_.begin());
+  o.near_miss_px = 1000.0;
+  s = MatchBlobs(kAllCameras, o);
+  EXPECT_EQ(s.num_matches, 2);
+  EXPECT_EQ(s.num_near_missing, 0);
+  BlobObs reflection;
+  reflection.camera = 0;
+  reflection.uv_px = uv_[0] + Eigen::Vector2d(300.0, 0.0);
+  blobs_.push_back(reflection);
+  EXPECT_EQ(MatchBlobs(kAllCameras, o).num_near_missing, 1);
+  EXPECT_EQ(MatchBlobs(kAllCameras, o).num_missing, 2);  // (1 and 0: the reflection matches neither)
 }
 
 }  // namespace

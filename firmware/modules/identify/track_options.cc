@@ -65,7 +65,7 @@ bool TrackOptions::IsValid(const char** why) const {
 void TrackOptions::ScalePixelGates(double factor) {
   for (double* px : {&gate_px, &hold_gate_px, &max_gate_px, &refine_gate_px, &miss_margin_px,
                      &lis.hypothesis_match.gate_px, &lis.hypothesis_match.miss_margin_px, &lis.refine_match.gate_px,
-                     &lis.refine_match.miss_margin_px})
+                     &lis.refine_match.miss_margin_px, &lis.near_miss_px})
     *px *= factor;
 }
 

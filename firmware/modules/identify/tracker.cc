@@ -106,7 +106,9 @@ void Tracker::SetPose(const BodyPose& pose, std::uint64_t t_ns, double sigma_m, 
 // again while they change (bounded). r->matches and r->solve hold the outcome.
 bool Tracker::SolveAt(const BodyPose& start, const TwinRegion& twin, const TrackOptions& o, TrackResult* r) {
   BodyPose pose = start;
-  const MatchOptions tight{o.refine_gate_px, o.miss_margin_px, false};
+  // (A beacon moved since the survey, its blob beyond the tight gate, is a near miss: excused
+  // once on a pose of lis.near_miss_min_beacons beacons; beacon health judges it.)
+  const MatchOptions tight = WithNearMisses(MatchOptions{o.refine_gate_px, o.miss_margin_px, false}, o.lis);
   for (int round = 0; round < 3; ++round) {
     const SolveStatus s =
         SolvePose(*rig_, blobs_, num_blobs_, set_.matches.data(), set_.num_matches, pose, o.solve, &r->solve);
@@ -123,8 +125,8 @@ bool Tracker::SolveAt(const BodyPose& start, const TwinRegion& twin, const Track
   // The identities the last solve used, inliers only.
   r->matches.Retain([&](int i, const Match&) { return r->solve.inlier[static_cast<std::size_t>(i)]; });
   r->pose = r->solve.pose;
-  return r->matches.num_beacons >= 3 && r->matches.num_missing <= o.max_missing && r->solve.rms_px <= o.max_rms_px &&
-         !NearbyTwin(twin, o, r);
+  return r->matches.num_beacons >= 3 && UnexcusedMissing(r->matches, o.lis) <= o.max_missing &&
+         r->solve.rms_px <= o.max_rms_px && !NearbyTwin(twin, o, r);
 }
 
 // Three observations fit a pose exactly, and so do up to three other poses (the P3P's other
@@ -647,7 +649,7 @@ bool Tracker::SolveTracked(const BodyPose& predicted, const PoseBounds& bounds, 
   *innovation = -1.0;
   const TwinRegion region{&predicted, bounds.max_m, bounds.max_rad};
   if (!SolveAt(predicted, region, o, r)) {
-    *refuted = r->matches.num_missing > o.max_missing || r->solve.rms_px > o.max_rms_px;
+    *refuted = UnexcusedMissing(r->matches, o.lis) > o.max_missing || r->solve.rms_px > o.max_rms_px;
     return false;
   }
   // Innovation test: the solved pose must be where the motion model allows. Three matches
