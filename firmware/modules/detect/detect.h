@@ -101,6 +101,10 @@ struct DetectOptions {
   // (every row's thresholds, statistics by the clipped-sample loops), kept as the reference the
   // fast path must equal bit for bit (detect_test "FastPathEqualsReference") and for benchmarks.
   bool reference_path = false;
+  // x86-64 only: the fast path's row skip runs on 32-byte AVX2 vectors when the CPU has AVX2
+  // (chosen at construction; the same BlobList bit for bit). false: the baseline 16-byte vectors
+  // (SSE2) everywhere; tests run both. No effect on other targets (aarch64: NEON, 16 bytes).
+  bool use_avx2 = true;
 
   // True when every field is usable; otherwise *why (optional) names the first bad field in a
   // static string. No heap.
@@ -245,6 +249,9 @@ class BlobDetector {
                       int num_windows, BlobList* out);
 
   const DetectOptions& options() const { return options_; }
+  // The vector width (bytes) of the fast path's row skip: 32 with AVX2 (use_avx2 and the CPU has
+  // it), else 16.
+  int vector_bytes() const;
   const DetectCounters& counters() const { return counters_; }  // since construction
 
  private:

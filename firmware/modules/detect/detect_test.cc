@@ -949,6 +949,15 @@ void ExpectSameBlobList(const BlobList& a, const BlobList& b, const std::string&
   EXPECT_EQ(p.saturated_frames, q.saturated_frames) << where;
 }
 
+// Whether this CPU runs the AVX2 build of the row skip (x86-64 only; detect.cc's CpuHasAvx2).
+bool CpuHasAvx2() {
+#if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
+  return __builtin_cpu_supports("avx2") != 0;
+#else
+  return false;
+#endif
+}
+
 TEST(BlobDetector, FastPathEqualsReference) {
   constexpr int kTrials = 60;
   std::mt19937_64 rng(2012);
@@ -1031,12 +1040,19 @@ TEST(BlobDetector, FastPathEqualsReference) {
     full += labels < limits::kMaxBlobLabels ? 1 : 0;
     DetectOptions r = o;
     r.reference_path = true;
-    BlobDetector fast(o, labels), ref(r, labels);
+    DetectOptions b = o;  // the fast path on baseline vectors only (x86-64: no AVX2)
+    b.use_avx2 = false;
+    BlobDetector fast(o, labels), ref(r, labels), base(b, labels);
+    EXPECT_EQ(fast.vector_bytes(), CpuHasAvx2() ? 32 : 16);  // the AVX2 build runs where it can
+    EXPECT_EQ(base.vector_bytes(), 16);
     const std::string where = "trial " + std::to_string(trial);
     const DetectStatus sf = fast.Detect(fb.view, nullptr, &fast_out);
     const DetectStatus sr = ref.Detect(fb.view, nullptr, &ref_out);
     ASSERT_EQ(sf, sr) << where << ": " << ToString(sf) << " / " << ToString(sr);
     ExpectSameBlobList(fast_out, ref_out, where);
+    const DetectStatus sb = base.Detect(fb.view, nullptr, &fast_out);
+    ASSERT_EQ(sb, sr) << where << " (baseline vectors): " << ToString(sb) << " / " << ToString(sr);
+    ExpectSameBlobList(fast_out, ref_out, where + " (baseline vectors)");
     blobs += ref_out.count;
   }
   // The frames did what they were drawn for.
