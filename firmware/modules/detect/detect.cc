@@ -110,52 +110,82 @@ bool ChunkAbove(const std::uint8_t* p, int t) {
   return AnyLane(m > static_cast<Lane>(t));
 }
 
-// Fast path: how many whole chunks from chunk c on (below c_end) hold no pixel above their lower
-// bound lb[k] (lb < 0: every pixel is above; lb >= the lane's full scale: none can be): one
-// maximum of the chunk's 16-byte vectors and one comparison a chunk. The loop runs over all the
-// quiet chunks of a row in one call, so ScanRowFast's per-chunk bookkeeping (bounds, the open
-// run) is paid once per stretch of background, not once per chunk.
+// Fast path: whether chunk p (kChunkPx pixels) has no pixel above t (t < 0: every pixel is above;
+// t >= the lane's full scale: none can be): one lane-wise maximum of its 16-byte vectors and one
+// comparison.
+template <typename Lane>
+[[gnu::always_inline]] inline bool ChunkQuiet(const std::uint8_t* p, int t) {
+  using V = typename VectorOf<Lane, 16>::Type;
+  if (t < 0) return false;
+  if (t >= std::numeric_limits<Lane>::max()) return true;
+  V m;
+  ChunkMax<V, Lane>(p, &m);
+  return !AnyLane(m > static_cast<Lane>(t));
+}
+
+// Fast path: how many whole chunks from chunk c on (below c_end) are quiet (ChunkQuiet against
+// their lower bounds lb[k]). The loop runs over all the quiet chunks of a row in one call, so
+// ScanRowFast's per-chunk bookkeeping (bounds, the open run) is paid once per stretch of
+// background, not once per chunk.
 template <typename Lane>
 int QuietChunksBaseline(const std::uint8_t* row, const int* lb, int c, int c_end) {
-  using V = typename VectorOf<Lane, 16>::Type;
+  constexpr int kChunkBytes = kChunkPx * static_cast<int>(sizeof(Lane));
   int k = c;
-  for (; k < c_end; ++k) {
-    const int t = lb[k];
-    if (t < 0) break;
-    if (t >= std::numeric_limits<Lane>::max()) continue;
-    V m;
-    ChunkMax<V, Lane>(row + static_cast<std::ptrdiff_t>(k) * kChunkPx * static_cast<int>(sizeof(Lane)), &m);
-    if (AnyLane(m > static_cast<Lane>(t))) break;
-  }
+  while (k < c_end && ChunkQuiet<Lane>(row + static_cast<std::ptrdiff_t>(k) * kChunkBytes, lb[k])) ++k;
   return k - c;
 }
 
-// x86-64: the same loop on 32-byte AVX2 vectors where the CPU has AVX2 (chosen at construction,
+// Fast path: how many rows from row0 (`stride` bytes apart, at most `rows`) have every chunk
+// [c, c_end) quiet: Label skips them whole when no run is open above (nothing to label or close),
+// one call for a band of rows instead of a row's loop and calls each.
+template <typename Lane>
+int QuietRowsBaseline(const std::uint8_t* row0, std::ptrdiff_t stride, int rows, const int* lb, int c, int c_end) {
+  int r = 0;
+  while (r < rows && QuietChunksBaseline<Lane>(row0 + r * stride, lb, c, c_end) == c_end - c) ++r;
+  return r;
+}
+
+// x86-64: the same loops on 32-byte AVX2 vectors where the CPU has AVX2 (chosen at construction,
 // DetectOptions::use_avx2): half the loads and maxima, and the test is m - min(m, t) (nonzero
-// where a pixel is above t) and one vptest. The build targets baseline x86-64 (SSE2: 16-byte vectors) so that it runs on
-// any x86-64; a function-level target attribute adds AVX2 code for this loop alone, and
-// __builtin_cpu_supports (libgcc / compiler-rt; no ifunc, so static and dynamic links alike)
-// picks it. aarch64 has no such build: NEON's 16 bytes are its baseline.
+// where a pixel is above t) and one vptest. The build targets baseline x86-64 (SSE2: 16-byte
+// vectors) so that it runs on any x86-64; a function-level target attribute adds AVX2 code for
+// these loops alone, and __builtin_cpu_supports (libgcc / compiler-rt; no ifunc, so static and
+// dynamic links alike) picks it. aarch64 has no such build: NEON's 16 bytes are its baseline.
 #if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
 #define MFNS_DETECT_AVX2 1
 template <typename Lane>
-__attribute__((target("avx2"), noinline)) int QuietChunksAvx2(const std::uint8_t* row, const int* lb, int c, int c_end) {
+__attribute__((target("avx2"), always_inline)) inline bool ChunkQuietAvx2(const std::uint8_t* p, int t) {
   using V = typename VectorOf<Lane, 32>::Type;
   using I64x4 = long long __attribute__((vector_size(32)));
+  if (t < 0) return false;
+  if (t >= std::numeric_limits<Lane>::max()) return true;
+  V m;
+  ChunkMax<V, Lane>(p, &m);
+  const V tv = V{} + static_cast<Lane>(t);
+  const V excess = m - (m < tv ? m : tv);  // m - min(m, t): nonzero where a pixel is above t
+  I64x4 e;
+  std::memcpy(&e, &excess, sizeof e);
+  return __builtin_ia32_ptestz256(e, e) != 0;
+}
+
+template <typename Lane>
+__attribute__((target("avx2"), noinline)) int QuietChunksAvx2(const std::uint8_t* row, const int* lb, int c, int c_end) {
+  constexpr int kChunkBytes = kChunkPx * static_cast<int>(sizeof(Lane));
   int k = c;
-  for (; k < c_end; ++k) {
-    const int t = lb[k];
-    if (t < 0) break;
-    if (t >= std::numeric_limits<Lane>::max()) continue;
-    V m;
-    ChunkMax<V, Lane>(row + static_cast<std::ptrdiff_t>(k) * kChunkPx * static_cast<int>(sizeof(Lane)), &m);
-    const V tv = V{} + static_cast<Lane>(t);
-    const V excess = m - (m < tv ? m : tv);  // m - min(m, t): nonzero where a pixel is above t
-    I64x4 e;
-    std::memcpy(&e, &excess, sizeof e);
-    if (__builtin_ia32_ptestz256(e, e) == 0) break;
-  }
+  while (k < c_end && ChunkQuietAvx2<Lane>(row + static_cast<std::ptrdiff_t>(k) * kChunkBytes, lb[k])) ++k;
   return k - c;
+}
+
+template <typename Lane>
+__attribute__((target("avx2"), noinline)) int QuietRowsAvx2(const std::uint8_t* row0, std::ptrdiff_t stride, int rows,
+                                                            const int* lb, int c, int c_end) {
+  constexpr int kChunkBytes = kChunkPx * static_cast<int>(sizeof(Lane));
+  for (int r = 0; r < rows; ++r) {
+    const std::uint8_t* row = row0 + r * stride;
+    for (int k = c; k < c_end; ++k)
+      if (!ChunkQuietAvx2<Lane>(row + static_cast<std::ptrdiff_t>(k) * kChunkBytes, lb[k])) return r;
+  }
+  return rows;
 }
 bool CpuHasAvx2() { return __builtin_cpu_supports("avx2") != 0; }
 #else
@@ -171,6 +201,16 @@ int QuietChunks(bool avx2, const std::uint8_t* row, const int* lb, int c, int c_
   (void)avx2;
 #endif
   return QuietChunksBaseline<Lane>(row, lb, c, c_end);
+}
+
+template <typename Lane>
+int QuietRows(bool avx2, const std::uint8_t* row0, std::ptrdiff_t stride, int rows, const int* lb, int c, int c_end) {
+#if MFNS_DETECT_AVX2
+  if (avx2) return QuietRowsAvx2<Lane>(row0, stride, rows, lb, c, c_end);
+#else
+  (void)avx2;
+#endif
+  return QuietRowsBaseline<Lane>(row0, stride, rows, lb, c, c_end);
 }
 
 struct Mono8Row {
@@ -1136,9 +1176,22 @@ DetectStatus FramePass<RowT>::Label(const PixelWindow& win, bool windowed) {
   int n_prev = 0;
 
   const bool fast = !o_.reference_path;
+  // Fast path: with no run open above, rows whose chunks are all quiet are skipped a band at a
+  // time (QuietRows); only when the window is whole chunks (the full frame of a width that is a
+  // multiple of kChunkPx), since a partial chunk is scanned exactly in every row.
+  const bool whole_chunks = fast && win.x0 % kChunkPx == 0 && win.x1 % kChunkPx == 0;
+  const int c0 = win.x0 / kChunkPx, c1 = win.x1 / kChunkPx;
   w.band_last = win.y0 - 1;
   for (int y = win.y0; y < win.y1; ++y) {
     if (fast && y > w.band_last) w.PrepareBand(y, Adaptive());
+    if (whole_chunks && n_prev == 0) {
+      const int rows = std::min(w.band_last, win.y1 - 1) - y + 1;
+      const int quiet = QuietRows<typename RowT::Lane>(w.avx2, Row(y).p, f_.stride_bytes, rows, w.chunk_lb.data(), c0, c1);
+      if (quiet > 0) {  // no foreground in rows [y, y + quiet): nothing to label, nothing to close
+        y += quiet - 1;
+        continue;
+      }
+    }
     if (!fast && Adaptive()) w.PrepareRow(y, true);
     const int n_cur = fast ? ScanRowFast(y, win.x0, win.x1, cur) : ScanRow(y, win.x0, win.x1, cur);
     w.num_merged = 0;
