@@ -1380,7 +1380,7 @@ std::uint32_t CellsOfBox(const FrameView& f, int x0, int y0, int x1, int y1) {
   return cells;
 }
 
-// Whether any pixel of row y is >= level (whole 64-pixel chunks by ChunkAbove, then the rest).
+// Whether any pixel of row y is >= level (whole kChunkPx-pixel chunks by ChunkAbove, then the rest).
 template <typename RowT>
 bool RowReaches(const FrameView& f, int y, int level) {
   const RowT row{f.data + static_cast<std::ptrdiff_t>(y) * f.stride_bytes};

@@ -95,7 +95,7 @@ struct DetectOptions {
   // --- Output: at most this many blobs, the brightest (largest flux) first.
   int max_blobs = limits::kMaxBlobsPerFrame;
 
-  // --- Implementation (issue 20 item 2). false: the fast path (a row is skipped 64 pixels at a
+  // --- Implementation (issue 20 item 2). false: the fast path (a row is skipped 128 pixels at a
   // time against a lower bound of its thresholds, exact thresholds only where a pixel may be
   // foreground; tile statistics from a histogram). true: the per-pixel path of the first version
   // (every row's thresholds, statistics by the clipped-sample loops), kept as the reference the
