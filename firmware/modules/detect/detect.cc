@@ -169,7 +169,8 @@ __attribute__((target("avx2"), always_inline)) inline bool ChunkQuietAvx2(const 
 }
 
 template <typename Lane>
-__attribute__((target("avx2"), noinline)) int QuietChunksAvx2(const std::uint8_t* row, const int* lb, int c, int c_end) {
+__attribute__((target("avx2"), noinline)) int QuietChunksAvx2(const std::uint8_t* row, const int* lb, int c,
+                                                              int c_end) {
   constexpr int kChunkBytes = kChunkPx * static_cast<int>(sizeof(Lane));
   int k = c;
   while (k < c_end && ChunkQuietAvx2<Lane>(row + static_cast<std::ptrdiff_t>(k) * kChunkBytes, lb[k])) ++k;
@@ -1186,7 +1187,8 @@ DetectStatus FramePass<RowT>::Label(const PixelWindow& win, bool windowed) {
     if (fast && y > w.band_last) w.PrepareBand(y, Adaptive());
     if (whole_chunks && n_prev == 0) {
       const int rows = std::min(w.band_last, win.y1 - 1) - y + 1;
-      const int quiet = QuietRows<typename RowT::Lane>(w.avx2, Row(y).p, f_.stride_bytes, rows, w.chunk_lb.data(), c0, c1);
+      const int quiet =
+          QuietRows<typename RowT::Lane>(w.avx2, Row(y).p, f_.stride_bytes, rows, w.chunk_lb.data(), c0, c1);
       if (quiet > 0) {  // no foreground in rows [y, y + quiet): nothing to label, nothing to close
         y += quiet - 1;
         continue;
@@ -1210,8 +1212,7 @@ DetectStatus FramePass<RowT>::Label(const PixelWindow& win, bool windowed) {
         if (label < 0) {
           // Out of labels: the frame is cut here; components still open are incomplete.
           ++out_->counters.label_table_full;
-          out_->counters.open_discarded +=
-              static_cast<std::uint64_t>(w.LabelsInUse() - w.num_merged);
+          out_->counters.open_discarded += static_cast<std::uint64_t>(w.LabelsInUse() - w.num_merged);
           return DetectStatus::kLabelTableFull;
         }
       }
