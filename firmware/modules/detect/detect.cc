@@ -548,12 +548,12 @@ DetectCounters& DetectCounters::operator+=(const DetectCounters& o) {
 // All working memory of a detector; one heap block reserved at construction.
 struct detail::DetectWorkspace {
   int max_labels = 0;
-  bool avx2 = false;  // the fast path's row skip on AVX2 vectors (QuietChunks)
+  bool avx2 = false;  // the fast path's row skip on AVX2 vectors (QuietChunks, QuietRows)
 
   // Streaming components: runs of the previous and current row, the label table, its free
   // list, and the labels merged into another during the current row (freed at row end). The free
   // list holds the released labels; labels from next_fresh on were never used in this window, so
-  // a window starts in O(1) (filling a 2048-entry list cost ~1 us a window) and hands out labels
+  // a window starts in O(1) (filling the 2048-entry list took microseconds a window) and hands out labels
   // in the order a list filled with max_labels - 1 .. 0 would: released ones first, then 0, 1, ...
   std::array<Run, limits::kMaxRunsPerRow> runs_a{};
   std::array<Run, limits::kMaxRunsPerRow> runs_b{};
