@@ -37,6 +37,23 @@ struct Tally {
   double RotPredicted() const { return std::sqrt(rot_pred2 / n); }
   double PosPredicted() const { return std::sqrt(pos_pred2 / n); }
   double FractionWithin3() const { return total > 0 ? static_cast<double>(within3) / total : 0.0; }
+  // One line of text, exact (a test split over processes sums its parts: Merge).
+  bool Save(std::FILE* f) const {
+    return std::fprintf(f, "%d %d %d %.17g %.17g %.17g %.17g\n", within3, total, n, rot2, pos2, rot_pred2,
+                        pos_pred2) > 0;
+  }
+  bool Load(std::FILE* f) {
+    return std::fscanf(f, "%d %d %d %lg %lg %lg %lg", &within3, &total, &n, &rot2, &pos2, &rot_pred2, &pos_pred2) == 7;
+  }
+  void Merge(const Tally& o) {
+    within3 += o.within3;
+    total += o.total;
+    n += o.n;
+    rot2 += o.rot2;
+    pos2 += o.pos2;
+    rot_pred2 += o.rot_pred2;
+    pos_pred2 += o.pos_pred2;
+  }
   void Print(const char* label) const {
     std::printf("%-15s C_k_b RMS %.5f deg (covariance predicts %.5f), r_b_bk RMS %.4f mm (predicts %.4f), %d/%d "
                 "parameters within 3 sigma\n",
