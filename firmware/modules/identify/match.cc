@@ -125,8 +125,8 @@ void BeaconMatcher::MatchPose(const BodyPose& pose, const MatchOptions& o, Match
       if (inner && rig_->has_facing && !BeaconFacesCos(*rig_, m, centre_w, cos_narrow_[sm])) inner = false;
       if (inner && o.skip_blind_cells && Blind(k, uv)) inner = false;  // glare or unwritten rows hide it
       if (InImage(rig_->cameras[sk].intrinsics, uv)) ++out->num_predicted;
-      if (inner) {
-        inner_set.Set(m);
+      if (inner) inner_set.Set(m);
+      if (inner && o.near_miss_px > 0.0) {  // (only tight re-matches count near misses, not hypotheses)
         inner_uv[static_cast<std::size_t>(n_inner)] = uv;
         inner_beacon[static_cast<std::size_t>(n_inner++)] = m;
       }
