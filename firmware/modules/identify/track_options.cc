@@ -23,6 +23,7 @@ bool TrackOptions::IsValid(const char** why) const {
   else if (!(ambiguity_max_spread_m >= 0.0) || !(ambiguity_max_spread_rad >= 0.0) ||
            !std::isfinite(ambiguity_max_spread_m) || !std::isfinite(ambiguity_max_spread_rad))
     bad = "ambiguity_max_spread";
+  else if (!(continuity_max_m2 >= 0.0) || !std::isfinite(continuity_max_m2)) bad = "continuity_max_m2";
   else if (!(ambiguity_accept_m2 >= 0.0) || !(ambiguity_reject_m2 >= ambiguity_accept_m2) ||
            !std::isfinite(ambiguity_reject_m2))
     bad = "ambiguity_accept_m2 / ambiguity_reject_m2";

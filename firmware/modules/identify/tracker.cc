@@ -173,6 +173,11 @@ bool Tracker::TrackPredicted(std::uint64_t t_ns, double since_s, const TrackOpti
   double gate = 0.0, gate_with_map = 0.0;
   PredictionGatePx(predicted, since_s, o, &gate, &gate_with_map);
   bool refuted = false;
+  if (gate > o.max_gate_px && has_pose_ && since_s <= o.velocity_window_s &&
+      TrackContinuing(predicted, bounds, o, r)) {
+    Publish(TrackSource::kTracked, t_ns, o, r);
+    return true;
+  }
   if (gate <= o.max_gate_px) {
     gate = std::min(o.max_gate_px, gate_with_map);
     // A beacon predicted well inside an image (by more than the gate) with no blob in its
@@ -270,6 +275,43 @@ bool Tracker::TrackFrom(const BodyPose& predicted, const PoseBounds& bounds, dou
     ambiguity_refused_ = true;
     return false;
   }
+  return true;
+}
+
+// Tracking when the gate is too wide for nearest-blob matching (TrackOptions::
+// continuity_max_m2): the blobs that continue the steady image tracks of beacons of the accepted
+// poses (ContinuingBlobs) are those beacons, solved from `predicted` with tracking's tests
+// (SolveTracked: tight re-match, nothing missing, no twin within the bounds, the innovation).
+// Three beacons fit any pose exactly, and the bounds after a three-beacon pose are centimetres
+// and degrees wide, so the pose must also lie where the motion filter expects it: a blob track
+// that jumped to a reflection beside its beacon (within the blob tracker's tight gate) bends a
+// three-beacon pose by far more than its 1-sigma.
+bool Tracker::TrackContinuing(const BodyPose& predicted, const PoseBounds& bounds, const TrackOptions& o,
+                              TrackResult* r) {
+  const PoseFilter& f = motion_.filter();
+  // (Not an unverified track: its identities may be an unmapped light's alias, which carrying
+  // them on would keep alive; re-identification looks at the frame set afresh.)
+  if (!(o.continuity_max_m2 > 0.0) || !f.started() || (o.verify_three_beacons && !verified_) || ContinuingBlobs(o) < 3)
+    return false;
+  set_ = MatchSet{};
+  for (int i = 0; i < num_continuing_; ++i) {
+    const ContinuingBlob& c = continuing_[static_cast<std::size_t>(i)];
+    set_.Add(Match{c.blob, c.beacon, blobs_[c.blob].camera});
+  }
+  if (set_.num_beacons < 3) return false;
+  bool refuted = false;
+  double innovation = -1.0;
+  const double k2 = noise_.TotalToCentroid() * noise_.TotalToCentroid();
+  const auto weak = [&](const Matrix6d& cov) {  // beyond a fix's 1-sigma bounds: the test means little
+    const double total = noise_.TotalToCentroid();
+    return total * PositionSigma(cov) > o.max_position_sigma_m || total * AttitudeSigma(cov) > o.max_attitude_sigma_rad;
+  };
+  if (!SolveTracked(predicted, bounds, o, r, &refuted, &innovation) || !r->solve.has_covariance ||
+      weak(r->solve.covariance) || !(f.Distance2(r->pose, k2 * r->solve.covariance, now_ns_) <= o.continuity_max_m2)) {
+    ++counters_.continuity_refused;
+    return false;
+  }
+  ++counters_.continued;
   return true;
 }
 

@@ -232,6 +232,18 @@ struct TrackOptions {
   // truth (two beacons) is in no list (docs/acquisition.md, sessions 28-29); the track it starts
   // is a new one, so on three beacons it is published unverified (verify_three_beacons).
   bool prune_to_steady = true;
+  // A track whose prediction gate exceeds max_gate_px within velocity_window_s of its last pose
+  // (a pose on three beacons: weak geometry, a 1-sigma of centimetres, so a gate of hundreds of
+  // pixels) goes on from the blobs that continue the steady image tracks of its beacons
+  // (Tracker::TrackContinuing): three or more such blobs carry their identities from the image
+  // alone, where the wide gate would send the frame set to re-identification (seeded, then
+  // waiting two frame sets with reflections in view: two frame sets of three lost, over and over,
+  // in three-beacon stretches). The solve passes tracking's tests (tight re-match, no missing
+  // beacon, no P3P twin within the bounds, the innovation test) and, three beacons fitting
+  // exactly, the motion filter's: its squared Mahalanobis distance from the filter's prediction
+  // (as DecideByMotion) at most continuity_max_m2; and only on a verified track
+  // (verify_three_beacons: an unverified one may be an unmapped light's alias). 0: off.
+  double continuity_max_m2 = 16.0;
   // When tracking's solve on every matched beacon is refused (a beacon missing from the tight
   // gate, residuals beyond the noise) and the prediction matched four beacons or more with one
   // blob each, each beacon is left out in turn (Tracker::LeaveOneOut): when exactly one
@@ -341,6 +353,8 @@ struct TrackCounters {
   std::uint32_t residual_refused = 0;     // a stand-alone LIS fix or acquired pose: residuals beyond the noise
   std::uint32_t left_out = 0;             // tracked poses published with one beacon left out (LeaveOneOut)
   std::uint32_t left_out_undecided = 0;   // ... refused: no leave-out, or several, fit
+  std::uint32_t continued = 0;            // tracked beyond max_gate_px on continuing blobs (TrackContinuing)
+  std::uint32_t continuity_refused = 0;   // ... refused by tracking's tests or the motion filter
   SolveCounters solve;
 };
 static_assert(std::tuple_size_v<decltype(TrackCounters::by_status)> == static_cast<std::size_t>(TrackStatus::kCount),
@@ -406,6 +420,7 @@ class Tracker {
   bool AgreeWith(const TrackResult& best, int num_trials, const TrackOptions& o);
   bool PublishAmbiguous(const TrackOptions& o, TrackResult* r);
   bool DecideByMotion(const BodyPose& predicted, const PoseBounds& bounds, const TrackOptions& o, TrackResult* r);
+  bool TrackContinuing(const BodyPose& predicted, const PoseBounds& bounds, const TrackOptions& o, TrackResult* r);
   bool LeaveOneOut(const BodyPose& predicted, const PoseBounds& bounds, double gate_px, const TrackOptions& o,
                    TrackResult* r);
   bool Unambiguous(const TrackOptions& o, TrackResult* r);
