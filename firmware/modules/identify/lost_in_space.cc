@@ -80,6 +80,7 @@ bool LisOptions::IsValid(const char** why) const {
   else if (near_miss_min_beacons < 0) bad = "near_miss_min_beacons";
   else if (!(near_miss_px > 0.0) || !std::isfinite(near_miss_px)) bad = "near_miss_px";
   else if (raw_matches_per_miss < 0) bad = "raw_matches_per_miss";
+  else if (near_bands < 1 || near_bands > kMaxNearBands) bad = "near_bands";
   else if (min_beacons < 3 || min_beacons > limits::kMaxBeacons) bad = "min_beacons";
   else if (confirm_beacons != 0 && confirm_beacons < min_beacons + 1) bad = "confirm_beacons";
   else if (!(max_rms_px > 0.0)) bad = "max_rms_px";
@@ -446,7 +447,7 @@ BeaconSet LostInSpace::PriorBeacons(int i) const {
 // the beacons it allows for each blob. Computed on first use in an Identify.
 const std::array<BeaconSet, limits::kMaxBeacons>& LostInSpace::Feasible(int i, int j) {
   const auto pi = static_cast<std::size_t>(PairIndex(i, j));
-  const auto range = static_cast<std::size_t>(near_ ? 1 : 0);
+  const auto range = static_cast<std::size_t>(band_);
   auto& f = feasible_[range][pi];
   if (feasible_done_[range][pi]) return f;
   feasible_done_[range][pi] = true;
@@ -484,9 +485,10 @@ const std::array<BeaconSet, limits::kMaxBeacons>& LostInSpace::Feasible(int i, i
   return f;
 }
 
-// The search's work list: every blob triple over the near depth range (when below the full
-// one) and over the full range. Same-camera triples first, near range then full, then the
-// cross-camera ones likewise: a same-camera triple's ray angles prune its beacon triples (the
+// The search's work list: every blob triple over each of the num_bands nested depth ranges
+// (band_max_m_: the near ones below the full one, then the full one). Same-camera triples
+// first, the nearest range, the next, ..., then the full one, then the cross-camera ones
+// likewise: a same-camera triple's ray angles prune its beacon triples (the
 // co-visibility table) and its solve is closed-form, while a cross-camera pair is pruned by its
 // distance only and its solve scans (checked on 150 sampled views of station maps: ordering
 // the items by their exact number of beacon triples instead reaches the true one 1.4-5x later
@@ -494,9 +496,9 @@ const std::array<BeaconSet, limits::kMaxBeacons>& LostInSpace::Feasible(int i, i
 // range of every triple came first, the matrix's first-fix lag fell). Within a group, a
 // same-camera triple by its largest ray angle (fewer beacon pairs are seen under a small
 // angle), a cross-camera one in the order of selection (brightest first). With at least three
-// steady blobs selected, the triples of three steady blobs come first, in the same four
-// groups: most other triples hold a spurious blob.
-void LostInSpace::OrderItems(bool near_pass) {
+// steady blobs selected, the triples of three steady blobs come first (same-camera, then
+// cross-camera, each triple's ranges in a row): most other triples hold a spurious blob.
+void LostInSpace::OrderItems(int num_bands) {
   const bool steady_first = num_sel_steady_ >= 3;
   num_items_ = 0;
   int t = 0;
@@ -515,26 +517,26 @@ void LostInSpace::OrderItems(bool near_pass) {
         const double widest = std::max({std::acos(std::clamp(d(i).dot(d(j)), -1.0, 1.0)),
                                         std::acos(std::clamp(d(i).dot(d(k)), -1.0, 1.0)),
                                         std::acos(std::clamp(d(j).dot(d(k)), -1.0, 1.0))});
-        for (const bool near : {true, false}) {
-          if (near && !near_pass) continue;
-          // A steady triple's full range follows its near one at once: its blobs are most
+        for (int band = 0; band < num_bands; ++band) {
+          // A steady triple's wider ranges follow its nearest one at once: its blobs are most
           // likely beacons, at any depth, and a near pass over every steady triple first
           // spent whole searches short of the truth (a 128-beacon cylinder with 20 beacons in
           // view: 20 000 hypotheses over 240 near items).
           const bool all_steady = steady_first && sel_steady_[static_cast<std::size_t>(i)] &&
                                   sel_steady_[static_cast<std::size_t>(j)] && sel_steady_[static_cast<std::size_t>(k)];
-          const int group = all_steady ? (same ? 0 : 2) : (steady_first ? 4 : 0) + (same ? 0 : 2) + (near ? 0 : 1);
-          items_[static_cast<std::size_t>(num_items_++)] =
-              Item{static_cast<std::uint16_t>(t), near, same, group, static_cast<float>(same ? widest : t)};
+          const int cls = all_steady ? (same ? 0 : 1) : (steady_first ? 2 : 0) + (same ? 0 : 1);
+          const int group = cls * kMaxBands + (all_steady ? 0 : band);
+          items_[static_cast<std::size_t>(num_items_++)] = Item{static_cast<std::uint16_t>(t), static_cast<std::uint8_t>(band),
+                                                                same, group, static_cast<float>(same ? widest : t)};
         }
       }
   // (std::sort with the index as tie-break: deterministic, and no heap.)
   std::sort(items_.begin(), items_.begin() + num_items_, [](const Item& a, const Item& b) {
     if (a.group != b.group) return a.group < b.group;
     if (a.key != b.key) return a.key < b.key;
-    return a.t < b.t || (a.t == b.t && a.near && !b.near);  // a triple's near item first
+    return a.t < b.t || (a.t == b.t && a.band < b.band);  // a triple's nearer item first
   });
-  near_done_.fill(false);
+  for (auto& done : band_done_) done.fill(false);
 }
 
 // Visits blob triples and their feasible beacon triples from the cursor on; at most `budget`
@@ -550,7 +552,7 @@ LostInSpace::SearchEnd LostInSpace::Search(int budget, double cost_budget, LisRe
     cur_i_ = tr.i;
     cur_j_ = tr.j;
     cur_k_ = tr.k;
-    SetRange(item.near);
+    SetRange(item.band);
     if (!cur_.ready) {
       ++res->blob_triples;
       triple_.Set({rays_[tr.i], rays_[tr.j], rays_[tr.k]}, p3p_);
@@ -559,8 +561,10 @@ LostInSpace::SearchEnd LostInSpace::Search(int budget, double cost_budget, LisRe
     const auto& fij = Feasible(tr.i, tr.j);
     const auto& fik = Feasible(tr.i, tr.k);
     const auto& fjk = Feasible(tr.j, tr.k);
-    // Over the full range, the beacon triples its near item already tried are skipped.
-    const bool skip_near = !item.near && near_done_[item.t];
+    // The beacon triples the triple's item of the range before (nested in this one) tried are
+    // skipped.
+    const int prev = item.band - 1;
+    const bool skip_near = prev >= 0 && band_done_[static_cast<std::size_t>(prev)][item.t];
     const int unit = item.same_camera ? 1 : options_.cross_camera_work;
     for (; cur_.a < nb; ++cur_.a, cur_.b = cur_.c = -1) {
       const int a = cur_.a;
@@ -570,7 +574,7 @@ LostInSpace::SearchEnd LostInSpace::Search(int budget, double cost_budget, LisRe
         BeaconSet cs = fik[static_cast<std::size_t>(a)] & fjk[static_cast<std::size_t>(b)];
         cs.Clear(a);
         cs.Clear(b);
-        if (skip_near && NearPairTried(tr, a, b)) cs = cs.Minus(NearThirds(tr, a, b));
+        if (skip_near && NearPairTried(tr, prev, a, b)) cs = cs.Minus(NearThirds(tr, prev, a, b));
         for (int c = cur_.c < 0 ? cs.First() : cur_.c; c >= 0; c = cs.Next(c + 1)) {
           cur_.c = c;
           if (res->work >= options_.max_hypotheses || res->cost >= options_.max_cost) return SearchEnd::kBudgetOut;
@@ -583,31 +587,34 @@ LostInSpace::SearchEnd LostInSpace::Search(int budget, double cost_budget, LisRe
         }
       }
     }
-    if (item.near) near_done_[item.t] = true;
+    band_done_[item.band][item.t] = true;
   }
   return SearchEnd::kDone;
 }
 
-// Whether the near item of triple tr had beacons (a, b) on its first pair, and the third
-// beacons it tried with them (its pair bits are kept beside the full range's).
-bool LostInSpace::NearPairTried(const Triple& tr, int a, int b) const {
+// Whether the item of triple tr over range `band` had beacons (a, b) on its first pair, and the
+// third beacons it tried with them (each range keeps its own pair bits).
+bool LostInSpace::NearPairTried(const Triple& tr, int band, int a, int b) const {
   const auto pi = static_cast<std::size_t>(PairIndex(tr.i, tr.j));
-  return feasible_done_[1][pi] && feasible_[1][pi][static_cast<std::size_t>(a)].Has(b);
+  const auto r = static_cast<std::size_t>(band);
+  return feasible_done_[r][pi] && feasible_[r][pi][static_cast<std::size_t>(a)].Has(b);
 }
 
-BeaconSet LostInSpace::NearThirds(const Triple& tr, int a, int b) const {
-  return feasible_[1][static_cast<std::size_t>(PairIndex(tr.i, tr.k))][static_cast<std::size_t>(a)] &
-         feasible_[1][static_cast<std::size_t>(PairIndex(tr.j, tr.k))][static_cast<std::size_t>(b)];
+BeaconSet LostInSpace::NearThirds(const Triple& tr, int band, int a, int b) const {
+  const auto r = static_cast<std::size_t>(band);
+  return feasible_[r][static_cast<std::size_t>(PairIndex(tr.i, tr.k))][static_cast<std::size_t>(a)] &
+         feasible_[r][static_cast<std::size_t>(PairIndex(tr.j, tr.k))][static_cast<std::size_t>(b)];
 }
 
-// The near range pairs beacons as if within near_depth_m of the cameras (when that is below
-// the full range): in a dense map many beacons are that near, and the short range prunes
-// beacon pairs by their distance. (The solver's scan keeps the full range: a triple of near
-// pairs may still have a beacon beyond it.) Each range keeps its own pair bits.
-void LostInSpace::SetRange(bool near) {
-  near_ = near;
+// A near range pairs beacons as if within band_max_m_[band] of the cameras (the nearest
+// near_depth_m, each next twice the last, the last the full range): in a dense map many beacons
+// are that near, and the short range prunes beacon pairs by their distance. (The solver's scan
+// keeps the full range: a triple of near pairs may still have a beacon beyond it.) Each range
+// keeps its own pair bits.
+void LostInSpace::SetRange(int band) {
+  band_ = band;
   p3p_min_m_ = p3p_.min_depth_m;
-  p3p_max_m_ = near ? near_max_m_ : p3p_.max_depth_m;
+  p3p_max_m_ = band_max_m_[static_cast<std::size_t>(band)];
 }
 
 // One hypothesis: the P3P poses of beacons (a, b, c) along the current rays, scored when they
@@ -712,8 +719,11 @@ LisStatus LostInSpace::Begin(const BlobObs* blobs, int num_blobs, const LisOptio
   matcher_.SetBlobs(blobs_, num_blobs, cameras);
   SetAnchors();
   SelectBlobs(o, steady);
-  const bool near_pass = o.near_depth_m > 0.0 && o.near_depth_m < p3p_.max_depth_m && o.near_depth_m > p3p_.min_depth_m;
-  near_max_m_ = near_pass ? o.near_depth_m : p3p_.max_depth_m;
+  // The nested depth ranges: near_depth_m, twice that, ... while below the full range, then it.
+  num_bands_ = 0;
+  for (double d = o.near_depth_m; num_bands_ < o.near_bands && d > p3p_.min_depth_m && d < p3p_.max_depth_m; d *= 2.0)
+    band_max_m_[static_cast<std::size_t>(num_bands_++)] = d;
+  band_max_m_[static_cast<std::size_t>(num_bands_++)] = p3p_.max_depth_m;
   pair_tol_m_ = o.pair_tolerance_m;
   pair_tol_rad_ = o.pair_angle_tolerance_rad;
   fourth_cos_sq_ = static_cast<float>(std::cos(o.fourth_blob_max_rad) * std::cos(o.fourth_blob_max_rad));
@@ -738,7 +748,7 @@ LisStatus LostInSpace::Begin(const BlobObs* blobs, int num_blobs, const LisOptio
   }
   anchors_per_triple_ = std::min(anchored_sel, 3);
   for (auto& done : feasible_done_) done.fill(false);
-  OrderItems(near_pass);
+  OrderItems(num_bands_);
   cur_ = Cursor{};
   searching_ = true;
   return res.status = LisStatus::kSearching;

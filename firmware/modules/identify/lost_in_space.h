@@ -10,16 +10,16 @@
 //    the workspace (facing them both, when the rig has facing data): Reset samples the
 //    workspace for it (the co-visibility table). With unknown depths the distance test alone
 //    prunes nothing for a same-camera pair; the table is what makes large maps searchable.
-//    The bits are computed for a blob pair when a triple first needs them, for two depth
-//    ranges: the full one and a near one (within near_depth_m, which prunes beacon pairs by
-//    their distance in a dense map).
-// 3. Work items, a blob triple over one range, are visited in four groups (after the same
-//    four of the triples of three steady blobs, when the caller marks steady blobs): same-camera
-//    triples over the near range, then over the full range, then the cross-camera ones
+//    The bits are computed for a blob pair when a triple first needs them, per depth range:
+//    nested near ones (within near_depth_m, then twice that, ...: near_bands of them, which
+//    prune beacon pairs by their distance) and the full one.
+// 3. Work items, a blob triple over one range, are visited in groups (after those of the
+//    triples of three steady blobs, when the caller marks steady blobs): same-camera triples
+//    over the nearest range, then the next, ..., then the full one, then the cross-camera ones
 //    likewise (a same-camera triple is cheap: its angles prune, its solve is closed-form);
 //    same-camera triples by their largest ray angle (the smaller, the fewer beacon pairs are
 //    seen under it). For each item, every ordered beacon triple whose three pairs are feasible
-//    (and, over the full range, not already tried over the near one) goes through the
+//    (and not already tried over the range before, which it contains) goes through the
 //    generalized three-point solver (p3p.h), at most max_hypotheses times per search.
 // 4. Solution poses outside the workspace box are refused; the others are scored by
 //    reprojecting the whole beacon map with visibility (match.h): matched blobs minus
@@ -46,7 +46,8 @@
 // either they share four identities or they lie within same_pose_m / same_pose_rad of each
 // other (three identities alone leave the P3P's discrete ambiguity).
 //
-// Memory: one object (about 3.0 MB at 256 beacons: pair bits 2 MB, co-visibility table 0.5 MB,
+// Memory: one object (about 4.8 MB at 256 beacons: pair bits of three depth ranges 2.8 MB,
+// co-visibility table 0.5 MB,
 // distances 0.25 MB, a copy of the blobs) holds every buffer; construct it at start (static or
 // reserved), Reset() it with the rig, then Identify() never allocates.
 #pragma once
@@ -76,6 +77,9 @@ enum class LisStatus : unsigned char {
 };
 inline constexpr int kNumLisStatus = static_cast<int>(LisStatus::kCount);
 const char* ToString(LisStatus s);
+
+// Nested near depth ranges a search may visit before the full one (LisOptions::near_bands).
+inline constexpr int kMaxNearBands = 3;
 
 struct LisOptions {
   P3pOptions p3p{0.1, 0.0, 64};   // depth range of the ray search; max_depth_m <= 0: automatic
@@ -125,8 +129,14 @@ struct LisOptions {
   // Nor when two blobs of every triple are anchored (LisPrior::anchors): ~N beacon triples each.
   int fourth_blob_min_beacons = 32;
   // Each blob triple is also searched with beacons paired as if within this depth of the
-  // cameras, a cheaper work item visited earlier (<= 0: no such items; see SetRange).
+  // cameras, a cheaper work item visited earlier (<= 0: no such items; see SetRange), and then
+  // within twice, four times ... that depth: near_bands ranges in all (those below the full
+  // one), each searching only the beacon triples the one before did not. The depth that prunes
+  // best depends on the map's density and the cameras' field of view (measured: 1 m best for
+  // 256-beacon boxes, 1.5-2 m for 64-beacon ones seen by f = 760 px cameras; docs/acquisition.md,
+  // session 32): nested ranges serve both.
   double near_depth_m = 1.0;
+  int near_bands = 2;  // 1..kMaxNearBands
   double fourth_blob_max_rad = 0.015;
   double max_rms_px = 2.0;        // refined residual RMS of a consistent pose
   double pair_tolerance_m = 0.01;  // slack of the pair distance test
@@ -284,16 +294,16 @@ class LostInSpace {
   BeaconSet PriorBeacons(int i) const;
   void CoVisibilityTable();
   void SampleCoVisibility(const Eigen::Vector3d& p, double min_depth_m);
-  void OrderItems(bool near_pass);
+  void OrderItems(int num_bands);
   const std::array<BeaconSet, limits::kMaxBeacons>& Feasible(int i, int j);  // i < j, lazily, current range
-  bool NearPairTried(const Triple& tr, int a, int b) const;
-  BeaconSet NearThirds(const Triple& tr, int a, int b) const;
+  bool NearPairTried(const Triple& tr, int band, int a, int b) const;
+  BeaconSet NearThirds(const Triple& tr, int band, int a, int b) const;
   void Confirm(Candidate* c, const LisOptions& o, LisResult* result);
   bool ExplainsAFourth(const BodyPose& pose, int t_i, int t_j, int t_k, float cos_sq);
   enum class SearchEnd : unsigned char { kDone, kPaused, kBudgetOut };
   SearchEnd Search(int budget, double cost_budget, LisResult* result);
   void TryTriple(int a, int b, int c, LisResult* result);
-  void SetRange(bool near);
+  void SetRange(int band);
   void Score(const BodyPose& pose, const LisOptions& o, LisResult* result);
   bool Refine(Candidate* c, const LisOptions& o);
   bool SamePose(const Candidate& a, const Candidate& b, const LisOptions& o) const;
@@ -313,8 +323,12 @@ class LostInSpace {
   // a < b, are seen together from a sampled workspace point (both facing it); > 1.5: never.
   std::array<std::array<float, limits::kMaxBeacons>, limits::kMaxBeacons> cos_min_angle_{}, cos_max_angle_{};
   double p3p_min_m_ = 0.1, p3p_max_m_ = 1.0;   // the current range's depths
-  bool near_ = false;                          // the current range is the near one
-  double near_max_m_ = 1.0;                    // its far end
+  // Depth ranges (SetRange): nested, band_max_m_[0] < ... < band_max_m_[num_bands_ - 1], the
+  // last one the full range.
+  static constexpr int kMaxBands = kMaxNearBands + 1;
+  int band_ = 0;                               // the current range
+  int num_bands_ = 1;
+  std::array<double, kMaxBands> band_max_m_{};
   double pair_tol_m_ = 0.0, pair_tol_rad_ = 0.0;
   double image_area_px2_ = 1.0;
   std::array<float, limits::kMaxBeacons> beacon_x_{}, beacon_y_{}, beacon_z_{};  // SoA, world
@@ -350,25 +364,25 @@ class LostInSpace {
     std::array<float, limits::kMaxBeacons> x{}, y{}, z{}, cos_sq_len_sq{};
   };
   std::array<CameraOffsets, limits::kMaxCameras> offsets_{};
-  // feasible_[range][pair(i, j)][a]: bit b set when beacons (a, b) may be seen along rays (i, j)
-  // (range 0: the full depth range, 1: the near one).
+  // feasible_[band][pair(i, j)][a]: bit b set when beacons (a, b) may be seen along rays (i, j)
+  // within the depth range `band`.
   static constexpr int kMaxPairs = limits::kMaxLisBlobs * (limits::kMaxLisBlobs - 1) / 2;
-  std::array<std::array<std::array<BeaconSet, limits::kMaxBeacons>, kMaxPairs>, 2> feasible_{};
-  std::array<std::array<bool, kMaxPairs>, 2> feasible_done_{};
+  std::array<std::array<std::array<BeaconSet, limits::kMaxBeacons>, kMaxPairs>, kMaxBands> feasible_{};
+  std::array<std::array<bool, kMaxPairs>, kMaxBands> feasible_done_{};
   std::array<BeaconSet, limits::kMaxLisBlobs> allowed_{};  // per selected blob (prior)
   static constexpr int kMaxTriples = limits::kMaxLisBlobs * (limits::kMaxLisBlobs - 1) * (limits::kMaxLisBlobs - 2) / 6;
   std::array<Triple, kMaxTriples> triples_{};
-  std::array<bool, kMaxTriples> near_done_{};  // the triple's near item is done
+  std::array<std::array<bool, kMaxTriples>, kMaxBands> band_done_{};  // the triple's item of the band is done
   // The work list (OrderItems): a blob triple over one depth range, in visiting order.
   struct Item {
-    std::uint16_t t;  // triples_ index
-    bool near;
+    std::uint16_t t;    // triples_ index
+    std::uint8_t band;  // depth range
     bool same_camera;
-    int group;        // same-camera near, full, cross-camera near, full (+4: not all steady; steady
-                      // triples: same-camera, cross-camera, each near then full)
-    float key;        // order within the group
+    int group;          // (class, band): same-camera, cross-camera (after those of steady triples,
+                        // whose items of every band form one group, visited band by band)
+    float key;          // order within the group
   };
-  std::array<Item, 2 * kMaxTriples> items_{};
+  std::array<Item, kMaxBands * kMaxTriples> items_{};
   int num_items_ = 0;
   P3pRayTriple triple_;
   std::array<BodyPose, limits::kMaxP3pSolutions> solutions_{};

@@ -43,7 +43,7 @@
 // Pixel conversions and the expected residuals come from one NoiseModel (noise_model.h): the
 // rig's pixels per radian, fixed at Reset, with the centroid noise and map error of the options.
 //
-// Memory: one object (about 3.6 MB, mostly lost-in-space) holds every buffer; construct it at
+// Memory: one object (about 5.3 MB, mostly lost-in-space) holds every buffer; construct it at
 // start (static or reserved), Reset() it with the rig, then Track() never allocates.
 // (It also keeps the previous frame set's blobs: ~50 kB.)
 #pragma once

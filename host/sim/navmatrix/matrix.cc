@@ -81,6 +81,7 @@ Scenario MatrixScenario(const RunSpec& r) {
   }
   root["clutter"]["spurious"]["count"] = r.spurious;
   if (r.static_reflections > 0) root["clutter"]["spurious"]["static_reflections"] = r.static_reflections;
+  if (!r.rig.empty()) root["rig"] = r.rig;
   return ParseOverridden(root, r.preset);
 }
 
@@ -125,7 +126,7 @@ std::vector<RunSpec> ExpandMatrix(const MatrixSpec& m) {
   for (const std::string& preset : m.presets) {
     const YAML::Node root = PresetNode(preset);
     const bool generated = HasGeneratedMap(root);
-    const Scenario s = MatrixScenario({.preset = preset, .seed = m.seeds.front(), .frames = 1});
+    const Scenario s = MatrixScenario({.preset = preset, .seed = m.seeds.front(), .frames = 1, .rig = m.rig});
     if (s.rig.num_beacons < 4) throw UserError("--presets: '" + preset + "' has no beacon map to navigate by");
     if (generated && m.counts.empty()) throw UserError("--counts: '" + preset + "' needs at least one beacon count");
     const std::vector<int> counts = generated ? m.counts : std::vector<int>{0};
@@ -147,7 +148,8 @@ std::vector<RunSpec> ExpandMatrix(const MatrixSpec& m) {
                           .map_beacons = count > 0 ? count : s.rig.num_beacons,
                           .frames = m.frames,
                           .spurious = m.spurious,
-                          .static_reflections = s.module.shape != ModuleShape::kNone ? m.static_reflections : 0});
+                          .static_reflections = s.module.shape != ModuleShape::kNone ? m.static_reflections : 0,
+                          .rig = m.rig});
   }
   return runs;
 }

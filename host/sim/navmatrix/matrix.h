@@ -32,6 +32,7 @@ struct MatrixSpec {
   // imaged like beacons (clutter that moves with the scene, not from frame set to frame set);
   // presets with a module only.
   int static_reflections = 0;
+  std::string rig = {};  // a rig file (path) in place of every preset's `rig:` (empty: the preset's)
   FacingMode facing = FacingMode::kBoth;
 };
 
@@ -46,10 +47,11 @@ struct RunSpec {
   int frames = 600;
   int spurious = 2;
   int static_reflections = 0;
+  std::string rig = {};  // MatrixSpec::rig
 };
 
 // The preset's YAML with the run's overrides (frames, seed, beacons.count/seed/facing,
-// clutter.spurious.count), parsed.
+// clutter.spurious.count, rig), parsed.
 Scenario MatrixScenario(const RunSpec& r);
 
 // Every run of the spec, row by row (preset, count, facing), seeds innermost. A preset without

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
+#include <filesystem>
 #include <iostream>
 #include <thread>
 
@@ -29,6 +30,8 @@ MatrixSpec MatrixSpecFromArgs(const NavMatrixArgs& a) {
   spec.frames = a.frames;
   spec.spurious = a.spurious;
   spec.static_reflections = a.static_reflections;
+  // Absolute, so that the scenarios find it whatever directory they resolve paths against.
+  if (!a.rig.empty()) spec.rig = std::filesystem::absolute(a.rig).string();
   spec.facing = ParseFacing(a.facing);
   if (a.jobs < 0) throw UserError("--jobs: must be >= 0 (0: all cores)");
   return spec;

@@ -20,6 +20,9 @@ CLI::App* AddNavMatrixOptions(CLI::App& app, NavMatrixArgs* a) {
                   "clutter.spurious.static_reflections: unmapped reflecting points on the module's walls, imaged "
                   "like beacons (clutter that moves with the scene); presets with a module only")
       ->capture_default_str();
+  cmd->add_option("--rig", a->rig,
+                  "A rig file in place of every preset's rig: its cameras (and its beacons where a preset takes "
+                  "its map from the rig): the matrix on other cameras");
   cmd->add_option("--facing", a->facing, "Beacon facing in the navigator's map: both, yes or no")
       ->capture_default_str();
   cmd->add_option("--jobs", a->jobs, "Worker threads, each with its own navigator (0: all cores)")

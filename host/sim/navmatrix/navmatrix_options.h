@@ -20,6 +20,7 @@ struct NavMatrixArgs {
   int frames = 600;
   int spurious = 2;
   int static_reflections = 0;
+  std::string rig;  // a rig file in place of each preset's rig (empty: the preset's)
   std::string facing = "both";
   int jobs = 0;
   std::string out;
