@@ -83,11 +83,14 @@ BENCHMARK_CAPTURE(LostInSpaceFrame, 3beacons, 3, 0)->Unit(benchmark::kMillisecon
 // Lost-in-space against the map's size: a cylindrical module (4.2 m x 6 m, beacons facing
 // inward, 60 deg beams) with range(0) beacons, 16 random poses with >= 4 beacons in view, 0.2
 // px noise and range(1) spurious blobs per camera; each Identify gets one frame set's budget
-// (TrackOptions::lis_budget_per_frame hypotheses). Counters: hypotheses and blobs per frame
-// set, the share that fixed within it, and the CPU time per hypothesis (P3P solve and scoring).
+// (TrackOptions::lis_budget_per_frame hypotheses), over range(2) nested near depth ranges
+// (LisOptions::near_bands; 2 is the default, 1 the search before session 32). Counters:
+// hypotheses and blobs per frame set, the share that fixed within it, and the CPU time per
+// hypothesis (P3P solve and scoring).
 void LostInSpaceStation(benchmark::State& state) {
   const int num_beacons = static_cast<int>(state.range(0));
   const int spurious = static_cast<int>(state.range(1));
+  const int near_bands = static_cast<int>(state.range(2));
   static Rig rig;
   static auto lis = std::make_unique<LostInSpace>();
   static auto res = std::make_unique<LisResult>();
@@ -103,6 +106,7 @@ void LostInSpaceStation(benchmark::State& state) {
   }
   LisOptions o;
   o.max_hypotheses = TrackOptions{}.lis_budget_per_frame;
+  o.near_bands = near_bands;
   std::size_t i = 0;
   double hypotheses = 0.0, fixes = 0.0, blobs = 0.0, frames = 0.0;
   for (auto _ : state) {
@@ -119,7 +123,10 @@ void LostInSpaceStation(benchmark::State& state) {
   state.counters["per_hypothesis"] =
       benchmark::Counter(hypotheses, benchmark::Counter::kIsRate | benchmark::Counter::kInvert);
 }
-BENCHMARK(LostInSpaceStation)->Args({10, 2})->Args({64, 0})->Args({64, 2})->Args({256, 2})->Unit(benchmark::kMillisecond);
+BENCHMARK(LostInSpaceStation)
+    ->ArgsProduct({{10, 64, 256}, {2}, {1, 2}})
+    ->Args({64, 0, 2})
+    ->Unit(benchmark::kMillisecond);
 BENCHMARK_CAPTURE(LostInSpaceFrame, 4beacons, 4, 0)->Unit(benchmark::kMillisecond);
 BENCHMARK_CAPTURE(LostInSpaceFrame, 5beacons, 5, 0)->Unit(benchmark::kMillisecond);
 BENCHMARK_CAPTURE(LostInSpaceFrame, 3beacons_2spurious, 3, 2)->Unit(benchmark::kMillisecond);

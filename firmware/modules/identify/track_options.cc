@@ -50,6 +50,9 @@ bool TrackOptions::IsValid(const char** why) const {
   else if (lis_fix_min_beacons < 3) bad = "lis_fix_min_beacons";
   else if (leave_one_out_min_beacons < 5 || leave_one_out_max_beacons < leave_one_out_min_beacons)
     bad = "leave_one_out_min_beacons / leave_one_out_max_beacons";
+  else if (leave_two_out_min_beacons != 0 &&
+           (leave_two_out_min_beacons < 6 || leave_two_out_max_beacons < leave_two_out_min_beacons))
+    bad = "leave_two_out_min_beacons / leave_two_out_max_beacons";
   else if (!(residual_test_sigmas >= 0.0) || !std::isfinite(residual_test_sigmas)) bad = "residual_test_sigmas";
   else if (lis_budget_per_frame < 1) bad = "lis_budget_per_frame";
   else if (!positive(chain_stale_s)) bad = "chain_stale_s";

@@ -321,29 +321,32 @@ bool Tracker::TrackContinuing(const BodyPose& predicted, const PoseBounds& bound
 // innovation test); a leave-out fits when that gives a pose on >= 4 beacons whose residuals
 // fit the noise. Exactly one must fit: its pose is in *r, with left_out_beacon. With >= 5
 // beacons a wrong leave-out keeps the bad beacon among four, whose residuals refuse it.
+// When no single leave-out fits and the pose stood on leave_two_out_min_beacons or more (up to
+// leave_two_out_max_beacons), each pair of them is left out instead: two beacons moved together
+// (a panel with two of its LEDs) leave one bad beacon in every single leave-out. Published with
+// both (TrackResult::left_out_second).
 bool Tracker::LeaveOneOut(const BodyPose& predicted, const PoseBounds& bounds, double gate_px, const TrackOptions& o,
                           TrackResult* r) {
   matcher_.MatchPose(predicted, MatchOptions{gate_px, o.miss_margin_px, false}, &loo_set_);
-  const int n = loo_set_.num_beacons;
+  const int n = loo_set_.num_beacons, nb = rig_->num_beacons;
   if (n < o.leave_one_out_min_beacons || n > o.leave_one_out_max_beacons) return false;
   const BeaconSet excluded = matcher_.excluded(), candidates = loo_set_.beacons;
   const bool refused = ambiguity_refused_;
   const TrackCounters counters = counters_;  // the trials below are not tracking's own
-  int fits = 0, left_out = -1;
-  for (int b = 0; b < rig_->num_beacons && fits < 2; ++b) {
-    if (!candidates.Has(b)) continue;
-    BeaconSet without = excluded;
-    without.Set(b);
-    matcher_.SetExcluded(without);
-    ambiguity_refused_ = false;
-    bool refuted = false;
-    if (!TrackFrom(predicted, bounds, gate_px, o, &loo_result_, &refuted) || loo_result_.matches.num_beacons < 4 ||
-        !ResidualsFitTheNoise(loo_result_.solve, o))
-      continue;
-    if (++fits > 1) break;
-    left_out = b;
+  int fits = 0, out_a = -1, out_b = -1;
+  const auto leave_out = [&](int a, int b) {  // exactly one must fit: stop at the second
+    if (!LeaveOutFits(predicted, bounds, gate_px, o, excluded, a, b) || ++fits > 1) return;
+    out_a = a;
+    out_b = b;
     loo_best_ = loo_result_;
-  }
+  };
+  for (int a = 0; a < nb && fits < 2; ++a)
+    if (candidates.Has(a)) leave_out(a, -1);
+  const bool pairs = fits == 0 && o.leave_two_out_min_beacons > 0 && n >= o.leave_two_out_min_beacons &&
+                     n <= o.leave_two_out_max_beacons;
+  for (int a = 0; pairs && a < nb && fits < 2; ++a)
+    for (int b = a + 1; candidates.Has(a) && b < nb && fits < 2; ++b)
+      if (candidates.Has(b)) leave_out(a, b);
   matcher_.SetExcluded(excluded);
   ambiguity_refused_ = refused;
   counters_ = counters;
@@ -352,11 +355,28 @@ bool Tracker::LeaveOneOut(const BodyPose& predicted, const PoseBounds& bounds, d
     return false;
   }
   ++counters_.left_out;
+  if (out_b >= 0) ++counters_.left_two_out;
   r->pose = loo_best_.pose;
   r->matches = loo_best_.matches;
   r->solve = loo_best_.solve;
-  r->left_out_beacon = left_out;
+  r->left_out_beacon = out_a;
+  r->left_out_second = out_b;
   return true;
+}
+
+// One leave-out of LeaveOneOut: beacon a (and b, unless -1) also left out of matching, the blobs
+// tracked again from `predicted`; true when that gives a pose on >= 4 beacons whose residuals fit
+// the noise (in loo_result_).
+bool Tracker::LeaveOutFits(const BodyPose& predicted, const PoseBounds& bounds, double gate_px, const TrackOptions& o,
+                           const BeaconSet& excluded, int a, int b) {
+  BeaconSet without = excluded;
+  without.Set(a);
+  if (b >= 0) without.Set(b);
+  matcher_.SetExcluded(without);
+  ambiguity_refused_ = false;
+  bool refuted = false;
+  return TrackFrom(predicted, bounds, gate_px, o, &loo_result_, &refuted) && loo_result_.matches.num_beacons >= 4 &&
+         ResidualsFitTheNoise(loo_result_.solve, o);
 }
 
 // How far another pose may lie from b and be the same: gate_sigmas of b's 1-sigma (centroid
@@ -1096,6 +1116,7 @@ TrackStatus Tracker::TrackOnce(const BlobObs* blobs, int num_blobs, std::uint64_
   r->lis_status = LisStatus::kBadInput;
   r->acquisition_poses = 0;
   r->left_out_beacon = -1;
+  r->left_out_second = -1;
   r->source = TrackSource::kNone;
   acquired_matches_.num_matches = 0;  // (Acquire sets them for this frame set's Unambiguous)
   if (rig_ == nullptr || !o.IsValid() || num_blobs < 0 || num_blobs > limits::kMaxObservations ||

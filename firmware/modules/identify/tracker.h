@@ -263,6 +263,14 @@ struct TrackOptions {
   // pose of a view of 9-11 beacons too (box 128 seed 3: never flagged with 8, 66 fixes of 249;
   // flagged after 8 frame sets in view with 32, 242 fixes).
   int leave_one_out_max_beacons = 32;
+  // When no single leave-out fits: each pair of the beacons left out instead, on poses of
+  // leave_two_out_min_beacons to leave_two_out_max_beacons beacons (C(n, 2) trackings: at most 66;
+  // 0: never). Each leave-out keeps four beacons or more, whose residuals test it. Two beacons
+  // moved together (measured: a 6-beacon view with two of them 5-7 px off refused every pose from
+  // the first frame set on, and beacon health never judged either; docs/navd.md, "Two moved
+  // beacons").
+  int leave_two_out_min_beacons = 6;
+  int leave_two_out_max_beacons = 12;
   int lis_fix_min_beacons = 4;       // a lost-in-space fix on its own needs this many beacons
                                      // (three fit exactly, so a reflection among them shows not)
   double chain_stale_s = 1.0;        // a followed pose unconfirmed this long restarts it all
@@ -329,6 +337,7 @@ struct TrackResult {
   LisStatus lis_status = LisStatus::kBadInput;
   int acquisition_poses = 0;     // poses still followed (kAcquiring)
   int left_out_beacon = -1;      // the beacon a leave-one-out pose left out (degraded), or -1
+  int left_out_second = -1;      // and the second of a leave-two-out, or -1
 };
 
 // A counter per outcome, for health reporting.
@@ -353,6 +362,7 @@ struct TrackCounters {
   std::uint32_t residual_refused = 0;     // a stand-alone LIS fix or acquired pose: residuals beyond the noise
   std::uint32_t left_out = 0;             // tracked poses published with one beacon left out (LeaveOneOut)
   std::uint32_t left_out_undecided = 0;   // ... refused: no leave-out, or several, fit
+  std::uint32_t left_two_out = 0;         // ... of the published, two beacons left out
   std::uint32_t continued = 0;            // tracked beyond max_gate_px on continuing blobs (TrackContinuing)
   std::uint32_t continuity_refused = 0;   // ... refused by tracking's tests or the motion filter
   SolveCounters solve;
@@ -421,6 +431,8 @@ class Tracker {
   bool PublishAmbiguous(const TrackOptions& o, TrackResult* r);
   bool DecideByMotion(const BodyPose& predicted, const PoseBounds& bounds, const TrackOptions& o, TrackResult* r);
   bool TrackContinuing(const BodyPose& predicted, const PoseBounds& bounds, const TrackOptions& o, TrackResult* r);
+  bool LeaveOutFits(const BodyPose& predicted, const PoseBounds& bounds, double gate_px, const TrackOptions& o,
+                    const BeaconSet& excluded, int a, int b);
   bool LeaveOneOut(const BodyPose& predicted, const PoseBounds& bounds, double gate_px, const TrackOptions& o,
                    TrackResult* r);
   bool Unambiguous(const TrackOptions& o, TrackResult* r);

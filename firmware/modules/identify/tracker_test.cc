@@ -716,6 +716,9 @@ TEST(TrackerTest, StatusesCountersAndOptions) {
   o.min_acquire_frames = 1;
   EXPECT_FALSE(o.IsValid(&why));
   o = {};
+  o.leave_two_out_min_beacons = 5;  // a leave-two-out must keep four beacons
+  EXPECT_FALSE(o.IsValid(&why));
+  o = {};
   o.continuity_max_m2 = -1.0;
   EXPECT_FALSE(o.IsValid(&why));
   EXPECT_STREQ(why, "continuity_max_m2");
