@@ -564,7 +564,7 @@ LostInSpace::SearchEnd LostInSpace::Search(int budget, double cost_budget, LisRe
     // The beacon triples the triple's item of the range before (nested in this one) tried are
     // skipped.
     const int prev = item.band - 1;
-    const bool skip_near = prev >= 0 && band_done_[static_cast<std::size_t>(prev)][item.t];
+    const bool skip_tried = prev >= 0 && band_done_[static_cast<std::size_t>(prev)][item.t];
     const int unit = item.same_camera ? 1 : options_.cross_camera_work;
     for (; cur_.a < nb; ++cur_.a, cur_.b = cur_.c = -1) {
       const int a = cur_.a;
@@ -574,7 +574,7 @@ LostInSpace::SearchEnd LostInSpace::Search(int budget, double cost_budget, LisRe
         BeaconSet cs = fik[static_cast<std::size_t>(a)] & fjk[static_cast<std::size_t>(b)];
         cs.Clear(a);
         cs.Clear(b);
-        if (skip_near && NearPairTried(tr, prev, a, b)) cs = cs.Minus(NearThirds(tr, prev, a, b));
+        if (skip_tried && PairTriedIn(tr, prev, a, b)) cs = cs.Minus(ThirdsTriedIn(tr, prev, a, b));
         for (int c = cur_.c < 0 ? cs.First() : cur_.c; c >= 0; c = cs.Next(c + 1)) {
           cur_.c = c;
           if (res->work >= options_.max_hypotheses || res->cost >= options_.max_cost) return SearchEnd::kBudgetOut;
@@ -594,13 +594,13 @@ LostInSpace::SearchEnd LostInSpace::Search(int budget, double cost_budget, LisRe
 
 // Whether the item of triple tr over range `band` had beacons (a, b) on its first pair, and the
 // third beacons it tried with them (each range keeps its own pair bits).
-bool LostInSpace::NearPairTried(const Triple& tr, int band, int a, int b) const {
+bool LostInSpace::PairTriedIn(const Triple& tr, int band, int a, int b) const {
   const auto pi = static_cast<std::size_t>(PairIndex(tr.i, tr.j));
   const auto r = static_cast<std::size_t>(band);
   return feasible_done_[r][pi] && feasible_[r][pi][static_cast<std::size_t>(a)].Has(b);
 }
 
-BeaconSet LostInSpace::NearThirds(const Triple& tr, int band, int a, int b) const {
+BeaconSet LostInSpace::ThirdsTriedIn(const Triple& tr, int band, int a, int b) const {
   const auto r = static_cast<std::size_t>(band);
   return feasible_[r][static_cast<std::size_t>(PairIndex(tr.i, tr.k))][static_cast<std::size_t>(a)] &
          feasible_[r][static_cast<std::size_t>(PairIndex(tr.j, tr.k))][static_cast<std::size_t>(b)];

@@ -296,8 +296,8 @@ class LostInSpace {
   void SampleCoVisibility(const Eigen::Vector3d& p, double min_depth_m);
   void OrderItems(int num_bands);
   const std::array<BeaconSet, limits::kMaxBeacons>& Feasible(int i, int j);  // i < j, lazily, current range
-  bool NearPairTried(const Triple& tr, int band, int a, int b) const;
-  BeaconSet NearThirds(const Triple& tr, int band, int a, int b) const;
+  bool PairTriedIn(const Triple& tr, int band, int a, int b) const;
+  BeaconSet ThirdsTriedIn(const Triple& tr, int band, int a, int b) const;
   void Confirm(Candidate* c, const LisOptions& o, LisResult* result);
   bool ExplainsAFourth(const BodyPose& pose, int t_i, int t_j, int t_k, float cos_sq);
   enum class SearchEnd : unsigned char { kDone, kPaused, kBudgetOut };

@@ -302,12 +302,9 @@ bool Tracker::TrackContinuing(const BodyPose& predicted, const PoseBounds& bound
   bool refuted = false;
   double innovation = -1.0;
   const double k2 = noise_.TotalToCentroid() * noise_.TotalToCentroid();
-  const auto weak = [&](const Matrix6d& cov) {  // beyond a fix's 1-sigma bounds: the test means little
-    const double total = noise_.TotalToCentroid();
-    return total * PositionSigma(cov) > o.max_position_sigma_m || total * AttitudeSigma(cov) > o.max_attitude_sigma_rad;
-  };
-  if (!SolveTracked(predicted, bounds, o, r, &refuted, &innovation) || !r->solve.has_covariance ||
-      weak(r->solve.covariance) || !(f.Distance2(r->pose, k2 * r->solve.covariance, now_ns_) <= o.continuity_max_m2)) {
+  // (Beyond a fix's 1-sigma bounds the motion filter's test means little.)
+  if (!SolveTracked(predicted, bounds, o, r, &refuted, &innovation) || BeyondFixSigmas(r->solve, o) ||
+      !(f.Distance2(r->pose, k2 * r->solve.covariance, now_ns_) <= o.continuity_max_m2)) {
     ++counters_.continuity_refused;
     return false;
   }
@@ -942,6 +939,16 @@ bool Tracker::ExplainsPrevious(const BodyPose& pose, std::uint64_t t_ns, const T
   return twin_set_.num_missing <= o.max_missing;
 }
 
+// Whether a solved pose's whole 1-sigma (centroid noise and the map's error: the covariance
+// Navigator publishes) exceeds a fix's bounds (max_position_sigma_m, max_attitude_sigma_rad),
+// or it has none: such a pose is never a fix.
+bool Tracker::BeyondFixSigmas(const SolveResult& s, const TrackOptions& o) const {
+  if (!s.has_covariance) return true;
+  const double total = noise_.TotalToCentroid();
+  return total * PositionSigma(s.covariance) > o.max_position_sigma_m ||
+         total * AttitudeSigma(s.covariance) > o.max_attitude_sigma_rad;
+}
+
 // Keeps this frame set's blobs for ExplainsPrevious at the next one.
 void Tracker::KeepBlobs(std::uint64_t t_ns) {
   prev_num_blobs_ = std::min(num_blobs_, limits::kMaxObservations);
@@ -971,15 +978,11 @@ void Tracker::Accept(std::uint64_t t_ns, const TrackOptions& o, TrackResult* r) 
   if (!verified_ && r->matches.num_beacons >= 4 && r->solve.has_covariance && ResidualsFitTheNoise(r->solve, o))
     verified_ = true;
   RememberTracks(r->matches);
-  // Fix or degraded, judged on the pose's whole 1-sigma: centroid noise and the map's error
-  // (the covariance Navigator publishes), so that a fix never carries a 1-sigma above the bounds.
-  const double total = noise_.TotalToCentroid();
-  const double sigma_r = total * sigma_m, sigma_a = total * sigma_rad;
   r->status = TrackStatus::kDegraded;
   if (r->matches.num_beacons < o.fix_min_beacons) r->reason = TrackReason::kFewBeacons;
   else if (r->solve.rms_px > o.degraded_rms_px || r->solve.rms_px > o.fix_rms_sigmas * noise_.ResidualSigmaPx())
     r->reason = TrackReason::kLargeResidual;
-  else if (!r->solve.has_covariance || sigma_r > o.max_position_sigma_m || sigma_a > o.max_attitude_sigma_rad)
+  else if (BeyondFixSigmas(r->solve, o))
     r->reason = TrackReason::kLargeCovariance;
   else if (o.verify_three_beacons && !verified_)
     r->reason = TrackReason::kUnverified;

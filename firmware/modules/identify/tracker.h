@@ -462,6 +462,7 @@ class Tracker {
                         double* with_map) const;
   double ImageSigmaPx(const BodyPose& pose, const Matrix6d& cov) const;
   bool ResidualsFitTheNoise(const SolveResult& s, const TrackOptions& o) const;
+  bool BeyondFixSigmas(const SolveResult& s, const TrackOptions& o) const;
   void KeepBlobs(std::uint64_t t_ns);
   TrackStatus TrackOnce(const BlobObs* blobs, int num_blobs, std::uint64_t t_ns, const TrackOptions& o,
                         TrackResult* result);
