@@ -2,8 +2,13 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <cstdio>
+#include <random>
 
+#include "common/rig/infer_facing.h"
+#include "common/rig/paper_rig.h"
 #include "common/rotation/rotation.h"
 #include "host/sim/scenario/scenario.h"
 #include "host/sim/scenario/scenario_test_util.h"
@@ -132,6 +137,87 @@ TEST(ModuleBeacons, DeterministicPerSeedAndDifferentAcrossSeeds) {
     }
     EXPECT_GT(differ, 60);
   }
+}
+
+// InferFacing (common/rig/infer_facing.h) on the simulator's modules, maps and layouts, against
+// the walls' true normals: a normal off by more than its tolerance plus the matcher's beam margin
+// (0.1 rad) makes the LED "surely seen" where it is not, and every pose near there, the true one
+// included, refuted (seen in session 32: a cylinder's rim beacon 60 deg off with 22 deg of
+// tolerance lost 66 frame sets with 44-54 beacons in view).
+struct FacingScore {
+  int beacons = 0, unknown = 0, beyond = 0, flipped = 0;
+  double tolerance_sum = 0.0;
+};
+
+FacingScore InferredAgainstTruth(const StationModule& module, const BeaconLayout& layout, std::uint64_t seed) {
+  const std::vector<WallBeacon> truth = GenerateWallBeacons(module, layout, seed);
+  Rig rig = PaperRig();
+  rig.num_beacons = static_cast<int>(truth.size());
+  std::mt19937_64 rng(seed);
+  std::normal_distribution<double> survey(0.0, 0.0005);  // 0.5 mm per coordinate
+  for (std::size_t i = 0; i < truth.size(); ++i)
+    rig.beacons_w[i] = truth[i].p_w + Eigen::Vector3d(survey(rng), survey(rng), survey(rng));
+  FacingScore s;
+  if (!InferFacing(InferFacingOptions{}, &rig)) return s;
+  for (std::size_t i = 0; i < truth.size(); ++i) {
+    ++s.beacons;
+    if (rig.beacon_half_angle[i] >= kPi) {
+      ++s.unknown;
+      continue;
+    }
+    const double off = std::acos(std::clamp(rig.beacon_normal_w[i].dot(truth[i].normal_w), -1.0, 1.0));
+    s.beyond += off > rig.beacon_normal_tolerance[i] + 0.1;
+    s.flipped += off > kPi / 2;
+    s.tolerance_sum += rig.beacon_normal_tolerance[i];
+  }
+  return s;
+}
+
+TEST(InferFacingOnGeneratedModules, TrueNormalsLieWithinTheTolerance) {
+  StationModule narrow = Cylinder();
+  narrow.diameter = 3.0;
+  narrow.length = 9.0;
+  StationModule cube = Box();
+  cube.size = Eigen::Vector3d(3.0, 3.0, 3.0);
+  const struct {
+    const char* name;
+    StationModule module;
+    double max_beyond;  // share of the beacons given a normal
+  } modules[] = {{"cylinder 4.2 x 6 m", Cylinder(), 0.01}, {"cylinder 3 x 9 m", narrow, 0.03},
+                 {"box 5 x 2.2 x 2.2 m", Box(), 0.005}, {"box 3 m", cube, 0.005}};
+  const struct {
+    const char* name;
+    BeaconLayoutKind kind;
+    double jitter;
+  } layouts[] = {{"grid, jitter 0.25", BeaconLayoutKind::kJitteredGrid, 0.25},
+                 {"grid, jitter 0.5", BeaconLayoutKind::kJitteredGrid, 0.5},
+                 {"random", BeaconLayoutKind::kRandom, 0.0}};
+  for (const auto& mod : modules)
+    for (const auto& lay : layouts) {
+      FacingScore all;
+      for (const int count : {64, 256})
+        for (std::uint64_t seed = 1; seed <= 4; ++seed) {
+          const FacingScore s = InferredAgainstTruth(mod.module, Layout(lay.kind, count, lay.jitter, true), seed);
+          all.beacons += s.beacons;
+          all.unknown += s.unknown;
+          all.beyond += s.beyond;
+          all.flipped += s.flipped;
+          all.tolerance_sum += s.tolerance_sum;
+        }
+      const int given = all.beacons - all.unknown;
+      SCOPED_TRACE(std::string(mod.name) + ", " + lay.name);
+      std::printf("%s, %s: %d beacons, %d unknown, %d beyond the tolerance, mean tolerance %.1f deg\n", mod.name,
+                  lay.name, all.beacons, all.unknown, all.beyond, given > 0 ? RadToDeg(all.tolerance_sum / given) : 0.0);
+      ASSERT_EQ(all.beacons, 8 * (64 + 256) / 2);  // every map was a module's walls
+      EXPECT_EQ(all.flipped, 0);                 // never the wrong side of a wall
+      EXPECT_LE(all.beyond, mod.max_beyond * given);
+      // Most beacons keep a beam: measured 3-23 % unknown (edges, sparse curved walls).
+      EXPECT_LE(all.unknown, 0.3 * all.beacons);
+      // A flat wall's beacons keep a tolerance that still refutes (measured 3-6 deg on average).
+      if (mod.module.shape == ModuleShape::kBox) {
+        EXPECT_LE(all.tolerance_sum / given, DegToRad(8.0));
+      }
+    }
 }
 
 TEST(ModuleBeacons, UniformInsideKeepsTheMargin) {
