@@ -159,6 +159,7 @@ int Run(int argc, char** argv) {
   config.initial_sigma_rad = DegToRad(opt.initial_sigma_deg);
   config.windowed_detection = opt.windowed_detection;
   config.navigator.track.verify_three_beacons = !opt.three_beacon_fixes;
+  config.navigator.track.three_beacon_fix_steady = !opt.three_beacon_fixes;
   auto loop = std::make_unique<NavLoop>(rig, source.get(), &trigger, &outputs, &log);
   const char* reason = nullptr;
   if (!loop->Configure(config, &reason)) {

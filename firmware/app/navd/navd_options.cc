@@ -151,8 +151,10 @@ const char* NavdUsage() {
          "  --no-windowed-detection detect in full frames also while tracking (default: windows about the\n"
          "                          predicted beacons plus a stripe, docs/navd.md)\n"
          "  --three-beacon-fixes    a track found on three beacons is a fix at once (default: degraded,\n"
-         "                          'unverified', until a pose on four; only where every steady light\n"
-         "                          the cameras see is a mapped beacon, docs/navd.md)\n"
+         "                          'unverified', until a pose on four), and a pose on three beacons\n"
+         "                          one of which just appeared (default: degraded until its blob is\n"
+         "                          steady); only where every light the cameras see is a mapped\n"
+         "                          beacon, docs/navd.md)\n"
          "  --help                  this text\n";
 }
 

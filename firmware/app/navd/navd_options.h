@@ -56,7 +56,7 @@ struct NavdOptions {
   bool quiet = false;
   bool realtime = false;  // replay: each frame set at its recorded time (ReplayConfig::realtime)
   bool windowed_detection = true;  // --no-windowed-detection: full frames always (NavLoopConfig)
-  bool three_beacon_fixes = false;  // --three-beacon-fixes: TrackOptions::verify_three_beacons = false
+  bool three_beacon_fixes = false;  // --three-beacon-fixes: TrackOptions::verify_three_beacons and three_beacon_fix_steady false
   bool help = false;
 };
 

@@ -965,6 +965,8 @@ void Tracker::Accept(std::uint64_t t_ns, const TrackOptions& o, TrackResult* r) 
   // re-identification near it: the prediction's bounds are a few centimetres).
   const bool continues = r->source == TrackSource::kTracked || given_seed_ ||
                          (motion_.known() && Seconds(t_ns, motion_.last_t_ns()) <= o.velocity_window_s);
+  // The frame set before carried no pose (and no given one seeds this): a gap.
+  const bool after_gap = !given_seed_ && !(motion_.known() && motion_.last_t_ns() == prev_t_ns_);
   const double sigma_m = r->solve.has_covariance ? PositionSigma(r->solve.covariance) : 0.0;
   const double sigma_rad = r->solve.has_covariance ? AttitudeSigma(r->solve.covariance) : 0.0;
   motion_.Add(r->pose, t_ns, sigma_m, sigma_rad, noise_.MapToCentroidRatio(), limits_.motion,
@@ -986,6 +988,8 @@ void Tracker::Accept(std::uint64_t t_ns, const TrackOptions& o, TrackResult* r) 
     r->reason = TrackReason::kLargeCovariance;
   else if (o.verify_three_beacons && !verified_)
     r->reason = TrackReason::kUnverified;
+  else if (o.three_beacon_fix_steady && after_gap && r->matches.num_beacons == 3 && !OnSteadyBlobs(r->matches))
+    r->reason = TrackReason::kUnverified;  // an identity neither the last pose nor the image carries
   else if (r->left_out_beacon >= 0)
     r->reason = TrackReason::kLargeResidual;  // the pose on every beacon was refused or did not fit
   else {

@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <atomic>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <exception>
 #include <iostream>
@@ -78,6 +79,8 @@ Scenario MatrixScenario(const RunSpec& r) {
     root["beacons"]["seed"] = r.seed;  // a new seed, a new station (mfns-sim --seed)
     if (r.count > 0) root["beacons"]["count"] = r.count;
     root["beacons"]["facing"] = r.facing;
+    if (!r.layout.empty()) root["beacons"]["layout"] = r.layout;
+    if (r.jitter >= 0.0) root["beacons"]["jitter"] = r.jitter;
   }
   root["clutter"]["spurious"]["count"] = r.spurious;
   if (r.static_reflections > 0) root["clutter"]["spurious"]["static_reflections"] = r.static_reflections;
@@ -119,6 +122,9 @@ std::vector<RunSpec> ExpandMatrix(const MatrixSpec& m) {
   for (const int c : m.counts)
     if (c < 10 || c > limits::kMaxBeacons)
       throw UserError("--counts: " + std::to_string(c) + " is outside 10.." + std::to_string(limits::kMaxBeacons));
+  if (!m.layout.empty() && m.layout != "jittered-grid" && m.layout != "random")
+    throw UserError("--layout: expected jittered-grid or random, got '" + OneLine(m.layout) + "'");
+  if (m.jitter > 0.5 || std::isnan(m.jitter)) throw UserError("--jitter: must be 0..0.5 (a fraction of the cell)");
   RefuseRepeats(m.presets, "--presets");
   RefuseRepeats(m.counts, "--counts");
   RefuseRepeats(m.seeds, "--seeds");
@@ -149,7 +155,9 @@ std::vector<RunSpec> ExpandMatrix(const MatrixSpec& m) {
                           .frames = m.frames,
                           .spurious = m.spurious,
                           .static_reflections = s.module.shape != ModuleShape::kNone ? m.static_reflections : 0,
-                          .rig = m.rig});
+                          .rig = m.rig,
+                          .layout = generated ? m.layout : std::string(),
+                          .jitter = generated ? m.jitter : -1.0});
   }
   return runs;
 }

@@ -34,6 +34,10 @@ struct MatrixSpec {
   int static_reflections = 0;
   std::string rig = {};  // a rig file (path) in place of every preset's `rig:` (empty: the preset's)
   FacingMode facing = FacingMode::kBoth;
+  // beacons.layout and beacons.jitter of presets with a generated map: maps unlike the presets'
+  // ("jittered-grid" or "random"; empty, jitter < 0: the preset's).
+  std::string layout = {};
+  double jitter = -1.0;
 };
 
 // One run of the matrix.
@@ -48,6 +52,8 @@ struct RunSpec {
   int spurious = 2;
   int static_reflections = 0;
   std::string rig = {};  // MatrixSpec::rig
+  std::string layout = {};  // MatrixSpec::layout, jitter (generated maps only)
+  double jitter = -1.0;
 };
 
 // The preset's YAML with the run's overrides (frames, seed, beacons.count/seed/facing,
@@ -56,8 +62,8 @@ Scenario MatrixScenario(const RunSpec& r);
 
 // Every run of the spec, row by row (preset, count, facing), seeds innermost. A preset without
 // generated beacons gives one count (its own map), and one facing row when its map has no facing
-// data. Throws UserError naming the flag (--presets, --counts, --frames, --spurious; a preset,
-// count or seed given twice; more than kMaxRuns runs).
+// data. Throws UserError naming the flag (--presets, --counts, --frames, --spurious, --layout,
+// --jitter; a preset, count or seed given twice; more than kMaxRuns runs).
 std::vector<RunSpec> ExpandMatrix(const MatrixSpec& m);
 
 // "1-5", "1,3,8", "2": the seeds (kMaxSeeds at most); UserError naming --seeds otherwise.

@@ -33,6 +33,8 @@ MatrixSpec MatrixSpecFromArgs(const NavMatrixArgs& a) {
   // Absolute, so that the scenarios find it whatever directory they resolve paths against.
   if (!a.rig.empty()) spec.rig = std::filesystem::absolute(a.rig).string();
   spec.facing = ParseFacing(a.facing);
+  spec.layout = a.layout;
+  spec.jitter = a.jitter;
   if (a.jobs < 0) throw UserError("--jobs: must be >= 0 (0: all cores)");
   return spec;
 }
@@ -43,6 +45,7 @@ void RunNavMatrixCommand(const NavMatrixArgs& a) {
   const std::vector<RunSpec> runs = ExpandMatrix(spec);
   NavMatrixOptions options;
   options.navigator.track.verify_three_beacons = !a.three_beacon_fixes;
+  options.navigator.track.three_beacon_fix_steady = !a.three_beacon_fixes;
   const MatrixLimits limits;
   std::fprintf(stderr, "navmatrix: %zu runs of %d frame sets on %d threads\n", runs.size(), spec.frames, jobs);
   const auto start = std::chrono::steady_clock::now();

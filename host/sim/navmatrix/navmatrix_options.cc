@@ -23,6 +23,10 @@ CLI::App* AddNavMatrixOptions(CLI::App& app, NavMatrixArgs* a) {
   cmd->add_option("--rig", a->rig,
                   "A rig file in place of every preset's rig: its cameras (and its beacons where a preset takes "
                   "its map from the rig): the matrix on other cameras");
+  cmd->add_option("--layout", a->layout,
+                  "beacons.layout of the generated maps: jittered-grid or random (default: the preset's)");
+  cmd->add_option("--jitter", a->jitter,
+                  "beacons.jitter of the generated jittered grids: 0 (a regular grid) .. 0.5 (default: the preset's)");
   cmd->add_option("--facing", a->facing, "Beacon facing in the navigator's map: both, yes or no")
       ->capture_default_str();
   cmd->add_option("--jobs", a->jobs, "Worker threads, each with its own navigator (0: all cores)")
@@ -32,7 +36,8 @@ CLI::App* AddNavMatrixOptions(CLI::App& app, NavMatrixArgs* a) {
   cmd->add_flag("--check", a->check, "Exit 1 when a requirement of issue 13 fails");
   cmd->add_flag("--three-beacon-fixes", a->three_beacon_fixes,
                 "A track found on three beacons is a fix at once (mfns-navd's flag; default: degraded, "
-                "'unverified', until a pose on four)");
+                "'unverified', until a pose on four; and a pose on three beacons one of which just appeared, "
+                "degraded until its blob is steady)");
   return cmd;
 }
 

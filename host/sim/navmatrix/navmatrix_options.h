@@ -21,12 +21,14 @@ struct NavMatrixArgs {
   int spurious = 2;
   int static_reflections = 0;
   std::string rig;  // a rig file in place of each preset's rig (empty: the preset's)
+  std::string layout;    // beacons.layout of generated maps (empty: the preset's)
+  double jitter = -1.0;  // beacons.jitter of generated maps (< 0: the preset's)
   std::string facing = "both";
   int jobs = 0;
   std::string out;
   std::string trace;
   bool check = false;
-  bool three_beacon_fixes = false;  // TrackOptions::verify_three_beacons = false, as mfns-navd's flag
+  bool three_beacon_fixes = false;  // TrackOptions::verify_three_beacons, three_beacon_fix_steady false, as mfns-navd's flag
 };
 
 // Adds the `navmatrix` subcommand and its options (values into *a) to app; runs nothing.
