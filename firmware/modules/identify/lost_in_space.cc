@@ -17,6 +17,7 @@ namespace {
 constexpr double kCostFourthPerBeaconBlob = 1.2e-3;
 constexpr double kCostReprojectionPerBeacon = 0.113;
 constexpr double kCostRefine = 14.0;
+constexpr double kCostRepeatPerBeaconPair = 2e-3;  // RepeatedElsewhere's scan (not fitted: an estimate)
 
 constexpr int PairIndex(int i, int j) { return j * (j - 1) / 2 + i; }  // i < j
 
@@ -85,6 +86,7 @@ bool LisOptions::IsValid(const char** why) const {
   else if (confirm_beacons != 0 && confirm_beacons < min_beacons + 1) bad = "confirm_beacons";
   else if (!(max_rms_px > 0.0)) bad = "max_rms_px";
   else if (!(pair_tolerance_m >= 0.0) || !std::isfinite(pair_tolerance_m)) bad = "pair_tolerance_m";
+  else if (!(repeat_tolerance_m >= 0.0) || !std::isfinite(repeat_tolerance_m)) bad = "repeat_tolerance_m";
   else if (!(pair_angle_tolerance_rad >= 0.0) || !std::isfinite(pair_angle_tolerance_rad)) bad = "pair_angle_tolerance_rad";
   else if (!(max_false_alarms >= 0.0) || !std::isfinite(max_false_alarms)) bad = "max_false_alarms";
   else if (!(fourth_blob_max_rad > 0.0) || !std::isfinite(fourth_blob_max_rad)) bad = "fourth_blob_max_rad";
@@ -371,9 +373,97 @@ void LostInSpace::Confirm(Candidate* c, const LisOptions& o, LisResult* result) 
   const double fa = FalseAlarms(c->set.num_matches, c->set.num_predicted, blobs_per_image, o.refine_match.gate_px,
                                 image_area_px2_, std::max(1, result->poses_scored));
   if (fa > o.max_false_alarms) return;
+  if (RepeatedElsewhere(*c, o, result)) {
+    ++result->repeats;
+    return;
+  }
   result->confirmed = true;
   confirmed_ = *c;
   result->false_alarms = fa;
+}
+
+namespace {
+
+// A right-handed frame on three points: origin a, x towards b, z normal to the plane abc.
+Eigen::Matrix3d TriangleFrame(const Eigen::Vector3d& a, const Eigen::Vector3d& b, const Eigen::Vector3d& c) {
+  const Eigen::Vector3d x = (b - a).normalized();
+  const Eigen::Vector3d z = x.cross(c - a).normalized();
+  Eigen::Matrix3d f;
+  f << x, z.cross(x), z;
+  return f;
+}
+
+}  // namespace
+
+// Whether the map holds another copy of c's beacons (a rigid motion taking each within
+// repeat_tolerance_m of a beacon) from which the moved pose explains the blobs as c does:
+// CopyExplainsTheBlobs. The copies are found from c's best-spread beacon triangle: every beacon
+// triangle congruent to it (O(beacons^2) pairs, then third beacons) gives the motion.
+bool LostInSpace::RepeatedElsewhere(const Candidate& c, const LisOptions& o, LisResult* result) {
+  if (!(o.repeat_tolerance_m > 0.0)) return false;
+  std::array<int, limits::kMaxLisCandidateMatches> v{};
+  int n = 0;
+  BeaconSet seen;
+  for (int i = 0; i < c.set.num_matches; ++i) {
+    const int m = c.set.matches[static_cast<std::size_t>(i)].beacon;
+    if (seen.Has(m)) continue;
+    seen.Set(m);
+    v[static_cast<std::size_t>(n++)] = m;
+  }
+  if (n < 3) return false;
+  const auto D = [this](int x, int y) {
+    return static_cast<double>(dist_[static_cast<std::size_t>(x)][static_cast<std::size_t>(y)]);
+  };
+  const auto P = [this](int m) -> const Eigen::Vector3d& { return rig_->beacons_w[static_cast<std::size_t>(m)]; };
+  // The base triangle: the farthest pair, then the beacon farthest from their line.
+  int a = v[0], b = v[1], t = v[2];
+  for (int i = 0; i < n; ++i)
+    for (int j = i + 1; j < n; ++j)
+      if (D(v[static_cast<std::size_t>(i)], v[static_cast<std::size_t>(j)]) > D(a, b))
+        a = v[static_cast<std::size_t>(i)], b = v[static_cast<std::size_t>(j)];
+  double best_area = -1.0;
+  for (int i = 0; i < n; ++i) {
+    const int m = v[static_cast<std::size_t>(i)];
+    const double area = (P(b) - P(a)).cross(P(m) - P(a)).norm();
+    if (m != a && m != b && area > best_area) best_area = area, t = m;
+  }
+  const double tol = o.repeat_tolerance_m;
+  if (!(best_area > 4.0 * tol * D(a, b))) return false;  // collinear beacons: no frame
+  const Eigen::Matrix3d F_abt = TriangleFrame(P(a), P(b), P(t));
+  const int nb = rig_->num_beacons;
+  result->cost += kCostRepeatPerBeaconPair * nb * nb;
+  for (int i = 0; i < nb; ++i)
+    for (int j = 0; j < nb; ++j) {
+      if (j == i || std::abs(D(i, j) - D(a, b)) > tol) continue;
+      for (int k = 0; k < nb; ++k) {
+        if (k == i || k == j || (i == a && j == b && k == t)) continue;
+        if (std::abs(D(i, k) - D(a, t)) > tol || std::abs(D(j, k) - D(b, t)) > tol) continue;
+        const Eigen::Matrix3d R = TriangleFrame(P(i), P(j), P(k)) * F_abt.transpose();
+        if (CopyExplainsTheBlobs(c, R, P(i) - R * P(a), n, o)) return true;
+      }
+    }
+  return false;
+}
+
+// Whether every beacon of c moved by (R, t) lies within repeat_tolerance_m of a beacon, and the
+// pose moved likewise matches as many beacons with none missing (the hypothesis gate: a copy
+// off by a few millimetres is refused by no fainter test).
+bool LostInSpace::CopyExplainsTheBlobs(const Candidate& c, const Eigen::Matrix3d& R, const Eigen::Vector3d& t, int n,
+                                       const LisOptions& o) {
+  const double tol2 = o.repeat_tolerance_m * o.repeat_tolerance_m;
+  for (int i = 0; i < c.set.num_matches; ++i) {
+    const int beacon = c.set.matches[static_cast<std::size_t>(i)].beacon;
+    const Eigen::Vector3d q = R * rig_->beacons_w[static_cast<std::size_t>(beacon)] + t;
+    bool near = false;
+    for (int m = 0; m < rig_->num_beacons && !near; ++m)
+      near = (rig_->beacons_w[static_cast<std::size_t>(m)] - q).squaredNorm() <= tol2;
+    if (!near) return false;
+  }
+  BodyPose moved;
+  moved.C_w_b = R * c.pose.C_w_b;
+  moved.r_w_wb = R * c.pose.r_w_wb + t;
+  matcher_.MatchPose(moved, o.hypothesis_match, &match_scratch_);
+  return match_scratch_.num_beacons >= n && match_scratch_.num_missing <= o.max_missing;
 }
 
 void LostInSpace::SelectBlobs(const LisOptions& o, const std::uint8_t* steady) {

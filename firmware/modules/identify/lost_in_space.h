@@ -140,6 +140,12 @@ struct LisOptions {
   double fourth_blob_max_rad = 0.015;
   double max_rms_px = 2.0;        // refined residual RMS of a consistent pose
   double pair_tolerance_m = 0.01;  // slack of the pair distance test
+  // A pose confirms only when no other copy of its beacons in the map, congruent within this
+  // (m), gives a pose that explains the blobs as well (LostInSpace::RepeatedElsewhere): a
+  // regular grid or a symmetric layout repeats views exactly, and the a-contrario test, which
+  // takes wrong poses for chance ones, confirmed one of the copies (docs/acquisition.md,
+  // session 33: thousands of wrong fixes 180 deg off on regular grids). 0: no check.
+  double repeat_tolerance_m = 0.01;
   // Workspace: body positions outside [min, max] (world, m) are refused. Automatic (when
   // workspace_auto) from the beacon map's bounding box grown by workspace_margin_m.
   bool workspace_auto = true;
@@ -175,6 +181,7 @@ struct LisResult {
   int blob_triples = 0;           // blob triples visited
   bool search_complete = false;   // every feasible triple was tried
   bool confirmed = false;         // ended early on a confirmed pose
+  int repeats = 0;                // poses not confirmed: the map repeats their beacons (repeat_tolerance_m)
   // Every distinct pose consistent with the blobs, best first. Complete when the search was
   // neither cut nor overflowed, so that the true pose is among them (barring a missed P3P
   // root, about 1e-4 of triples) - except where the fourth-blob test applies (no prior poses
@@ -299,6 +306,9 @@ class LostInSpace {
   bool PairTriedIn(const Triple& tr, int band, int a, int b) const;
   BeaconSet ThirdsTriedIn(const Triple& tr, int band, int a, int b) const;
   void Confirm(Candidate* c, const LisOptions& o, LisResult* result);
+  bool RepeatedElsewhere(const Candidate& c, const LisOptions& o, LisResult* result);
+  bool CopyExplainsTheBlobs(const Candidate& c, const Eigen::Matrix3d& R, const Eigen::Vector3d& t, int n,
+                            const LisOptions& o);
   bool ExplainsAFourth(const BodyPose& pose, int t_i, int t_j, int t_k, float cos_sq);
   enum class SearchEnd : unsigned char { kDone, kPaused, kBudgetOut };
   SearchEnd Search(int budget, double cost_budget, LisResult* result);

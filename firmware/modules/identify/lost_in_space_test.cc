@@ -220,6 +220,57 @@ TEST(LostInSpaceTest, SymmetricMapIsAmbiguous) {
   EXPECT_GT(seen, 0);
 }
 
+// A regular grid of beacons (a layout a user may well choose) repeats views exactly: a 2 m cube
+// with a 4 x 4 grid on each wall looks the same after any of its 24 turns. Seen in the
+// acquisition matrix with --jitter 0 (docs/acquisition.md, session 33): thousands of wrong fixes,
+// 180 deg off, each from a pose confirmed on one copy of its beacons (the a-contrario test takes
+// the other copies for chance). A pose whose beacons the map repeats, the moved pose explaining
+// the blobs as well, is not confirmed (LisOptions::repeat_tolerance_m); without the check the
+// same views fix on copies.
+TEST(LostInSpaceTest, RegularGridViewsAreNeverConfirmedOnACopy) {
+  static Rig rig;
+  rig = PaperRig();
+  rig.num_beacons = 0;
+  rig.has_facing = true;
+  for (int w = 0; w < 6; ++w)
+    for (int a = 0; a < 4; ++a)
+      for (int b = 0; b < 4; ++b) {
+        const auto i = static_cast<std::size_t>(rig.num_beacons++);
+        const int axis = w / 2;
+        const double side = w % 2 == 0 ? -1.0 : 1.0;
+        Eigen::Vector3d p;
+        p[axis] = side;
+        p[(axis + 1) % 3] = -0.75 + 0.5 * a;
+        p[(axis + 2) % 3] = -0.75 + 0.5 * b;
+        rig.beacons_w[i] = p;
+        rig.beacon_normal_w[i] = -side * Eigen::Vector3d::Unit(axis);
+        rig.beacon_half_angle[i] = DegToRad(60.0);
+      }
+  ASSERT_TRUE(g_lis.Reset(rig));
+  LisOptions unchecked;
+  unchecked.repeat_tolerance_m = 0.0;
+  std::mt19937_64 rng(33);
+  int views = 0, fixes = 0, wrong = 0, repeats = 0, wrong_unchecked = 0;
+  for (int trial = 0; trial < testing::Trials(40, 12); ++trial) {
+    testing::Observe(rig, testing::RandomBoxPose(&rng), 0.1, &rng, &g_scene);
+    if (g_scene.NumVisibleBeacons() < 5) continue;
+    ++views;
+    if (g_lis.Identify(g_scene.blobs.data(), g_scene.num_blobs, LisOptions{}, &g_res) == LisStatus::kFix) {
+      ++fixes;
+      wrong += !IdentitiesRight(g_scene, g_res.matches);
+    }
+    repeats += g_res.repeats;
+    if (g_lis.Identify(g_scene.blobs.data(), g_scene.num_blobs, unchecked, &g_res) == LisStatus::kFix)
+      wrong_unchecked += !IdentitiesRight(g_scene, g_res.matches);
+  }
+  std::printf("regular grid in a cube: %d views of >= 5 beacons, %d fixes (%d wrong), %d poses not confirmed for a "
+              "copy; unchecked: %d wrong fixes\n", views, fixes, wrong, repeats, wrong_unchecked);
+  ASSERT_GT(views, 0);
+  EXPECT_EQ(wrong, 0);
+  EXPECT_GT(repeats, 0);
+  EXPECT_GT(wrong_unchecked, 0);  // the check is what keeps them out
+}
+
 // Why mfns-navd needs ~20 frame sets to acquire from a cold start on the paper sweep (or a start
 // pose): in frame sets 1-11 each camera sees one beacon, and ~30 other poses inside the
 // workspace explain those three blobs exactly while predicting no other beacon in any image, so
