@@ -988,7 +988,8 @@ void Tracker::Accept(std::uint64_t t_ns, const TrackOptions& o, TrackResult* r) 
     r->reason = TrackReason::kLargeCovariance;
   else if (o.verify_three_beacons && !verified_)
     r->reason = TrackReason::kUnverified;
-  else if (o.three_beacon_fix_steady && after_gap && r->matches.num_beacons == 3 && !OnSteadyBlobs(r->matches))
+  else if (o.three_beacon_fix_steady && r->matches.num_beacons == 3 && !OnSteadyBlobs(r->matches) &&
+           (after_gap || LeavesSteadyBlob(r->matches)))
     r->reason = TrackReason::kUnverified;  // an identity neither the last pose nor the image carries
   else if (r->left_out_beacon >= 0)
     r->reason = TrackReason::kLargeResidual;  // the pose on every beacon was refused or did not fit
