@@ -382,23 +382,12 @@ void LostInSpace::Confirm(Candidate* c, const LisOptions& o, LisResult* result) 
   result->false_alarms = fa;
 }
 
-namespace {
-
-// A right-handed frame on three points: origin a, x towards b, z normal to the plane abc.
-Eigen::Matrix3d TriangleFrame(const Eigen::Vector3d& a, const Eigen::Vector3d& b, const Eigen::Vector3d& c) {
-  const Eigen::Vector3d x = (b - a).normalized();
-  const Eigen::Vector3d z = x.cross(c - a).normalized();
-  Eigen::Matrix3d f;
-  f << x, z.cross(x), z;
-  return f;
-}
-
-}  // namespace
-
 // Whether the map holds another copy of c's beacons (a rigid motion taking each within
 // repeat_tolerance_m of a beacon) from which the moved pose explains the blobs as c does:
 // CopyExplainsTheBlobs. The copies are found from c's best-spread beacon triangle: every beacon
-// triangle congruent to it (O(beacons^2) pairs, then third beacons) gives the motion.
+// triangle congruent to it (O(beacons^2) pairs, then third beacons) gives the motion. A beacon
+// set found repeated is remembered for the rest of the search: in a regular grid many blob
+// triples lead to the same set, and its scan would give the same answer each time.
 bool LostInSpace::RepeatedElsewhere(const Candidate& c, const LisOptions& o, LisResult* result) {
   if (!(o.repeat_tolerance_m > 0.0)) return false;
   std::array<int, limits::kMaxLisCandidateMatches> v{};
@@ -411,6 +400,8 @@ bool LostInSpace::RepeatedElsewhere(const Candidate& c, const LisOptions& o, Lis
     v[static_cast<std::size_t>(n++)] = m;
   }
   if (n < 3) return false;
+  for (int i = 0; i < std::min(num_repeated_, kRepeatMemo); ++i)
+    if (repeated_[static_cast<std::size_t>(i)] == seen) return true;
   const auto D = [this](int x, int y) {
     return static_cast<double>(dist_[static_cast<std::size_t>(x)][static_cast<std::size_t>(y)]);
   };
@@ -429,7 +420,7 @@ bool LostInSpace::RepeatedElsewhere(const Candidate& c, const LisOptions& o, Lis
   }
   const double tol = o.repeat_tolerance_m;
   if (!(best_area > 4.0 * tol * D(a, b))) return false;  // collinear beacons: no frame
-  const Eigen::Matrix3d F_abt = TriangleFrame(P(a), P(b), P(t));
+  const std::array<Eigen::Vector3d, 3> abt{P(a), P(b), P(t)};
   const int nb = rig_->num_beacons;
   result->cost += kCostRepeatPerBeaconPair * nb * nb;
   for (int i = 0; i < nb; ++i)
@@ -438,8 +429,12 @@ bool LostInSpace::RepeatedElsewhere(const Candidate& c, const LisOptions& o, Lis
       for (int k = 0; k < nb; ++k) {
         if (k == i || k == j || (i == a && j == b && k == t)) continue;
         if (std::abs(D(i, k) - D(a, t)) > tol || std::abs(D(j, k) - D(b, t)) > tol) continue;
-        const Eigen::Matrix3d R = TriangleFrame(P(i), P(j), P(k)) * F_abt.transpose();
-        if (CopyExplainsTheBlobs(c, R, P(i) - R * P(a), n, o)) return true;
+        BodyPose copy;  // the motion taking (a, b, t) onto (i, j, k)
+        if (!TriangleOrientation(abt, {P(i), P(j), P(k)}, &copy) ||
+            !CopyExplainsTheBlobs(c, copy.C_w_b, copy.r_w_wb, n, o))
+          continue;
+        repeated_[static_cast<std::size_t>(num_repeated_++ % kRepeatMemo)] = seen;
+        return true;
       }
     }
   return false;
@@ -790,6 +785,7 @@ LisStatus LostInSpace::Begin(const BlobObs* blobs, int num_blobs, const LisOptio
   res.num_consistent = 0;
   num_cand_ = 0;
   overflow_ = false;
+  num_repeated_ = 0;
   if (rig_ == nullptr || !o.IsValid() || num_blobs < 0 || num_blobs > limits::kMaxObservations ||
       (num_blobs > 0 && blobs == nullptr))
     return res.status;

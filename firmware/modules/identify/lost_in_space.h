@@ -398,6 +398,12 @@ class LostInSpace {
   std::array<BodyPose, limits::kMaxP3pSolutions> solutions_{};
   int num_cand_ = 0;
   bool overflow_ = false;
+  // Beacon sets this search found repeated elsewhere in the map (RepeatedElsewhere's memo). A
+  // regular map's view has as many copies as its symmetries take it to, and the search meets
+  // them in turn: a regular grid in a cube gave a cycle of 24 (its rotations).
+  static constexpr int kRepeatMemo = 64;
+  std::array<BeaconSet, kRepeatMemo> repeated_{};
+  int num_repeated_ = 0;  // found this search (the memo keeps the last kRepeatMemo)
   std::array<Candidate, limits::kMaxLisCandidates> cand_{};
   Candidate scratch_{};
   Candidate confirmed_{};  // the pose that ended the search (LisResult::confirmed)
