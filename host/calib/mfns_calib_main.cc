@@ -15,8 +15,10 @@
 #include <vector>
 
 #include "common/blob/param_blob.h"
+#include "common/rig/infer_facing.h"
 #include "common/rig/paper_rig.h"
 #include "common/rotation/rotation.h"
+#include "firmware/modules/identify/map_repeats.h"
 #include "host/calib/app/calib_commands.h"
 #include "host/calib/survey/survey_command.h"
 #include "host/rigio/rig_yaml.h"
@@ -24,6 +26,16 @@
 
 namespace mfns::host {
 namespace {
+
+// The map check mfns-navd makes at start (its facing inferred the same way when the file has
+// none), told before the blob is flashed: a warning, the blob is written all the same.
+void WarnIfMapRepeats(const std::string& rig_path, Rig rig) {
+  if (!rig.has_facing) InferFacing(InferFacingOptions{}, &rig);
+  fw::MapRepeatsResult r;
+  char line[512];
+  if (fw::FindMapRepeats(rig, fw::MapRepeatsOptions{}, &r) && fw::DescribeMapRepeats(r, line, sizeof(line)))
+    std::fprintf(stderr, "mfns-calib: warning: %s: %s\n", rig_path.c_str(), line);
+}
 
 void MakeBlob(const std::string& rig_path, const std::string& out_path, std::uint64_t generation) {
   const Rig rig = ReadRigYaml(rig_path);
@@ -40,6 +52,7 @@ void MakeBlob(const std::string& rig_path, const std::string& out_path, std::uin
   WriteFileAtomic(out_path, bytes);
   std::fprintf(stderr, "mfns-calib: wrote %s (%zu bytes, rig %s, generation %llu)\n", out_path.c_str(), written,
                rig.rig_id.data(), static_cast<unsigned long long>(generation));
+  WarnIfMapRepeats(rig_path, rig);
 }
 
 void Inspect(const std::string& blob_path) {

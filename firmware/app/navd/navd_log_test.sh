@@ -5,6 +5,8 @@
 #   2. --log on a "full disk" (a 250-byte file-size limit, prlimit): navd exits 1 with one line
 #      naming the log, and the previous poses.csv is untouched.
 #   3. The same run without the limit: exit 0 and poses.csv replaced by the new, complete log.
+#   4. A map that repeats itself (a regular grid on two walls): mfns-calib blob writes the blob
+#      and warns, naming the rig file; mfns-navd warns once at start and navigates as before.
 # Usage: navd_log_test.sh MFNS_CALIB MFNS_NAVD WORK_DIR
 set -euo pipefail
 calib=$1 navd=$2 work=$3
@@ -56,4 +58,18 @@ done
 rows=$(tail -n +2 "$work/poses.csv" | wc -l)
 [[ $rows == 5 ]] || fail "poses.csv has $rows rows, expected 5"
 [[ ! -e $work/poses.csv.partial ]] || fail "poses.csv.partial left after a good run"
+
+# 4. A regular map: 5 x 4 beacons 400 mm apart on two facing walls.
+awk '/^beacons_mm:/ {print; for (w = -1; w <= 1; w += 2) for (a = 0; a < 5; ++a) for (b = 0; b < 4; ++b)
+       printf "  - [%d, %d, %d]\n", -800 + 400 * a, 1500 * w, -600 + 400 * b; skip = 1; next}
+     skip && /^  - / {next} {skip = 0; print}' "$work/paper.yaml" >"$work/grid.yaml"
+err=$("$calib" blob "$work/grid.yaml" --out "$work/grid.bin" 2>&1) || fail "mfns-calib blob of a regular map: $err"
+[[ -s $work/grid.bin ]] || fail "no blob written for a regular map"
+[[ $err == *"warning: $work/grid.yaml: the beacon map repeats itself"* ]] || fail "no warning naming the rig: $err"
+"$navd" --params "$work/grid.bin" --source "replay:$work/render" --pid-file "" --quiet 2>"$work/grid.log" ||
+  { cat "$work/grid.log"; fail "navd on a regular map"; }
+[[ $(grep -c 'warning: the beacon map repeats itself: 40 of 40 beacons' "$work/grid.log") == 1 ]] ||
+  fail "navd did not warn once about the regular map: $(cat "$work/grid.log")"
+# The paper's map does not repeat.
+if grep -q 'repeats itself' "$work/navd.log"; then fail "a warning for the paper's map"; fi
 echo PASS

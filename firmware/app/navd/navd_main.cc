@@ -54,6 +54,13 @@ void ReportFaults(const HealthRecord& h) {
                static_cast<unsigned long long>(errors), h.clock_faults, h.log_errors, h.trigger_errors);
 }
 
+// A map that repeats itself cannot be acquired where it does (map_repeats.h): said once per
+// parameter set, so that the user looks at the map and not at the flyer.
+void WarnIfMapRepeats(const Navigator& nav) {
+  char line[512];
+  if (DescribeMapRepeats(nav.map_repeats(), line, sizeof(line))) std::fprintf(stderr, "mfns-navd: warning: %s\n", line);
+}
+
 int Run(int argc, char** argv) {
   static NavdOptions opt;
   char why[512] = {};
@@ -174,6 +181,7 @@ int Run(int argc, char** argv) {
   }
   std::fprintf(stderr, "mfns-navd: rig %s, parameters generation %llu, %d cameras, %d beacons\n", rig.rig_id.data(),
                static_cast<unsigned long long>(info.generation), rig.num_cameras, rig.num_beacons);
+  WarnIfMapRepeats(loop->navigator());
 
   struct sigaction sa {};
   sa.sa_handler = OnStop;
@@ -220,6 +228,7 @@ int Run(int argc, char** argv) {
         info = next_info;
         std::fprintf(stderr, "mfns-navd: parameters reloaded: generation %llu\n",
                      static_cast<unsigned long long>(info.generation));
+        WarnIfMapRepeats(loop->navigator());
         std::snprintf(status_line, sizeof(status_line), "navigating, parameters generation %llu",
                       static_cast<unsigned long long>(info.generation));
         notifier.Status(status_line);

@@ -22,6 +22,7 @@ NavReason ToNavReason(TrackReason r) {
     case TrackReason::kAmbiguous: return NavReason::kAmbiguous;
     case TrackReason::kBudgetExhausted:
     case TrackReason::kNoHypothesis: return NavReason::kNoHypothesis;
+    case TrackReason::kRepeatedView: return NavReason::kRepeatedView;
     case TrackReason::kBadInput:
     case TrackReason::kCount: return NavReason::kSolveFailed;
   }
@@ -46,6 +47,8 @@ bool Navigator::Init(const Rig& rig, const NavigatorOptions& options, const char
   own_sigma_m_ = rig_.beacon_sigmas;
   facing_ = InferFacingResult{};
   if (options.infer_facing && !rig_.has_facing) InferFacing(options.facing, &rig_, &facing_);
+  repeats_ = MapRepeatsResult{};
+  if (options.check_map_repeats) FindMapRepeats(rig_, options.map_repeats, &repeats_);
   if (!tracker_.Reset(rig_)) {
     if (why != nullptr) *why = "the tracker cannot use this rig";
     return false;

@@ -11,6 +11,7 @@
 #include "common/rig/infer_facing.h"
 #include "common/rig/rig.h"
 #include "firmware/modules/health/beacon_health.h"
+#include "firmware/modules/identify/map_repeats.h"
 #include "firmware/modules/identify/tracker.h"
 #include "firmware/modules/publish/pose_message.h"
 #include "firmware/modules/solve/observation.h"
@@ -28,6 +29,12 @@ struct NavigatorOptions {
   // from every direction (beacons not on walls).
   bool infer_facing = true;
   InferFacingOptions facing;
+  // At Init, which beacons lie in a patch the map repeats elsewhere (FindMapRepeats, after the
+  // facing is inferred): there a view cannot be told from its copy, and lost-in-space refuses
+  // to fix (reason kRepeatedView). Reported (Navigator::map_repeats: mfns-navd warns at start),
+  // changes nothing else. False: not checked (an Init ~16 ms faster for 96 beacons).
+  bool check_map_repeats = true;
+  MapRepeatsOptions map_repeats;
   // Beacon health after every fix (firmware/modules/health): its search radius is scaled with
   // the pixel gates, its centroid noise is the solve's. A beacon it finds inconsistent is
   // down-weighted: its map sigma, in the navigator's rig, becomes what its residuals show
@@ -55,7 +62,8 @@ struct NavigatorOptions {
       if (why != nullptr) *why = "judge_fix_min_beacons";
       return false;
     }
-    return track.IsValid(why) && (!infer_facing || facing.IsValid(why)) && health.IsValid(why);
+    return track.IsValid(why) && (!infer_facing || facing.IsValid(why)) && health.IsValid(why) &&
+           (!check_map_repeats || map_repeats.IsValid(why));
   }
 };
 
@@ -106,12 +114,15 @@ class Navigator {
   // The rig in use, and how many beacons got an inferred facing at Init (none when it had some).
   const Rig& rig() const { return rig_; }
   const InferFacingResult& inferred_facing() const { return facing_; }
+  // The beacons in patches the map repeats, as of Init (empty when not checked).
+  const MapRepeatsResult& map_repeats() const { return repeats_; }
   const BeaconHealth& beacon_health() const { return health_; }
 
  private:
   NavigatorOptions options_;
   Rig rig_;  // the caller's rig, with inferred facing when it had none (NavigatorOptions)
   InferFacingResult facing_;
+  MapRepeatsResult repeats_;
   Tracker tracker_;
   TrackResult result_;
   bool pending_pose_ = false;

@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <cstdio>
 #include <random>
+#include <string>
 #include <vector>
 
 #include "common/rig/paper_rig.h"
@@ -286,6 +287,43 @@ TEST(Navigator, InitInfersTheFacingOfAMapOfWalls) {
   ASSERT_TRUE(nav.Init(truth, NavigatorOptions{}));
   EXPECT_EQ(nav.inferred_facing().on_planes, 0);
   EXPECT_EQ(nav.rig().beacon_normal_w[7], truth.beacon_normal_w[7]);
+}
+
+// Init checks whether the map repeats itself (map_repeats.h): a random cylinder map and the
+// paper's do not; the same cylinder's beacons moved onto a regular grid (8 x 8 around and along)
+// do, and the warning names the reason lost frame sets will give. Off: not checked.
+TEST(Navigator, InitFindsAMapThatRepeatsItself) {
+  static Navigator nav;
+  std::mt19937_64 rng(31);
+  static Rig map;
+  map = testing::RandomCylinderRig(64, true, &rng);
+  ASSERT_TRUE(nav.Init(map, NavigatorOptions{}));
+  EXPECT_EQ(nav.map_repeats().beacons, 64);
+  EXPECT_EQ(nav.map_repeats().repeated, 0);
+  char line[512];
+  EXPECT_FALSE(DescribeMapRepeats(nav.map_repeats(), line, sizeof(line)));
+  ASSERT_TRUE(nav.Init(PaperRig(), NavigatorOptions{}));
+  EXPECT_EQ(nav.map_repeats().repeated, 0);
+  // A regular grid on the same cylinder (axis x, radius 2.1 m, length 6 m): 8 rings of 8.
+  for (int m = 0; m < 64; ++m) {
+    const double angle = 2.0 * kPi * (m % 8) / 8.0, x = -3.0 + 6.0 * (m / 8) / 7.0;
+    map.beacons_w[static_cast<std::size_t>(m)] = Eigen::Vector3d(x, 2.1 * std::cos(angle), 2.1 * std::sin(angle));
+    map.beacon_normal_w[static_cast<std::size_t>(m)] = -Eigen::Vector3d(0.0, std::cos(angle), std::sin(angle));
+  }
+  ASSERT_TRUE(nav.Init(map, NavigatorOptions{}));
+  EXPECT_EQ(nav.map_repeats().repeated, 64);
+  ASSERT_TRUE(DescribeMapRepeats(nav.map_repeats(), line, sizeof(line)));
+  EXPECT_NE(std::string(line).find(ToString(NavReason::kRepeatedView)), std::string::npos) << line;
+  EXPECT_NE(std::string(line).find("64 of 64 beacons"), std::string::npos) << line;
+  NavigatorOptions off;
+  off.check_map_repeats = false;
+  ASSERT_TRUE(nav.Init(map, off));
+  EXPECT_EQ(nav.map_repeats().repeated, 0);
+  off.check_map_repeats = true;
+  off.map_repeats.neighbours = 0;
+  const char* why = nullptr;
+  EXPECT_FALSE(nav.Init(map, off, &why));
+  EXPECT_STREQ(why, "neighbours");
 }
 
 // Issue 14, defect 10: a rig navd cannot use is refused with the reason (mfns-navd prints it

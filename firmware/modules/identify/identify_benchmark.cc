@@ -18,6 +18,7 @@
 #include "common/rig/paper_rig.h"
 #include "common/rotation/rotation.h"
 #include "firmware/modules/identify/lost_in_space.h"
+#include "firmware/modules/identify/map_repeats.h"
 #include "firmware/modules/identify/p3p.h"
 #include "firmware/modules/identify/p3p_scan_reference.h"
 #include "firmware/modules/identify/tracker.h"
@@ -127,6 +128,46 @@ BENCHMARK(LostInSpaceStation)
     ->ArgsProduct({{10, 64, 256}, {2}, {1, 2}})
     ->Args({64, 0, 2})
     ->Unit(benchmark::kMillisecond);
+
+// Start-up work on a map: FindMapRepeats (mfns-navd's check whether the map repeats itself) beside
+// LostInSpace::Reset (the co-visibility table, the start-up work it joins) on the same maps: the
+// random cylinder of LostInSpaceStation with range(0) beacons (range(1) = 0), or the same
+// cylinder with its beacons on a regular grid of rings of 8 (range(1) = 1: every patch repeats,
+// each beacon's scan ends at its first copy). Counter: beacons found in repeated patches.
+Rig StartMap(int num_beacons, bool regular) {
+  std::mt19937_64 rng(900 + static_cast<std::uint64_t>(num_beacons));
+  Rig rig = testing::RandomCylinderRig(num_beacons, true, &rng);
+  if (!regular) return rig;
+  const int rings = num_beacons / 8;
+  for (int m = 0; m < rings * 8; ++m) {
+    const double angle = 2.0 * kPi * (m % 8) / 8.0, x = -3.0 + 6.0 * (m / 8) / (rings - 1);
+    rig.beacons_w[static_cast<std::size_t>(m)] = Eigen::Vector3d(x, 2.1 * std::cos(angle), 2.1 * std::sin(angle));
+    rig.beacon_normal_w[static_cast<std::size_t>(m)] = -Eigen::Vector3d(0.0, std::cos(angle), std::sin(angle));
+  }
+  rig.num_beacons = rings * 8;
+  return rig;
+}
+
+void MapRepeatsAtStart(benchmark::State& state) {
+  static Rig rig;
+  rig = StartMap(static_cast<int>(state.range(0)), state.range(1) != 0);
+  MapRepeatsResult r;
+  for (auto _ : state) {
+    FindMapRepeats(rig, MapRepeatsOptions{}, &r);
+    benchmark::DoNotOptimize(r.repeated);
+  }
+  state.counters["repeated"] = r.repeated;
+}
+BENCHMARK(MapRepeatsAtStart)->ArgsProduct({{64, 256}, {0, 1}})->Unit(benchmark::kMillisecond);
+
+void LostInSpaceReset(benchmark::State& state) {
+  static Rig rig;
+  rig = StartMap(static_cast<int>(state.range(0)), state.range(1) != 0);
+  static auto lis = std::make_unique<LostInSpace>();
+  for (auto _ : state) benchmark::DoNotOptimize(lis->Reset(rig));
+}
+BENCHMARK(LostInSpaceReset)->ArgsProduct({{64, 256}, {0, 1}})->Unit(benchmark::kMillisecond);
+
 BENCHMARK_CAPTURE(LostInSpaceFrame, 4beacons, 4, 0)->Unit(benchmark::kMillisecond);
 BENCHMARK_CAPTURE(LostInSpaceFrame, 5beacons, 5, 0)->Unit(benchmark::kMillisecond);
 BENCHMARK_CAPTURE(LostInSpaceFrame, 3beacons_2spurious, 3, 2)->Unit(benchmark::kMillisecond);

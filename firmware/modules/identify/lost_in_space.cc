@@ -6,6 +6,7 @@
 #include <limits>
 
 #include "common/rotation/rotation.h"
+#include "firmware/modules/identify/map_repeats.h"
 
 namespace mfns::fw {
 namespace {
@@ -384,8 +385,7 @@ void LostInSpace::Confirm(Candidate* c, const LisOptions& o, LisResult* result) 
 
 // Whether the map holds another copy of c's beacons (a rigid motion taking each within
 // repeat_tolerance_m of a beacon) from which the moved pose explains the blobs as c does:
-// CopyExplainsTheBlobs. The copies are found from c's best-spread beacon triangle: every beacon
-// triangle congruent to it (O(beacons^2) pairs, then third beacons) gives the motion. A beacon
+// CopyExplainsTheBlobs. The copies: FindMapCopies (map_repeats.h). A beacon
 // set found repeated is remembered for the rest of the search: in a regular grid many blob
 // triples lead to the same set, and its scan would give the same answer each time.
 bool LostInSpace::RepeatedElsewhere(const Candidate& c, const LisOptions& o, LisResult* result) {
@@ -405,55 +405,19 @@ bool LostInSpace::RepeatedElsewhere(const Candidate& c, const LisOptions& o, Lis
   const auto D = [this](int x, int y) {
     return static_cast<double>(dist_[static_cast<std::size_t>(x)][static_cast<std::size_t>(y)]);
   };
-  const auto P = [this](int m) -> const Eigen::Vector3d& { return rig_->beacons_w[static_cast<std::size_t>(m)]; };
-  // The base triangle: the farthest pair, then the beacon farthest from their line.
-  int a = v[0], b = v[1], t = v[2];
-  for (int i = 0; i < n; ++i)
-    for (int j = i + 1; j < n; ++j)
-      if (D(v[static_cast<std::size_t>(i)], v[static_cast<std::size_t>(j)]) > D(a, b))
-        a = v[static_cast<std::size_t>(i)], b = v[static_cast<std::size_t>(j)];
-  double best_area = -1.0;
-  for (int i = 0; i < n; ++i) {
-    const int m = v[static_cast<std::size_t>(i)];
-    const double area = (P(b) - P(a)).cross(P(m) - P(a)).norm();
-    if (m != a && m != b && area > best_area) best_area = area, t = m;
-  }
-  const double tol = o.repeat_tolerance_m;
-  if (!(best_area > 4.0 * tol * D(a, b))) return false;  // collinear beacons: no frame
-  const std::array<Eigen::Vector3d, 3> abt{P(a), P(b), P(t)};
-  const int nb = rig_->num_beacons;
-  result->cost += kCostRepeatPerBeaconPair * nb * nb;
-  for (int i = 0; i < nb; ++i)
-    for (int j = 0; j < nb; ++j) {
-      if (j == i || std::abs(D(i, j) - D(a, b)) > tol) continue;
-      for (int k = 0; k < nb; ++k) {
-        if (k == i || k == j || (i == a && j == b && k == t)) continue;
-        if (std::abs(D(i, k) - D(a, t)) > tol || std::abs(D(j, k) - D(b, t)) > tol) continue;
-        BodyPose copy;  // the motion taking (a, b, t) onto (i, j, k)
-        if (!TriangleOrientation(abt, {P(i), P(j), P(k)}, &copy) ||
-            !CopyExplainsTheBlobs(c, copy.C_w_b, copy.r_w_wb, n, o))
-          continue;
-        repeated_[static_cast<std::size_t>(num_repeated_++ % kRepeatMemo)] = seen;
-        return true;
-      }
-    }
-  return false;
+  result->cost += kCostRepeatPerBeaconPair * rig_->num_beacons * rig_->num_beacons;
+  const bool repeated = FindMapCopies(*rig_, v.data(), n, o.repeat_tolerance_m, D, [&](const MapCopy& copy) {
+    return CopyExplainsTheBlobs(c, copy.C, copy.t, n, o);
+  });
+  if (repeated) repeated_[static_cast<std::size_t>(num_repeated_++ % kRepeatMemo)] = seen;  // oldest replaced
+  return repeated;
 }
 
-// Whether every beacon of c moved by (R, t) lies within repeat_tolerance_m of a beacon, and the
-// pose moved likewise matches as many beacons with none missing (the hypothesis gate: a copy
-// off by a few millimetres is refused by no fainter test).
+// Whether c's pose moved by (R, t) (a copy of its beacons: FindMapCopies) matches as many
+// beacons with none missing (the hypothesis gate: a copy off by a few millimetres is refused by
+// no fainter test).
 bool LostInSpace::CopyExplainsTheBlobs(const Candidate& c, const Eigen::Matrix3d& R, const Eigen::Vector3d& t, int n,
                                        const LisOptions& o) {
-  const double tol2 = o.repeat_tolerance_m * o.repeat_tolerance_m;
-  for (int i = 0; i < c.set.num_matches; ++i) {
-    const int beacon = c.set.matches[static_cast<std::size_t>(i)].beacon;
-    const Eigen::Vector3d q = R * rig_->beacons_w[static_cast<std::size_t>(beacon)] + t;
-    bool near = false;
-    for (int m = 0; m < rig_->num_beacons && !near; ++m)
-      near = (rig_->beacons_w[static_cast<std::size_t>(m)] - q).squaredNorm() <= tol2;
-    if (!near) return false;
-  }
   BodyPose moved;
   moved.C_w_b = R * c.pose.C_w_b;
   moved.r_w_wb = R * c.pose.r_w_wb + t;
@@ -783,6 +747,7 @@ LisStatus LostInSpace::Begin(const BlobObs* blobs, int num_blobs, const LisOptio
   res.search_complete = res.confirmed = false;
   res.complete = false;
   res.num_consistent = 0;
+  res.repeats = 0;
   num_cand_ = 0;
   overflow_ = false;
   num_repeated_ = 0;

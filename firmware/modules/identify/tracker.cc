@@ -52,6 +52,7 @@ const char* ToString(TrackReason r) {
     case TrackReason::kAmbiguous: return "ambiguous";
     case TrackReason::kBudgetExhausted: return "hypothesis budget exhausted";
     case TrackReason::kNoHypothesis: return "no pose explains the blobs";
+    case TrackReason::kRepeatedView: return "the map repeats this view";
     case TrackReason::kBadInput: return "bad input";
     case TrackReason::kCount: break;
   }
@@ -75,6 +76,7 @@ bool Tracker::Reset(const Rig& rig) {
   has_pose_ = false;
   last_fix_ = false;
   verified_ = given_seed_ = false;
+  view_repeated_ = false;
   motion_.Forget();
   acquisition_.Clear();
   counters_ = TrackCounters{};
@@ -1009,6 +1011,7 @@ void Tracker::Accept(std::uint64_t t_ns, const TrackOptions& o, TrackResult* r) 
 
 TrackStatus Tracker::Publish(TrackSource source, std::uint64_t t_ns, const TrackOptions& o, TrackResult* r) {
   r->source = source;
+  view_repeated_ = false;
   Accept(t_ns, o, r);
   CountOutcome(*r);
   return r->status;
@@ -1020,6 +1023,11 @@ void Tracker::CountOutcome(const TrackResult& r) {
 }
 
 TrackStatus Tracker::Lost(TrackReason why, TrackResult* r) {
+  // A search that refused poses because the map holds a copy of their beacons says why no pose
+  // is decided better than "ambiguous": no motion or waiting tells a view from its exact copy.
+  const bool undecided = why == TrackReason::kAmbiguous || why == TrackReason::kAcquiring ||
+                         why == TrackReason::kBudgetExhausted || why == TrackReason::kNoHypothesis;
+  if (undecided && r->lis_run && view_repeated_) why = TrackReason::kRepeatedView;
   r->status = TrackStatus::kLost;
   r->reason = why;
   r->source = TrackSource::kNone;
@@ -1056,8 +1064,11 @@ LisStatus Tracker::RunLis(const BlobObs* blobs, int num_blobs, const LisPrior* p
   // A small map's acquisition follows complete lists of poses, which a cut search would not
   // give (the paper sweep with two reflections: first fix 43 -> 103 frame sets): unbudgeted,
   // as cheap as it always was there.
-  if (rig_->num_beacons < o.lis.fourth_blob_min_beacons)
-    return lis_.Identify(blobs, num_blobs, o.lis, &lis_res_, prior, cameras_, steady_);
+  if (rig_->num_beacons < o.lis.fourth_blob_min_beacons) {
+    lis_.Identify(blobs, num_blobs, o.lis, &lis_res_, prior, cameras_, steady_);
+    view_repeated_ = lis_res_.repeats > 0;
+    return lis_res_.status;
+  }
   if (lis_budget_left_ <= 0.0) {
     lis_res_.status = LisStatus::kBudgetExhausted;
     lis_res_.complete = false;
@@ -1069,6 +1080,7 @@ LisStatus Tracker::RunLis(const BlobObs* blobs, int num_blobs, const LisPrior* p
   lo.max_cost = lis_budget_left_;
   const LisStatus s = lis_.Identify(blobs, num_blobs, lo, &lis_res_, prior, cameras_, steady_);
   Charge(lis_res_.cost);
+  view_repeated_ = lis_res_.repeats > 0;
   return s;
 }
 
@@ -1112,6 +1124,8 @@ LisStatus Tracker::ColdSearch(const BlobObs* blobs, int num_blobs, std::uint64_t
   const double before = lis_res_.cost;
   const LisStatus s = lis_.Continue(limits::kMaxLisHypotheses, &lis_res_, std::max(1.0, lis_budget_left_));
   Charge(lis_res_.cost - before);
+  // A search under way keeps the last one's answer until it finds a copy or ends.
+  if (s != LisStatus::kSearching || lis_res_.repeats > 0) view_repeated_ = lis_res_.repeats > 0;
   return s;
 }
 

@@ -87,6 +87,8 @@ enum class TrackReason : unsigned char {
                      // ambiguity_max_spread_m of each other (covariance grown to cover them)
   kBudgetExhausted,  // lost-in-space ran out of hypotheses
   kNoHypothesis,     // no pose explains the blobs
+  kRepeatedView,     // lost-in-space refused a pose because the map repeats its beacons elsewhere
+                     // (LisResult::repeats, map_repeats.h): ambiguous until the view holds more
   kBadInput,         // invalid options, rig not set, bad blob list
   kCount,
 };
@@ -499,6 +501,10 @@ class Tracker {
   BeaconMatcher matcher_;
   LostInSpace lis_;
   LisResult lis_res_;
+  // The last finished search (or the one under way, once it found one) refused a pose for a
+  // copy of its beacons in the map (LisResult::repeats): lost frame sets say kRepeatedView.
+  // Cleared by a published pose.
+  bool view_repeated_ = false;
   BlobTracks blob_tracks_;  // the blobs' image tracks: steady ones are searched first
   const std::uint8_t* steady_ = nullptr;  // blob_tracks_'s flags for this frame set, or nullptr
   // The blob track id (BlobTracks::id) of each beacon's last accepted blob, by camera and

@@ -70,6 +70,7 @@ const char* ToString(NavReason r) {
     case NavReason::kNoHypothesis: return "no hypothesis";
     case NavReason::kClockFault: return "clock fault";
     case NavReason::kUnverified: return "unverified";
+    case NavReason::kRepeatedView: return "map repeats this view";
     case NavReason::kCount: break;
   }
   return "unknown";

@@ -83,6 +83,8 @@ enum class NavReason : std::uint8_t {
   kClockFault,        // the frame set's timestamp was not after the previous one: the pose is
                       // stamped with the previous time plus one frame period (degraded)
   kUnverified,        // a track that has stood on exactly three beacons since it began (degraded)
+  kRepeatedView,      // the map repeats the beacons of the poses found: a copy elsewhere explains
+                      // the blobs as well (lost; a regular grid, docs/navd.md)
   kCount
 };
 const char* ToString(NavReason r);

@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include <array>
 #include <cmath>
 #include <cstdio>
 #include <limits>
@@ -617,6 +618,40 @@ TEST(NavMatrix, ThreeBeaconsOnANewBlobAreNoFix) {
     EXPECT_EQ(with.fixes + with.degraded, without.fixes + without.degraded) << r.preset;
     EXPECT_GE(with.fixes, without.fixes - 8) << r.preset;
   }
+}
+
+// A map that repeats itself (a grid without jitter) cannot be acquired where a view has a copy:
+// the navigator says so at start (Navigator::map_repeats: mfns-navd's warning) and in the lost
+// frame sets' reason (kRepeatedView), and never publishes the copy as a fix. The presets' own
+// jittered maps, and random ones, have neither. Both modules, with and without facing data.
+TEST(NavMatrix, RepeatingMapsAreReported) {
+  for (const char* preset : {"station-cylinder", "station-box"})
+    for (const bool facing : {true, false}) {
+      const RunSpec r{.preset = preset, .count = 64, .seed = 2, .facing = facing, .frames = 300};
+      std::array<RunSpec, 3> runs{r, r, r};  // regular, the preset's jitter, random
+      runs[0].jitter = 0.0;
+      runs[2].layout = "random";
+      for (const RunSpec& run : runs) {
+        const Scenario s = MatrixScenario(run);
+        static fw::Navigator nav;
+        ASSERT_TRUE(nav.Init(BelievedRig(s), NavdNavigatorOptions()));
+        const int repeated = nav.map_repeats().repeated;
+        const RunResult result = RunNavigation(s, NavMatrixOptions{});
+        const auto said = result.counters.by_reason[static_cast<std::size_t>(fw::TrackReason::kRepeatedView)];
+        std::printf("%s 64 %s, jitter %.2f%s: %d beacons in repeated patches; fixes %d, wrong %d; lost frame sets "
+                    "\"map repeats this view\" %u\n", preset, facing ? "facing" : "no facing",
+                    s.beacon_layout.jitter, run.layout == "random" ? " random" : "", repeated, result.fixes,
+                    result.wrong_fixes, said);
+        EXPECT_EQ(result.wrong_fixes, 0) << preset;
+        if (&run == &runs[0]) {
+          EXPECT_GE(repeated, 8) << preset;
+          EXPECT_GT(said, 0u) << preset;
+        } else {
+          EXPECT_EQ(repeated, 0) << preset;
+          EXPECT_EQ(said, 0u) << preset;
+        }
+      }
+    }
 }
 
 // Reflections that move with the scene (clutter.spurious.static_reflections: unmapped points on
