@@ -415,14 +415,23 @@ bool LostInSpace::RepeatedElsewhere(const Candidate& c, const LisOptions& o, Lis
 
 // Whether c's pose moved by (R, t) (a copy of its beacons: FindMapCopies) matches as many
 // beacons with none missing (the hypothesis gate: a copy off by a few millimetres is refused by
-// no fainter test).
+// no fainter test). Under a prior the copy must also be one the search could have listed: near
+// the followed poses (with the raw poses' slack) and naming the anchored blobs as c must; the
+// prior tells the others apart (a regular map re-identified after a short loss).
 bool LostInSpace::CopyExplainsTheBlobs(const Candidate& c, const Eigen::Matrix3d& R, const Eigen::Vector3d& t, int n,
                                        const LisOptions& o) {
   BodyPose moved;
   moved.C_w_b = R * c.pose.C_w_b;
   moved.r_w_wb = R * c.pose.r_w_wb + t;
+  if (prior_ != nullptr && !NearPrior(moved, prior_->raw_slack_m, prior_->raw_slack_rad)) return false;
   matcher_.MatchPose(moved, o.hypothesis_match, &match_scratch_);
-  return match_scratch_.num_beacons >= n && match_scratch_.num_missing <= o.max_missing;
+  if (match_scratch_.num_beacons < n || match_scratch_.num_missing > o.max_missing) return false;
+  int kept = 0;
+  for (int b = 0; b < num_blobs_; ++b) {
+    const int beacon = blob_anchor_[static_cast<std::size_t>(b)];
+    kept += beacon >= 0 && match_scratch_.BeaconOfBlob(b) == beacon;
+  }
+  return kept >= anchors_per_triple_;
 }
 
 void LostInSpace::SelectBlobs(const LisOptions& o, const std::uint8_t* steady) {

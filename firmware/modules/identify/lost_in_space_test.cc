@@ -271,6 +271,56 @@ TEST(LostInSpaceTest, RegularGridViewsAreNeverConfirmedOnACopy) {
   EXPECT_GT(wrong_unchecked, 0);  // the check is what keeps them out
 }
 
+// Under a prior (a followed pose, 5 cm / 3 deg) the copies far from it are no competitors: a
+// regular grid's view near the prior is confirmed at once, on its own beacons (a re-
+// identification after a short loss), while a prior that admits the copy still refuses it.
+TEST(LostInSpaceTest, APriorTellsARegularGridViewFromItsCopies) {
+  static Rig rig;
+  rig = PaperRig();
+  rig.num_beacons = 0;
+  rig.has_facing = true;
+  for (int w = 0; w < 6; ++w)
+    for (int a = 0; a < 4; ++a)
+      for (int b = 0; b < 4; ++b) {
+        const auto i = static_cast<std::size_t>(rig.num_beacons++);
+        const int axis = w / 2;
+        const double side = w % 2 == 0 ? -1.0 : 1.0;
+        Eigen::Vector3d p;
+        p[axis] = side;
+        p[(axis + 1) % 3] = -0.75 + 0.5 * a;
+        p[(axis + 2) % 3] = -0.75 + 0.5 * b;
+        rig.beacons_w[i] = p;
+        rig.beacon_normal_w[i] = -side * Eigen::Vector3d::Unit(axis);
+        rig.beacon_half_angle[i] = DegToRad(60.0);
+      }
+  ASSERT_TRUE(g_lis.Reset(rig));
+  std::mt19937_64 rng(34);
+  int views = 0, confirmed = 0, wrong = 0, refused_wide = 0;
+  for (int trial = 0; trial < testing::Trials(40, 12); ++trial) {
+    testing::Observe(rig, testing::RandomBoxPose(&rng), 0.1, &rng, &g_scene);
+    if (g_scene.NumVisibleBeacons() < 5) continue;
+    ++views;
+    const BodyPose near = g_scene.pose;
+    LisPrior prior{&near, 1, 0.05, DegToRad(3.0)};
+    const LisStatus st = g_lis.Identify(g_scene.blobs.data(), g_scene.num_blobs, LisOptions{}, &g_res, &prior);
+    EXPECT_EQ(g_res.repeats, 0) << "view " << views;
+    confirmed += g_res.confirmed;
+    if (st == LisStatus::kFix) wrong += !IdentitiesRight(g_scene, g_res.matches);
+    // A prior wide enough for a copy (the whole cube, any attitude) decides nothing.
+    prior.max_m = 4.0;
+    prior.max_rad = kPi;
+    g_lis.Identify(g_scene.blobs.data(), g_scene.num_blobs, LisOptions{}, &g_res, &prior);
+    refused_wide += g_res.repeats > 0;
+    EXPECT_FALSE(g_res.confirmed) << "view " << views;
+  }
+  std::printf("regular grid, prior at the truth: %d views of >= 5 beacons, %d confirmed at once (%d wrong); a prior "
+              "admitting the copies refused a copy in %d\n", views, confirmed, wrong, refused_wide);
+  ASSERT_GT(views, 0);
+  EXPECT_EQ(wrong, 0);
+  EXPECT_GE(2 * confirmed, views);
+  EXPECT_GE(2 * refused_wide, views);
+}
+
 // Why mfns-navd needs ~20 frame sets to acquire from a cold start on the paper sweep (or a start
 // pose): in frame sets 1-11 each camera sees one beacon, and ~30 other poses inside the
 // workspace explain those three blobs exactly while predicting no other beacon in any image, so
