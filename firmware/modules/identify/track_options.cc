@@ -20,6 +20,7 @@ bool TrackOptions::IsValid(const char** why) const {
   else if (max_missing < 0) bad = "max_missing";
   else if (max_ambiguous_tried < 0 || max_ambiguous_tried > limits::kMaxAmbiguousMatches) bad = "max_ambiguous_tried";
   else if (!positive(ambiguity_chi2)) bad = "ambiguity_chi2";
+  else if (!(identity_gate_chi2 >= 0.0) || !std::isfinite(identity_gate_chi2)) bad = "identity_gate_chi2";
   else if (!(ambiguity_max_spread_m >= 0.0) || !(ambiguity_max_spread_rad >= 0.0) ||
            !std::isfinite(ambiguity_max_spread_m) || !std::isfinite(ambiguity_max_spread_rad))
     bad = "ambiguity_max_spread";

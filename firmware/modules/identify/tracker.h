@@ -257,6 +257,11 @@ struct TrackOptions {
   // (as DecideByMotion) at most continuity_max_m2; and only on a verified track
   // (verify_three_beacons: an unverified one may be an unmapped light's alias). 0: off.
   double continuity_max_m2 = 16.0;
+  // A stand-alone lost-in-space fix must decide its identities itself (IdentitiesDecisive,
+  // identities.h): no matched beacon may have another free blob of its camera within this
+  // squared Mahalanobis distance of its leave-one-out prediction (13.8: 99.9 % of two degrees of
+  // freedom). Else the frame set is lost (kAmbiguous) and the search goes on. 0: off.
+  double identity_gate_chi2 = 13.8;
   // When tracking's solve on every matched beacon is refused (a beacon missing from the tight
   // gate, residuals beyond the noise) and the prediction matched four beacons or more with one
   // blob each, each beacon is left out in turn (Tracker::LeaveOneOut): when exactly one
@@ -373,6 +378,7 @@ struct TrackCounters {
   std::uint32_t unsteady_refused = 0;     // an acquired three-beacon pose on a blob that is not steady
   std::uint32_t steady_pruned = 0;        // followed poses on a new blob dropped for the one on steady blobs
   std::uint32_t residual_refused = 0;     // a stand-alone LIS fix or acquired pose: residuals beyond the noise
+  std::uint32_t identity_refused = 0;     // a stand-alone LIS fix with a rival blob for a beacon (IdentitiesDecisive)
   std::uint32_t left_out = 0;             // tracked poses published with one beacon left out (LeaveOneOut)
   std::uint32_t left_out_undecided = 0;   // ... refused: no leave-out, or several, fit
   std::uint32_t left_two_out = 0;         // ... of the published, two beacons left out
@@ -449,6 +455,7 @@ class Tracker {
   bool LeaveOneOut(const BodyPose& predicted, const PoseBounds& bounds, double gate_px, const TrackOptions& o,
                    TrackResult* r);
   bool Unambiguous(const TrackOptions& o, TrackResult* r);
+  bool IdentitiesDecided(const TrackOptions& o, const TrackResult& r);
   void ContinueTracks(const TrackOptions& o);
   void RememberTracks(const MatchSet& matches);
   int ContinuingBlobs(const TrackOptions& o);
