@@ -8,6 +8,16 @@
 #include "firmware/modules/identify/identities.h"
 
 namespace mfns::fw {
+
+namespace {
+// A tracking trial (solve with its outlier rounds, re-matches, tests) in LisResult::cost units
+// (0.62 us): a lost-in-space refinement (kCostRefine there, fitted in session 17) plus a term per
+// beacon and blob (the matches' nearest-blob scans, the outlier rounds' re-solves). Measured in
+// session 34 with 66 blobs per camera in a 128-beacon box: eleven leave-outs of 16 trials took
+// 18.8 ms, ~0.1 ms a trial, 170 units; this gives 166 there and 22 with 10 blobs.
+constexpr double kCostTrackingSolve = 14.0;
+constexpr double kCostMatchPerBeaconBlob = 6e-3;
+}  // namespace
 namespace {
 
 // The largest 1-sigma of a [position (m); attitude (rad)] covariance's position and attitude.
@@ -334,22 +344,36 @@ bool Tracker::LeaveOneOut(const BodyPose& predicted, const PoseBounds& bounds, d
   const bool refused = ambiguity_refused_;
   const TrackCounters counters = counters_;  // the trials below are not tracking's own
   int fits = 0, out_a = -1, out_b = -1;
+  bool budget_out = false;
   const auto leave_out = [&](int a, int b) {  // exactly one must fit: stop at the second
-    if (!LeaveOutFits(predicted, bounds, gate_px, o, excluded, a, b) || ++fits > 1) return;
+    // Each leave-out is a tracking with its trials, charged like lost-in-space's work: with many
+    // blobs beside the beacons (2^4 trials each) they took 20 ms of a frame set.
+    if (lis_budget_left_ <= 0.0) {
+      budget_out = true;
+      return;
+    }
+    const bool fit = LeaveOutFits(predicted, bounds, gate_px, o, excluded, a, b);
+    Charge((kCostTrackingSolve + kCostMatchPerBeaconBlob * nb * num_blobs_) *
+           (1 << std::min(ambiguous_.num, o.max_ambiguous_tried)));
+    if (!fit || ++fits > 1) return;
     out_a = a;
     out_b = b;
     loo_best_ = loo_result_;
   };
-  for (int a = 0; a < nb && fits < 2; ++a)
+  for (int a = 0; a < nb && fits < 2 && !budget_out; ++a)
     if (candidates.Has(a)) leave_out(a, -1);
   const bool pairs = fits == 0 && o.leave_two_out_min_beacons > 0 && n >= o.leave_two_out_min_beacons &&
                      n <= o.leave_two_out_max_beacons;
-  for (int a = 0; pairs && a < nb && fits < 2; ++a)
-    for (int b = a + 1; candidates.Has(a) && b < nb && fits < 2; ++b)
+  for (int a = 0; pairs && a < nb && fits < 2 && !budget_out; ++a)
+    for (int b = a + 1; candidates.Has(a) && b < nb && fits < 2 && !budget_out; ++b)
       if (candidates.Has(b)) leave_out(a, b);
   matcher_.SetExcluded(excluded);
   ambiguity_refused_ = refused;
   counters_ = counters;
+  if (budget_out) {  // (one fit so far may have a second among the leave-outs not tried)
+    ++counters_.left_out_budget_out;
+    return false;
+  }
   if (fits != 1) {
     ++counters_.left_out_undecided;
     return false;

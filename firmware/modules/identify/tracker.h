@@ -381,6 +381,7 @@ struct TrackCounters {
   std::uint32_t identity_refused = 0;     // a stand-alone LIS fix with a rival blob for a beacon (IdentitiesDecisive)
   std::uint32_t left_out = 0;             // tracked poses published with one beacon left out (LeaveOneOut)
   std::uint32_t left_out_undecided = 0;   // ... refused: no leave-out, or several, fit
+  std::uint32_t left_out_budget_out = 0;  // ... refused: the frame set's budget ran out first
   std::uint32_t left_two_out = 0;         // ... of the published, two beacons left out
   std::uint32_t continued = 0;            // tracked beyond max_gate_px on continuing blobs (TrackContinuing)
   std::uint32_t continuity_refused = 0;   // ... refused by tracking's tests or the motion filter
