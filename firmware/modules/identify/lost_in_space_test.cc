@@ -229,23 +229,7 @@ TEST(LostInSpaceTest, SymmetricMapIsAmbiguous) {
 // same views fix on copies.
 TEST(LostInSpaceTest, RegularGridViewsAreNeverConfirmedOnACopy) {
   static Rig rig;
-  rig = PaperRig();
-  rig.num_beacons = 0;
-  rig.has_facing = true;
-  for (int w = 0; w < 6; ++w)
-    for (int a = 0; a < 4; ++a)
-      for (int b = 0; b < 4; ++b) {
-        const auto i = static_cast<std::size_t>(rig.num_beacons++);
-        const int axis = w / 2;
-        const double side = w % 2 == 0 ? -1.0 : 1.0;
-        Eigen::Vector3d p;
-        p[axis] = side;
-        p[(axis + 1) % 3] = -0.75 + 0.5 * a;
-        p[(axis + 2) % 3] = -0.75 + 0.5 * b;
-        rig.beacons_w[i] = p;
-        rig.beacon_normal_w[i] = -side * Eigen::Vector3d::Unit(axis);
-        rig.beacon_half_angle[i] = DegToRad(60.0);
-      }
+  rig = testing::CubeGridRig();
   ASSERT_TRUE(g_lis.Reset(rig));
   LisOptions unchecked;
   unchecked.repeat_tolerance_m = 0.0;
@@ -276,23 +260,7 @@ TEST(LostInSpaceTest, RegularGridViewsAreNeverConfirmedOnACopy) {
 // identification after a short loss), while a prior that admits the copy still refuses it.
 TEST(LostInSpaceTest, APriorTellsARegularGridViewFromItsCopies) {
   static Rig rig;
-  rig = PaperRig();
-  rig.num_beacons = 0;
-  rig.has_facing = true;
-  for (int w = 0; w < 6; ++w)
-    for (int a = 0; a < 4; ++a)
-      for (int b = 0; b < 4; ++b) {
-        const auto i = static_cast<std::size_t>(rig.num_beacons++);
-        const int axis = w / 2;
-        const double side = w % 2 == 0 ? -1.0 : 1.0;
-        Eigen::Vector3d p;
-        p[axis] = side;
-        p[(axis + 1) % 3] = -0.75 + 0.5 * a;
-        p[(axis + 2) % 3] = -0.75 + 0.5 * b;
-        rig.beacons_w[i] = p;
-        rig.beacon_normal_w[i] = -side * Eigen::Vector3d::Unit(axis);
-        rig.beacon_half_angle[i] = DegToRad(60.0);
-      }
+  rig = testing::CubeGridRig();
   ASSERT_TRUE(g_lis.Reset(rig));
   std::mt19937_64 rng(34);
   int views = 0, confirmed = 0, wrong = 0, refused_wide = 0;

@@ -7,40 +7,12 @@
 
 #include "common/rig/paper_rig.h"
 #include "common/rotation/rotation.h"
+#include "firmware/modules/solve/synthetic_scene.h"
 
 namespace mfns::fw {
 namespace {
 
-constexpr double kGridStep = 0.5;
-
-// A cube of side 2 m with a 4 x 4 grid (0.5 m apart) on each of its six walls, facing in; each
-// beacon moved by up to `jitter` (m) along its wall. Walls set in `regular_walls` (bit w) keep
-// their grid exact.
-Rig CubeGrid(double jitter, unsigned regular_walls, std::mt19937_64* rng) {
-  Rig rig = PaperRig();
-  rig.num_beacons = 0;
-  rig.has_facing = true;
-  std::uniform_real_distribution<double> u(-jitter, jitter);
-  for (int w = 0; w < 6; ++w)
-    for (int a = 0; a < 4; ++a)
-      for (int b = 0; b < 4; ++b) {
-        const auto i = static_cast<std::size_t>(rig.num_beacons++);
-        const int axis = w / 2;
-        const double side = w % 2 == 0 ? -1.0 : 1.0;
-        const bool exact = ((regular_walls >> w) & 1U) != 0;
-        Eigen::Vector3d p;
-        p[axis] = side;
-        p[(axis + 1) % 3] = -0.75 + kGridStep * a + (exact ? 0.0 : u(*rng));
-        p[(axis + 2) % 3] = -0.75 + kGridStep * b + (exact ? 0.0 : u(*rng));
-        rig.beacons_w[i] = p;
-        rig.beacon_normal_w[i] = -side * Eigen::Vector3d::Unit(axis);
-        rig.beacon_half_angle[i] = DegToRad(60.0);
-        rig.beacon_normal_tolerance[i] = 0.0;
-      }
-  return rig;
-}
-
-int Wall(int beacon) { return beacon / 16; }
+int Wall(int beacon) { return beacon / 16; }  // testing::CubeGridRig's walls
 
 TEST(MapRepeatsTest, OptionsAreChecked) {
   const char* why = nullptr;
@@ -67,7 +39,7 @@ TEST(MapRepeatsTest, OptionsAreChecked) {
 TEST(MapRepeatsTest, RegularGridRepeatsEverywhereAndJitteredNowhere) {
   std::mt19937_64 rng(1);
   MapRepeatsResult r;
-  const Rig regular = CubeGrid(0.0, 0x3F, &rng);
+  const Rig regular = testing::CubeGridRig(0.0, 0x3F, &rng);
   ASSERT_TRUE(FindMapRepeats(regular, MapRepeatsOptions{}, &r));
   EXPECT_EQ(r.beacons, 96);
   EXPECT_EQ(r.repeated, 96);
@@ -79,7 +51,7 @@ TEST(MapRepeatsTest, RegularGridRepeatsEverywhereAndJitteredNowhere) {
   EXPECT_EQ(r.repeated, 96);
   for (int seed = 1; seed <= 5; ++seed) {
     rng.seed(static_cast<std::uint64_t>(seed));
-    const Rig jittered = CubeGrid(0.05, 0, &rng);
+    const Rig jittered = testing::CubeGridRig(0.05, 0, &rng);
     ASSERT_TRUE(FindMapRepeats(jittered, MapRepeatsOptions{}, &r));
     EXPECT_EQ(r.repeated, 0) << "seed " << seed << ": beacon " << r.example << " onto " << r.example_copy;
   }
@@ -90,7 +62,7 @@ TEST(MapRepeatsTest, RegularGridRepeatsEverywhereAndJitteredNowhere) {
 TEST(MapRepeatsTest, OneRegularWallRepeatsOnlyItsOwnPatches) {
   for (int seed = 1; seed <= 3; ++seed) {
     std::mt19937_64 rng(static_cast<std::uint64_t>(seed));
-    const Rig rig = CubeGrid(0.05, 1U << 2, &rng);
+    const Rig rig = testing::CubeGridRig(0.05, 1U << 2, &rng);
     MapRepeatsOptions o;
     o.neighbours = 4;  // the centre beacons' patches stay on the wall
     MapRepeatsResult r;
@@ -164,7 +136,7 @@ TEST(MapRepeatsTest, CopiesOfAClusterGiveTheirMotion) {
 
 TEST(MapRepeatsTest, DegenerateSetsGiveNoCopy) {
   std::mt19937_64 rng(1);
-  const Rig rig = CubeGrid(0.0, 0x3F, &rng);
+  const Rig rig = testing::CubeGridRig(0.0, 0x3F, &rng);
   const auto dist = [&rig](int i, int j) {
     return (rig.beacons_w[static_cast<std::size_t>(i)] - rig.beacons_w[static_cast<std::size_t>(j)]).norm();
   };

@@ -146,6 +146,35 @@ inline Rig RandomBoxRig(int num_beacons, std::mt19937_64* rng) {
   return rig;
 }
 
+// A cube of side 2 m centred on the origin with a 4 x 4 grid of beacons 0.5 m apart on each of
+// its six walls (wall w = beacons 16 w .. 16 w + 15), facing in with a 60 deg beam, and the
+// paper's three cameras. Each beacon is moved along its wall by up to jitter_m (uniform, from
+// rng), except on the walls set in exact_walls (bit w). A regular layout: every view of the
+// exact grid has congruent copies (map_repeats.h).
+inline Rig CubeGridRig(double jitter_m = 0.0, unsigned exact_walls = 0x3F, std::mt19937_64* rng = nullptr) {
+  Rig rig = PaperRig();
+  rig.num_beacons = 0;
+  rig.has_facing = true;
+  std::uniform_real_distribution<double> u(-jitter_m, jitter_m);
+  const auto offset = [&](bool exact) { return exact || rng == nullptr ? 0.0 : u(*rng); };
+  for (int w = 0; w < 6; ++w)
+    for (int a = 0; a < 4; ++a)
+      for (int b = 0; b < 4; ++b) {
+        const auto i = static_cast<std::size_t>(rig.num_beacons++);
+        const int axis = w / 2;
+        const double side = w % 2 == 0 ? -1.0 : 1.0;
+        const bool exact = ((exact_walls >> w) & 1U) != 0;
+        Eigen::Vector3d p;
+        p[axis] = side;
+        p[(axis + 1) % 3] = -0.75 + 0.5 * a + offset(exact);
+        p[(axis + 2) % 3] = -0.75 + 0.5 * b + offset(exact);
+        rig.beacons_w[i] = p;
+        rig.beacon_normal_w[i] = -side * Eigen::Vector3d::Unit(axis);
+        rig.beacon_half_angle[i] = DegToRad(60.0);
+      }
+  return rig;
+}
+
 // A cylindrical station module (axis along x, diameter 2 radius_m, length length_m, centred on
 // the origin) with num_beacons beacons uniformly on its wall and end caps, each facing inward
 // with a 60 deg beam half-angle (has_facing as given), and the paper's three cameras.
