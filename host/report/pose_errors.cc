@@ -82,6 +82,12 @@ PoseSeries LoadPoseSeries(const std::filesystem::path& truth_csv, const std::fil
           const double d = est.Number(e->second, est_col[a]) - truth.Number(t, truth_col[a]);
           s.error[a] = a >= 3 ? Wrap180Deg(d) : d;
         }
+        const auto euler = [&](const CsvTable& table, std::size_t row, const std::array<int, 6>& col) {
+          return EulerToMatrix(EulerAngles{DegToRad(table.Number(row, col[3])), DegToRad(table.Number(row, col[4])),
+                                           DegToRad(table.Number(row, col[5]))});
+        };
+        s.attitude_error_deg =
+            RadToDeg(LogSO3(euler(est, e->second, est_col) * euler(truth, t, truth_col).transpose()).norm());
       }
     }
     series.samples.push_back(std::move(s));
@@ -130,18 +136,18 @@ PoseSummary SummarizePoses(const PoseSeries& series, bool include_degraded, cons
     if (only_frames != nullptr && only_frames->count(s.frame) == 0) continue;
     if (require_bound && !s.bound_valid) continue;
     ++r.used;
-    double pos2 = 0.0, att2 = 0.0;
+    double pos2 = 0.0;
     for (std::size_t a = 0; a < 6; ++a) {
       sum[a] += s.error[a];
       sum2[a] += s.error[a] * s.error[a];
-      (a < 3 ? pos2 : att2) += s.error[a] * s.error[a];
+      if (a < 3) pos2 += s.error[a] * s.error[a];
       if (s.bound_valid) {
         bound_var[a] += s.bound[a] * s.bound[a];
         ++bound_n[a];
       }
     }
     r.worst_position_mm = std::max(r.worst_position_mm, std::sqrt(pos2));
-    r.worst_attitude_deg = std::max(r.worst_attitude_deg, std::sqrt(att2));
+    r.worst_attitude_deg = std::max(r.worst_attitude_deg, s.attitude_error_deg);
   }
   for (std::size_t a = 0; a < 6; ++a) {
     AxisSummary& x = r.axes[a];

@@ -3,6 +3,9 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdio>
+
+#include "common/rotation/rotation.h"
 
 #include "host/report/report_test_util.h"
 #include "host/util/user_error.h"
@@ -107,7 +110,34 @@ TEST(PoseErrors, KnownMeanAndStd) {
   EXPECT_EQ(fix.fixes_3plus, 4);
   // Worst errors: frame 4, position (5, -2, 0.5), attitude (0.01, 0, 0.1).
   EXPECT_NEAR(fix.worst_position_mm, std::sqrt(25.0 + 4.0 + 0.25), 1e-12);
-  EXPECT_NEAR(fix.worst_attitude_deg, std::sqrt(0.0001 + 0.01), 1e-9);
+  // (The rotation angle; at these small angles the norm of the Euler errors to 1e-6.)
+  EXPECT_NEAR(fix.worst_attitude_deg, std::sqrt(0.0001 + 0.01), 1e-6);
+}
+
+// Near roll -90 deg (2-1-3 angles) pitch and yaw turn about nearly the same axis: an estimate
+// 0.02 deg off has pitch and yaw errors of 0.2 deg and more. The attitude error is the angle of
+// the rotation between the two attitudes, checked against the estimate made by turning the truth
+// by 0.02 deg about a known axis.
+TEST(PoseErrors, AttitudeErrorIsTheRotationAngleNearGimbalLock) {
+  const EulerAngles truth{DegToRad(-89.2), DegToRad(-46.9), DegToRad(30.0)};
+  const Eigen::Matrix3d C_true = EulerToMatrix(truth);
+  const Eigen::Matrix3d C_est = R2(DegToRad(0.02)) * C_true;
+  const EulerAngles est = MatrixToEuler(C_est);
+  char truth_csv[256], poses_csv[256];
+  std::snprintf(truth_csv, sizeof(truth_csv), "frame,t_ns,x_mm,y_mm,z_mm,roll_deg,pitch_deg,yaw_deg\n0,100,0,0,0,%.9f,%.9f,%.9f\n",
+                RadToDeg(truth.phi), RadToDeg(truth.theta), RadToDeg(truth.psi));
+  std::snprintf(poses_csv, sizeof(poses_csv),
+                "frame,t_ns,status,x_mm,y_mm,z_mm,roll_deg,pitch_deg,yaw_deg,n_beacons,rms_px\n0,100,fix,0,0,0,%.9f,%.9f,%.9f,5,0.1\n",
+                RadToDeg(est.phi), RadToDeg(est.theta), RadToDeg(est.psi));
+  const std::filesystem::path d = FreshTestDir("gimbal");
+  WriteText(d / "truth.csv", truth_csv);
+  WriteText(d / "poses.csv", poses_csv);
+  const PoseSeries series = LoadPoseSeries(d / "truth.csv", d / "poses.csv", "");
+  ASSERT_EQ(series.samples.size(), 1u);
+  const PoseSample& s = series.samples[0];
+  EXPECT_GT(std::hypot(s.error[4], s.error[5]), 0.2);  // the Euler errors, ten times the rotation
+  EXPECT_NEAR(s.attitude_error_deg, 0.02, 1e-5);
+  EXPECT_NEAR(SummarizePoses(series, false).worst_attitude_deg, 0.02, 1e-5);
 }
 
 // `mfns-sim compare`'s statistics: only frames with a valid bound (a finite one), so that the
