@@ -37,20 +37,34 @@ bool IdentitiesDecisive(const Rig& rig, const BodyPose& pose, const Matrix6d& co
     if (ProjectBeacon(rig.cameras[static_cast<std::size_t>(m.camera)], pose,
                       rig.beacons_w[static_cast<std::size_t>(m.beacon)], &uv, &J) != ProjectStatus::kOk)
       continue;  // (the solve left it out)
-    // The pose from the other beacons: their information alone.
+    // The pose from the other beacons: their information alone, and the pose they would give
+    // (one Gauss-Newton step from the joint pose, whose gradient without this beacon's residual
+    // r is -J^T r / sigma^2): the beacon is predicted at uv + J delta.
     const Eigen::LDLT<Matrix6d> others(information - J.transpose() * J / var_px);
     const bool fixed = others.info() == Eigen::Success && others.vectorD().minCoeff() > 1e-9 * information.trace();
-    Eigen::Matrix2d S = 2.0 * image_sigma_px * image_sigma_px * Eigen::Matrix2d::Identity();
-    if (fixed) S += J * others.solve(J.transpose());
-    const Eigen::Vector2d& own = blobs[m.blob].uv_px;
-    for (int b = 0; b < num_blobs; ++b) {
-      if (b == m.blob || blobs[b].camera != m.camera || Matched(matches, num_matches, b)) continue;
-      const Eigen::Vector2d d = blobs[b].uv_px - own;
-      const double d2 = fixed ? d.dot(S.ldlt().solve(d)) : 0.0;
-      if (d2 > gate_chi2) continue;
-      if (rival != nullptr) *rival = IdentityRival{m.beacon, m.camera, m.blob, b, d2};
-      return false;
+    const Eigen::Vector2d r = blobs[m.blob].uv_px - uv;
+    Eigen::Vector2d predicted = uv;
+    Eigen::Matrix2d S = image_sigma_px * image_sigma_px * Eigen::Matrix2d::Identity();
+    if (fixed) {
+      predicted -= J * others.solve(J.transpose() * r) / var_px;
+      S += J * others.solve(J.transpose());
     }
+    const Eigen::LDLT<Eigen::Matrix2d> S_ldlt(S);
+    // The blobs of the camera that fit the prediction: the matched one should, and alone.
+    int fits = 0, other = -1;
+    double other_d2 = 0.0;
+    for (int b = 0; b < num_blobs; ++b) {
+      if (blobs[b].camera != m.camera || (b != m.blob && Matched(matches, num_matches, b))) continue;
+      const Eigen::Vector2d d = blobs[b].uv_px - predicted;
+      const double d2 = fixed ? d.dot(S_ldlt.solve(d)) : 0.0;
+      if (d2 > gate_chi2) continue;
+      ++fits;
+      if (b != m.blob && other < 0) other = b, other_d2 = d2;
+    }
+    if (other < 0) continue;  // only its own blob fits (or none: a beacon the others contradict
+                              // has a residual the solve's own tests judge)
+    if (rival != nullptr) *rival = IdentityRival{m.beacon, m.camera, m.blob, other, other_d2};
+    return false;
   }
   return true;
 }

@@ -31,14 +31,16 @@ struct IdentityRival {
 
 // For each match (blob -> beacon of camera k) of `matches` at `pose`, with the pose's covariance
 // (the solve's, PoseDelta parametrisation, centroid noise sigma_px only): the pose's information
-// less the beacon's own (J^T J / sigma_px^2) gives the leave-one-out covariance of its image,
-// S = J Sigma_-m J^T + 2 image_sigma_px^2 I (the blob's and the rival's noise, with the map's
-// error as image noise). A blob of camera k
-// matched to no beacon, other than the beacon's own, with (d^T S^-1 d) <= gate_chi2 for d its
-// offset from the beacon's blob is a rival. When the other beacons do not fix the pose
-// (information not positive definite), every free blob of the camera is one. Returns true when
-// no beacon has a rival; else false and *rival (optional) names the first found. Bad input
-// (non-finite covariance, blobs out of range): false. No heap.
+// less the beacon's own (J^T J / sigma_px^2) gives the pose the other beacons would give (one
+// Gauss-Newton step) and its covariance, so the beacon's leave-one-out prediction u and
+// S = J Sigma_-m J^T + image_sigma_px^2 I (the blob's noise, with the map's error as image
+// noise). A blob of camera k matched to no other beacon, other than the beacon's own, with
+// (b - u)^T S^-1 (b - u) <= gate_chi2 is a rival: it fits the beacon as the other beacons see it
+// (for noise-free blobs, exactly the chi-square of the solve with it in the beacon's place).
+// When the other beacons do not fix the pose (information not positive definite), every free
+// blob of the camera is one. Returns true when no beacon has a rival; else false and *rival
+// (optional) names the first found. Bad input (non-finite covariance, blobs out of range):
+// false. No heap.
 bool IdentitiesDecisive(const Rig& rig, const BodyPose& pose, const Eigen::Matrix<double, 6, 6>& covariance,
                         double sigma_px, double image_sigma_px, const BlobObs* blobs, int num_blobs,
                         const Match* matches, int num_matches, double gate_chi2, IdentityRival* rival = nullptr);

@@ -379,6 +379,7 @@ struct TrackCounters {
   std::uint32_t steady_pruned = 0;        // followed poses on a new blob dropped for the one on steady blobs
   std::uint32_t residual_refused = 0;     // a stand-alone LIS fix or acquired pose: residuals beyond the noise
   std::uint32_t identity_refused = 0;     // a stand-alone LIS fix with a rival blob for a beacon (IdentitiesDecisive)
+  std::uint32_t identity_swapped = 0;     // a tracked pose's beacon given a rival blob that explains the blobs better
   std::uint32_t left_out = 0;             // tracked poses published with one beacon left out (LeaveOneOut)
   std::uint32_t left_out_undecided = 0;   // ... refused: no leave-out, or several, fit
   std::uint32_t left_out_budget_out = 0;  // ... refused: the frame set's budget ran out first
@@ -457,6 +458,7 @@ class Tracker {
                    TrackResult* r);
   bool Unambiguous(const TrackOptions& o, TrackResult* r);
   bool IdentitiesDecided(const TrackOptions& o, const TrackResult& r);
+  void TakeBetterRival(const TrackOptions& o, TrackResult* r);
   void ContinueTracks(const TrackOptions& o);
   void RememberTracks(const MatchSet& matches);
   int ContinuingBlobs(const TrackOptions& o);
@@ -509,6 +511,7 @@ class Tracker {
   BeaconMatcher matcher_;
   LostInSpace lis_;
   LisResult lis_res_;
+  SolveResult identity_solve_;  // TakeBetterRival's solve with the rival blob
   // The last finished search (or the one under way, once it found one) refused a pose for a
   // copy of its beacons in the map (LisResult::repeats): lost frame sets say kRepeatedView.
   // Cleared by a published pose.
