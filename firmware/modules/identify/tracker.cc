@@ -17,8 +17,6 @@ namespace {
 // 18.8 ms, ~0.1 ms a trial, 170 units; this gives 166 there and 22 with 10 blobs.
 constexpr double kCostTrackingSolve = 14.0;
 constexpr double kCostMatchPerBeaconBlob = 6e-3;
-}  // namespace
-namespace {
 
 // The largest 1-sigma of a [position (m); attitude (rad)] covariance's position and attitude.
 double PositionSigma(const Eigen::Matrix<double, 6, 6>& P) { return std::sqrt(std::max({P(0, 0), P(1, 1), P(2, 2)})); }
