@@ -20,8 +20,8 @@ bool Matched(const Match* matches, int num_matches, int b) {
 bool IdentitiesDecisive(const Rig& rig, const BodyPose& pose, const Matrix6d& covariance, double sigma_px,
                         double image_sigma_px, const BlobObs* blobs, int num_blobs, const Match* matches,
                         int num_matches, double gate_chi2, IdentityRival* rival) {
-  if (!covariance.allFinite() || !(sigma_px > 0.0) || !(image_sigma_px >= sigma_px) || num_blobs < 0 || (num_blobs > 0 && blobs == nullptr) ||
-      num_matches < 0 || (num_matches > 0 && matches == nullptr))
+  if (!covariance.allFinite() || !(sigma_px > 0.0) || !(image_sigma_px >= sigma_px) || num_blobs < 0 ||
+      (num_blobs > 0 && blobs == nullptr) || num_matches < 0 || (num_matches > 0 && matches == nullptr))
     return false;
   const Eigen::LDLT<Matrix6d> cov(covariance);
   if (cov.info() != Eigen::Success || !(cov.vectorD().minCoeff() > 0.0)) return false;
@@ -50,16 +50,17 @@ bool IdentitiesDecisive(const Rig& rig, const BodyPose& pose, const Matrix6d& co
       S += J * others.solve(J.transpose());
     }
     const Eigen::LDLT<Eigen::Matrix2d> S_ldlt(S);
-    // The blobs of the camera that fit the prediction: the matched one should, and alone.
-    int fits = 0, other = -1;
+    // Another free blob of the camera that fits the prediction.
+    int other = -1;
     double other_d2 = 0.0;
     for (int b = 0; b < num_blobs; ++b) {
       if (blobs[b].camera != m.camera || (b != m.blob && Matched(matches, num_matches, b))) continue;
       const Eigen::Vector2d d = blobs[b].uv_px - predicted;
       const double d2 = fixed ? d.dot(S_ldlt.solve(d)) : 0.0;
-      if (d2 > gate_chi2) continue;
-      ++fits;
-      if (b != m.blob && other < 0) other = b, other_d2 = d2;
+      if (d2 > gate_chi2 || b == m.blob) continue;
+      other = b;
+      other_d2 = d2;
+      break;
     }
     if (other < 0) continue;  // only its own blob fits (or none: a beacon the others contradict
                               // has a residual the solve's own tests judge)

@@ -3,12 +3,13 @@
 #include <algorithm>
 #include <cstdio>
 
+#include "common/rotation/rotation.h"
+
 namespace mfns::fw {
 
 namespace {
 
 constexpr int kMaxPatchNeighbours = 24;
-constexpr double kPi = 3.14159265358979323846;
 
 // The beacon m and its k nearest beacons (ties by index), m first.
 int Patch(const Rig& rig, int m, int k, std::array<int, kMaxPatchNeighbours + 1>* patch) {
