@@ -901,19 +901,26 @@ bool Tracker::Acquire(std::uint64_t t_ns, const TrackOptions& o, TrackResult* r)
 // A seeded chain holding one pose on steady blobs only (three beacons or more) and others that
 // each name a new blob (a track of one frame set: a reflection flickering beside a beacon)
 // keeps the one (TrackOptions::prune_to_steady). Returns how many poses were dropped.
+// A reflection beside a beacon takes that beacon's place in the pose that names it, so the two
+// explain as many beacons; a pose on a new blob that explains more than the steady one has a
+// beacon just come into view, and is kept (seen: half-resolution rig, the steady pose on three
+// beacons 535 mm and 18 deg off, the truth on four with the fourth's first blob, published).
 int Tracker::PruneToSteady(const TrackOptions& o) {
   if (steady_ == nullptr || acquisition_.size() < 2) return 0;
-  int on_steady = 0, kept = -1;
+  int on_steady = 0, kept = -1, kept_beacons = 0, most_on_new = 0;
   for (int i = 0; i < acquisition_.size(); ++i) {
     matcher_.MatchPose(acquisition_.pose(i), o.lis.refine_match, &set_);
     if (set_.num_beacons >= 3 && OnSteadyBlobs(set_)) {
       ++on_steady;
       kept = i;
-    } else if (!OnNewBlob(set_)) {
+      kept_beacons = set_.num_beacons;
+    } else if (OnNewBlob(set_)) {
+      most_on_new = std::max(most_on_new, set_.num_beacons);
+    } else {
       return 0;  // a pose that is neither: nothing tells them apart
     }
   }
-  if (on_steady != 1) return 0;
+  if (on_steady != 1 || most_on_new > kept_beacons) return 0;
   const BodyPose keep = acquisition_.pose(kept);
   return acquisition_.Retain(
       [&](const BodyPose& p) { return p.r_w_wb == keep.r_w_wb && p.C_w_b == keep.C_w_b; });

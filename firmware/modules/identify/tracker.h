@@ -240,7 +240,8 @@ struct TrackOptions {
   bool three_beacon_fix_steady = true;
   // A seeded chain (a re-acquisition after a gap) in which exactly one followed pose rests on
   // steady blobs only, with three beacons or more, while every other names a blob that is new
-  // (a reflection flickering beside a beacon), keeps that one (Tracker::PruneToSteady). Not
+  // (a reflection flickering beside a beacon) and explains no more beacons than it, keeps that
+  // one (Tracker::PruneToSteady; a pose explaining more has a beacon just come into view). Not
   // sound as a fix: an unmapped steady light with two beacons fits such a pose too, when the
   // truth (two beacons) is in no list (docs/acquisition.md, sessions 28-29); the track it starts
   // is a new one, so on three beacons it is published unverified (verify_three_beacons).
