@@ -829,6 +829,12 @@ LisStatus LostInSpace::Continue(int budget, LisResult* result, double cost_budge
   return Decide(end == SearchEnd::kBudgetOut, options_, result);
 }
 
+LisStatus LostInSpace::Stop(LisResult* result) {
+  if (!searching_) return result->status;
+  searching_ = false;
+  return Decide(true, options_, result);
+}
+
 LisStatus LostInSpace::Decide(bool budget_out, const LisOptions& o, LisResult* result) {
   LisResult& res = *result;
   res.search_complete = !budget_out && !res.confirmed;

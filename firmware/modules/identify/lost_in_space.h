@@ -285,6 +285,13 @@ class LostInSpace {
   LisStatus Continue(int budget, LisResult* result,
                      double cost_budget = std::numeric_limits<double>::infinity());
   bool searching() const { return searching_; }
+  // Whether the search in progress (or the last one) dropped from its full list a pose that may
+  // be consistent: its list can no longer be complete (LisResult::complete).
+  bool overflowed() const { return overflow_; }
+  // Ends the search in progress as if its budget had run out: the result as Continue's then
+  // (kBudgetExhausted, or the poses found so far, the list incomplete). Without a search in
+  // progress, result->status.
+  LisStatus Stop(LisResult* result);
 
  private:
   struct Candidate {

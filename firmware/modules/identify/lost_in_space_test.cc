@@ -966,4 +966,39 @@ TEST(LostInSpaceTest, NoHeapAllocation) {
 }
 
 }  // namespace
+// A search whose list overflowed (a pose that may be consistent dropped) can no longer give a
+// complete list; Stop ends it there, with what it found (the tracker stops a small map's search
+// at the frame set's budget once this happens: Tracker::RunSmallMapLis). A 16-beacon station
+// cylinder seen with one or two beacons among 8 spurious blobs: searched in steps, the list
+// overflows long before the search ends; stopped then, the result is incomplete and holds no
+// more poses than the list's capacity; searched to the end, it is just as incomplete.
+TEST(LostInSpaceTest, AnOverflowedSearchCanBeStoppedThere) {
+  std::mt19937_64 rng(915);
+  const Rig* rig = ResetOnCylinder(16, &rng);
+  ASSERT_NE(rig, nullptr);
+  int overflowed = 0;
+  for (int trial = 0; trial < 20 && overflowed < 3; ++trial) {
+    testing::Observe(*rig, testing::RandomCylinderPose(&rng), 0.1, &rng, &g_scene);
+    testing::AddSpurious(*rig, 8, &rng, &g_scene);
+    const LisOptions o;
+    LisStatus s = g_lis.Begin(g_scene.blobs.data(), g_scene.num_blobs, o, &g_res);
+    while (s == LisStatus::kSearching && !g_lis.overflowed()) s = g_lis.Continue(o.max_hypotheses, &g_res, 200.0);
+    if (s != LisStatus::kSearching) continue;  // ended before its list overflowed
+    ++overflowed;
+    const double stopped_at = g_res.cost;
+    s = g_lis.Stop(&g_res);
+    EXPECT_FALSE(g_lis.searching());
+    EXPECT_NE(s, LisStatus::kSearching);
+    EXPECT_FALSE(g_res.complete);
+    EXPECT_LE(g_res.num_consistent, limits::kMaxLisCandidates);
+    EXPECT_EQ(g_lis.Stop(&g_res), s);  // nothing in progress: the same status
+    const LisStatus full = g_lis.Identify(g_scene.blobs.data(), g_scene.num_blobs, o, &g_res);
+    EXPECT_TRUE(g_lis.overflowed());
+    EXPECT_FALSE(g_res.complete);
+    std::printf("trial %d: overflowed after cost %.0f, stopped: %s; searched to the end: %s, cost %.0f\n", trial,
+                stopped_at, ToString(s), ToString(full), g_res.cost);
+  }
+  EXPECT_GE(overflowed, 3);
+}
+
 }  // namespace mfns::fw

@@ -1132,14 +1132,7 @@ TrackStatus Tracker::Track(const BlobObs* blobs, int num_blobs, std::uint64_t t_
 // lis_budget_per_frame, over every search of the frame set): the frame deadline holds whatever
 // the map. A search cut by it reports kBudgetExhausted, never a guess.
 LisStatus Tracker::RunLis(const BlobObs* blobs, int num_blobs, const LisPrior* prior, const TrackOptions& o) {
-  // A small map's acquisition follows complete lists of poses, which a cut search would not
-  // give (the paper sweep with two reflections: first fix 43 -> 103 frame sets): unbudgeted,
-  // as cheap as it always was there.
-  if (rig_->num_beacons < o.lis.fourth_blob_min_beacons) {
-    lis_.Identify(blobs, num_blobs, o.lis, &lis_res_, prior, cameras_, steady_);
-    view_repeated_ = lis_res_.repeats > 0;
-    return lis_res_.status;
-  }
+  if (rig_->num_beacons < o.lis.fourth_blob_min_beacons) return RunSmallMapLis(blobs, num_blobs, prior, o);
   if (lis_budget_left_ <= 0.0) {
     lis_res_.status = LisStatus::kBudgetExhausted;
     lis_res_.complete = false;
@@ -1150,6 +1143,31 @@ LisStatus Tracker::RunLis(const BlobObs* blobs, int num_blobs, const LisPrior* p
   LisOptions lo = o.lis;
   lo.max_cost = lis_budget_left_;
   const LisStatus s = lis_.Identify(blobs, num_blobs, lo, &lis_res_, prior, cameras_, steady_);
+  Charge(lis_res_.cost);
+  view_repeated_ = lis_res_.repeats > 0;
+  return s;
+}
+
+// A small map's acquisition follows complete lists of three-beacon poses, which a search cut
+// by the frame set's budget would not give (the paper yaw sweep with two spurious blobs: lists
+// of 12 000-16 000 units; cut at 8 000, its first fix 43 -> 103 frame sets). So a search runs
+// past the budget while its list may still be complete; once the list has overflowed (a pose
+// that may be consistent dropped), only a confirmed fix can come of it, and it stops where the
+// budget does (seen: 16-beacon stations with 8 blobs a frame set, whose searches overflowed
+// and ran to their 20 000 work units, 20-40 ms, every frame set).
+LisStatus Tracker::RunSmallMapLis(const BlobObs* blobs, int num_blobs, const LisPrior* prior, const TrackOptions& o) {
+  // Work between two looks at the list (cost units): small against the budget.
+  constexpr double kSmallMapStep = 500.0;
+  LisStatus s = lis_.Begin(blobs, num_blobs, o.lis, &lis_res_, prior, cameras_, steady_);
+  while (s == LisStatus::kSearching) {
+    const double left = lis_budget_left_ - lis_res_.cost;
+    if (lis_.overflowed() && left <= 0.0) {
+      ++counters_.overflow_stopped;
+      s = lis_.Stop(&lis_res_);
+      break;
+    }
+    s = lis_.Continue(limits::kMaxLisHypotheses, &lis_res_, lis_.overflowed() ? left : kSmallMapStep);
+  }
   Charge(lis_res_.cost);
   view_repeated_ = lis_res_.repeats > 0;
   return s;
