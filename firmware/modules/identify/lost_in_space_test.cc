@@ -965,7 +965,6 @@ TEST(LostInSpaceTest, NoHeapAllocation) {
   (void)fixes;
 }
 
-}  // namespace
 // A search whose list overflowed (a pose that may be consistent dropped) can no longer give a
 // complete list; Stop ends it there, with what it found (the tracker stops a small map's search
 // at the frame set's budget once this happens: Tracker::RunSmallMapLis). A 16-beacon station
@@ -1000,5 +999,7 @@ TEST(LostInSpaceTest, AnOverflowedSearchCanBeStoppedThere) {
   }
   EXPECT_GE(overflowed, 3);
 }
+
+}  // namespace
 
 }  // namespace mfns::fw

@@ -864,7 +864,6 @@ TEST(NavMatrix, SeededChainsKeepThePoseOnSteadyBlobs) {
   EXPECT_EQ(d.wrong_fixes, 0);
 }
 
-}  // namespace
 // A seeded chain's pose on steady blobs does not push out a pose that explains more beacons
 // with a new blob (Tracker::PruneToSteady): a reflection beside a beacon takes its beacon's
 // place, so its pose explains no more; a beacon just come into view adds one. Found with the
@@ -945,5 +944,7 @@ TEST(NavMatrix, ASmallMapsOverflowingSearchesStopAtTheBudget) {
   EXPECT_EQ(result.wrong_degraded, 0);
   EXPECT_GT(result.counters.overflow_stopped, 100u);
 }
+
+}  // namespace
 
 }  // namespace mfns::host
