@@ -129,6 +129,55 @@ BENCHMARK(LostInSpaceStation)
     ->Args({64, 0, 2})
     ->Unit(benchmark::kMillisecond);
 
+// Lost-in-space near many followed poses (the acquisition's chain, up to limits::
+// kMaxLisCandidates): a cylindrical module with range(0) beacons, 8 random poses with >= 3
+// beacons in view and 2 spurious blobs per camera; the prior holds the truth, the poses a cold
+// search lists, then random poses in the module, range(1) in all, each within 0.1 m / 0.1 rad
+// (a chain's bounds a few frame sets on). Its time should grow with the poses' own views, not
+// with their union (which was the whole map). Counters: the search's cost units
+// (LisResult::cost) and hypotheses, and the time per cost unit (the model's ~0.6 us).
+void LostInSpaceFollowing(benchmark::State& state) {
+  const int num_beacons = static_cast<int>(state.range(0));
+  const int num_poses = static_cast<int>(state.range(1));
+  static Rig rig;
+  static auto lis = std::make_unique<LostInSpace>();
+  static auto res = std::make_unique<LisResult>();
+  static std::vector<testing::Scene> scenes;
+  static std::vector<std::vector<BodyPose>> priors;
+  std::mt19937_64 rng(950 + static_cast<std::uint64_t>(num_beacons));
+  rig = testing::RandomCylinderRig(num_beacons, true, &rng);
+  lis->Reset(rig);
+  scenes.assign(8, testing::Scene{});
+  priors.assign(scenes.size(), {});
+  for (std::size_t k = 0; k < scenes.size(); ++k) {
+    testing::Scene& sc = scenes[k];
+    do testing::Observe(rig, testing::RandomCylinderPose(&rng), 0.2, &rng, &sc);
+    while (sc.NumVisibleBeacons() < 3);
+    testing::AddSpurious(rig, 2 * rig.num_cameras, &rng, &sc);
+    lis->Identify(sc.blobs.data(), sc.num_blobs, LisOptions{}, res.get());
+    std::vector<BodyPose>& p = priors[k];
+    p.push_back(sc.pose);
+    for (int i = 0; i < res->num_consistent && static_cast<int>(p.size()) < num_poses; ++i)
+      p.push_back(res->consistent_poses[static_cast<std::size_t>(i)]);
+    while (static_cast<int>(p.size()) < num_poses) p.push_back(testing::RandomCylinderPose(&rng));
+    for (BodyPose& q : p) q.r_w_wb += Eigen::Vector3d(0.01, -0.01, 0.005);
+  }
+  std::size_t i = 0;
+  double cost = 0.0, hypotheses = 0.0, frames = 0.0;
+  for (auto _ : state) {
+    const std::size_t k = i++ % scenes.size();
+    const LisPrior prior{priors[k].data(), num_poses, 0.1, 0.1};
+    lis->Identify(scenes[k].blobs.data(), scenes[k].num_blobs, LisOptions{}, res.get(), &prior);
+    cost += res->cost;
+    hypotheses += res->hypotheses;
+    frames += 1.0;
+  }
+  state.counters["cost"] = cost / frames;
+  state.counters["hypotheses"] = hypotheses / frames;
+  state.counters["per_cost_unit"] = benchmark::Counter(cost, benchmark::Counter::kIsRate | benchmark::Counter::kInvert);
+}
+BENCHMARK(LostInSpaceFollowing)->ArgsProduct({{16, 64}, {1, 16, 64, 256}})->Unit(benchmark::kMillisecond);
+
 // Start-up work on a map: FindMapRepeats (mfns-navd's check whether the map repeats itself) beside
 // LostInSpace::Reset (the co-visibility table, the start-up work it joins) on the same maps: the
 // random cylinder of LostInSpaceStation with range(0) beacons (range(1) = 0), or the same

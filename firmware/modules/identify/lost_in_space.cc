@@ -19,6 +19,10 @@ constexpr double kCostFourthPerBeaconBlob = 1.2e-3;
 constexpr double kCostReprojectionPerBeacon = 0.113;
 constexpr double kCostRefine = 14.0;
 constexpr double kCostRepeatPerBeaconPair = 2e-3;  // RepeatedElsewhere's scan (not fitted: an estimate)
+// PriorBeacons: per prior pose, each camera's offsets to the beacons and each selected blob's
+// test of them (estimates: ~10 ns and ~3 ns per beacon).
+constexpr double kCostPriorPerCameraBeacon = 0.016;
+constexpr double kCostPriorPerBlobBeacon = 0.005;
 
 constexpr int PairIndex(int i, int j) { return j * (j - 1) / 2 + i; }  // i < j
 
@@ -471,32 +475,85 @@ void LostInSpace::SelectBlobs(const LisOptions& o, const std::uint8_t* steady) {
 }
 
 // With a prior, blob i can only be a beacon that some prior pose sees near blob i's ray: the
-// angle between the ray and the beacon's direction is within the prior's attitude bound, plus
-// what its position bound (and the raw slack) subtends at the beacon's distance.
-BeaconSet LostInSpace::PriorBeacons(int i) const {
+// angle theta between the ray and the beacon's direction within the prior's attitude bound
+// alpha (plus the raw slack), plus beta, what its position bound (plus the raw slack and the
+// lever arm) subtends at the beacon's distance d: sin(beta) = m / d. Without trigonometry per
+// blob: theta <= alpha + beta <=> u.d_w >= cos(alpha) sqrt(d^2 - m^2) - sin(alpha) m, u the
+// beacon's offset from the camera (any beacon within m passes). Sets each pose's sets
+// (pose_allowed_, pose_blobs_) and their union (allowed_), the anchors applied to both.
+void LostInSpace::PriorBeacons(LisResult* res) {
   const int nb = rig_->num_beacons;
-  const BeaconSet all = BeaconSet::FirstN(nb);
-  if (prior_ == nullptr || prior_->num_poses <= 0) return all;
-  const BodyRay& ray = rays_[static_cast<std::size_t>(i)];
-  const double max_rad = prior_->max_rad + prior_->raw_slack_rad;
-  const double max_m = prior_->max_m + prior_->raw_slack_m + ray.o_b.norm() * max_rad;  // lever arm too
-  BeaconSet set;
-  for (int p = 0; p < prior_->num_poses && set != all; ++p) {
+  num_pose_sets_ = 0;
+  const double alpha = PosePrior() ? prior_->max_rad + prior_->raw_slack_rad : 0.0;
+  if (!PosePrior() || alpha >= kPi / 2.0) {  // (a bound that wide allows every beacon)
+    std::fill(allowed_.begin(), allowed_.begin() + num_sel_, BeaconSet::FirstN(nb));
+    ApplyAnchors(allowed_.data());
+    return;
+  }
+  std::fill(allowed_.begin(), allowed_.begin() + num_sel_, BeaconSet{});
+  const auto cos_a = static_cast<float>(std::cos(alpha)), sin_a = static_cast<float>(std::sin(alpha));
+  num_pose_sets_ = std::min(prior_->num_poses, limits::kMaxLisCandidates);
+  for (int p = 0; p < num_pose_sets_; ++p) {
     const BodyPose& q = prior_->poses[p];
-    const Eigen::Vector3d o_w = q.C_w_b * ray.o_b + q.r_w_wb;
-    const Eigen::Vector3d d_w = q.C_w_b * ray.d_b;
-    for (int a = 0; a < nb; ++a) {
-      const Eigen::Vector3d u = rig_->beacons_w[static_cast<std::size_t>(a)] - o_w;
-      const double dist = u.norm();
-      if (dist <= max_m) {
-        set.Set(a);
-        continue;
+    auto& sets = pose_allowed_[static_cast<std::size_t>(p)];
+    std::uint32_t cameras_done = 0;
+    for (int i = 0; i < num_sel_; ++i) {
+      const BodyRay& ray = rays_[static_cast<std::size_t>(i)];
+      const auto k = static_cast<std::size_t>(blobs_[sel_[static_cast<std::size_t>(i)]].camera);
+      // (ExplainsAFourth's scratch, free before the search: the offsets and the thresholds.)
+      CameraOffsets& c = offsets_[k];
+      if ((cameras_done >> k & 1U) == 0) {
+        cameras_done |= 1U << k;
+        res->cost += kCostPriorPerCameraBeacon * nb;
+        const auto m = static_cast<float>(prior_->max_m + prior_->raw_slack_m + ray.o_b.norm() * alpha);
+        const Eigen::Vector3f o_w = (q.C_w_b * ray.o_b + q.r_w_wb).cast<float>();
+        for (int b = 0; b < nb; ++b) {
+          const auto sb = static_cast<std::size_t>(b);
+          c.x[sb] = beacon_x_[sb] - o_w.x();
+          c.y[sb] = beacon_y_[sb] - o_w.y();
+          c.z[sb] = beacon_z_[sb] - o_w.z();
+          const float d2 = c.x[sb] * c.x[sb] + c.y[sb] * c.y[sb] + c.z[sb] * c.z[sb];
+          c.cos_sq_len_sq[sb] = d2 <= m * m ? -std::numeric_limits<float>::infinity()
+                                            : cos_a * std::sqrt(d2 - m * m) - sin_a * m;
+        }
       }
-      const double angle = std::atan2(u.cross(d_w).norm(), u.dot(d_w));
-      if (angle <= max_rad + std::asin(max_m / dist)) set.Set(a);
+      res->cost += kCostPriorPerBlobBeacon * nb;
+      const Eigen::Vector3f d_w = (q.C_w_b * ray.d_b).cast<float>();
+      BeaconSet& set = sets[static_cast<std::size_t>(i)];
+      set.Reset();
+      for (int b = 0; b < nb; ++b) {
+        const auto sb = static_cast<std::size_t>(b);
+        if (c.x[sb] * d_w.x() + c.y[sb] * d_w.y() + c.z[sb] * d_w.z() >= c.cos_sq_len_sq[sb]) set.Set(b);
+      }
+    }
+    ApplyAnchors(sets.data());
+    std::uint16_t blobs = 0;
+    for (int i = 0; i < num_sel_; ++i) {
+      const BeaconSet& set = sets[static_cast<std::size_t>(i)];
+      allowed_[static_cast<std::size_t>(i)] |= set;
+      if (!set.Empty()) blobs = static_cast<std::uint16_t>(blobs | 1U << i);
+    }
+    pose_blobs_[static_cast<std::size_t>(p)] = blobs;
+  }
+}
+
+// An anchored blob is its beacon, and no other blob of its camera is: applied to one set per
+// selected blob.
+void LostInSpace::ApplyAnchors(BeaconSet* allowed) const {
+  for (int i = 0; i < num_sel_; ++i) {
+    const int beacon = blob_anchor_[static_cast<std::size_t>(sel_[static_cast<std::size_t>(i)])];
+    if (beacon < 0) continue;
+    const int camera = blobs_[sel_[static_cast<std::size_t>(i)]].camera;
+    for (int j = 0; j < num_sel_; ++j) {
+      if (j == i) {
+        const bool had = allowed[j].Has(beacon);
+        allowed[j] = BeaconSet{};
+        if (had) allowed[j].Set(beacon);
+      } else if (blobs_[sel_[static_cast<std::size_t>(j)]].camera == camera) {
+        allowed[j].Clear(beacon);
+      }
     }
   }
-  return set;
 }
 
 // Feasibility bits of selected blobs (i, j), i < j: bit b of row a when beacons (a, b) may
@@ -601,10 +658,8 @@ void LostInSpace::OrderItems(int num_bands) {
 // work units (LisResult::work) in this call, o.max_hypotheses in the whole search. The cursor names the
 // next hypothesis, so that a paused search resumes exactly where it stopped.
 LostInSpace::SearchEnd LostInSpace::Search(int budget, double cost_budget, LisResult* res) {
-  const int work_before = res->work;
-  const double cost_before = res->cost;
-  const int nb = rig_->num_beacons;
-  for (; cur_.item < num_items_; ++cur_.item, cur_.a = 0, cur_.b = cur_.c = -1, cur_.ready = false) {
+  const Spent since{res->work, res->cost, budget, cost_budget};
+  for (; cur_.item < num_items_; ++cur_.item, cur_ = Cursor{cur_.item}) {
     const Item& item = items_[static_cast<std::size_t>(cur_.item)];
     const Triple& tr = triples_[item.t];
     cur_i_ = tr.i;
@@ -615,46 +670,108 @@ LostInSpace::SearchEnd LostInSpace::Search(int budget, double cost_budget, LisRe
       ++res->blob_triples;
       triple_.Set({rays_[tr.i], rays_[tr.j], rays_[tr.k]}, p3p_);
       cur_.ready = true;
+      if (++tried_stamp_ == 0) {  // (wrapped: no slot may look current)
+        tried_.fill(TriedSlot{});
+        tried_stamp_ = 1;
+      }
     }
-    const auto& fij = Feasible(tr.i, tr.j);
-    const auto& fik = Feasible(tr.i, tr.k);
-    const auto& fjk = Feasible(tr.j, tr.k);
-    // The beacon triples the triple's item of the range before (nested in this one) tried are
-    // skipped.
-    const int prev = item.band - 1;
-    const bool skip_tried = prev >= 0 && band_done_[static_cast<std::size_t>(prev)][item.t];
-    const int unit = item.same_camera ? 1 : options_.cross_camera_work;
-    // Pairs (a, b) without a third are skipped unvisited: a with no beacon along ray k, b with
-    // none either (with many spurious blobs most feasible pairs have none; visiting them cost
-    // 35 ms of one frame set, uncounted by the budget: 64 spurious blobs per camera, session 34).
-    BeaconSet b_with_third;
-    for (int b = 0; b < nb; ++b)
-      if (!fjk[static_cast<std::size_t>(b)].Empty()) b_with_third.Set(b);
-    for (; cur_.a < nb; ++cur_.a, cur_.b = cur_.c = -1) {
-      const int a = cur_.a;
-      if (fik[static_cast<std::size_t>(a)].Empty()) continue;
-      const BeaconSet bs = fij[static_cast<std::size_t>(a)] & b_with_third;
+    SearchEnd end = SearchEnd::kDone;
+    if (!SearchPoseSets(item, since, res, &end)) return end;
+    band_done_[item.band][item.t] = true;
+  }
+  return SearchEnd::kDone;
+}
+
+// The current item's beacon triples, from the cursor on: those one prior pose allows for all
+// three blobs, pose by pose (without a pose prior, the one set of allowed_). False when the
+// search stops within the item (*end says why).
+bool LostInSpace::SearchPoseSets(const Item& item, const Spent& since, LisResult* res, SearchEnd* end) {
+  const Triple& tr = triples_[item.t];
+  const auto& fij = Feasible(tr.i, tr.j);
+  const auto& fik = Feasible(tr.i, tr.k);
+  const auto& fjk = Feasible(tr.j, tr.k);
+  // The beacon triples the triple's item of the range before (nested in this one) tried are
+  // skipped.
+  const int prev = item.band - 1;
+  const bool skip_tried = prev >= 0 && band_done_[static_cast<std::size_t>(prev)][item.t];
+  const int unit = item.same_camera ? 1 : options_.cross_camera_work;
+  // Beacons a without a third (none along ray k) and b without one are skipped unvisited (with
+  // many spurious blobs most feasible pairs have none; visiting them cost 35 ms of one frame
+  // set, uncounted by the budget: 64 spurious blobs per camera, session 34).
+  // (Only the beacons the prior allows for the blob can have bits.)
+  BeaconSet a_with_third, b_with_third;
+  const BeaconSet& ai = allowed_[tr.i];
+  const BeaconSet& bj = allowed_[tr.j];
+  for (int a = ai.First(); a >= 0; a = ai.Next(a + 1))
+    if (!fik[static_cast<std::size_t>(a)].Empty()) a_with_third.Set(a);
+  for (int b = bj.First(); b >= 0; b = bj.Next(b + 1))
+    if (!fjk[static_cast<std::size_t>(b)].Empty()) b_with_third.Set(b);
+  const bool per_pose = num_pose_sets_ > 0;
+  const int num_sets = per_pose ? num_pose_sets_ : 1;
+  const auto need = static_cast<std::uint16_t>(1U << tr.i | 1U << tr.j | 1U << tr.k);
+  for (; cur_.p < num_sets; ++cur_.p, cur_.a = 0, cur_.b = cur_.c = -1) {
+    const auto sp = static_cast<std::size_t>(cur_.p);
+    if (per_pose && (pose_blobs_[sp] & need) != need) continue;
+    const BeaconSet* sets = per_pose ? pose_allowed_[sp].data() : allowed_.data();
+    const BeaconSet as = sets[tr.i] & a_with_third;
+    for (int a = as.Next(cur_.a); a >= 0; a = as.Next(a + 1), cur_.b = cur_.c = -1) {
+      cur_.a = a;
+      const BeaconSet bs = fij[static_cast<std::size_t>(a)] & b_with_third & sets[tr.j];
       for (int b = cur_.b < 0 ? bs.First() : cur_.b; b >= 0; b = bs.Next(b + 1), cur_.c = -1) {
         cur_.b = b;
-        BeaconSet cs = fik[static_cast<std::size_t>(a)] & fjk[static_cast<std::size_t>(b)];
+        BeaconSet cs = fik[static_cast<std::size_t>(a)] & fjk[static_cast<std::size_t>(b)] & sets[tr.k];
         cs.Clear(a);
         cs.Clear(b);
         if (skip_tried && PairTriedIn(tr, prev, a, b)) cs = cs.Minus(ThirdsTriedIn(tr, prev, a, b));
         for (int c = cur_.c < 0 ? cs.First() : cur_.c; c >= 0; c = cs.Next(c + 1)) {
           cur_.c = c;
-          if (res->work >= options_.max_hypotheses || res->cost >= options_.max_cost) return SearchEnd::kBudgetOut;
-          if (res->work - work_before >= budget || res->cost - cost_before >= cost_budget) return SearchEnd::kPaused;
-          res->work += unit;
-          res->cost += unit;
-          ++res->hypotheses;
-          TryTriple(a, b, c, res);
-          if (res->confirmed) return SearchEnd::kDone;
+          if (!Hypothesis(a, b, c, unit, since, res, end)) return false;
         }
       }
     }
-    band_done_[item.band][item.t] = true;
   }
-  return SearchEnd::kDone;
+  return true;
+}
+
+// One hypothesis within the budgets (of the search, then of this call): false when the search
+// stops here (*end says why; a paused one resumes with this hypothesis).
+bool LostInSpace::Hypothesis(int a, int b, int c, int unit, const Spent& since, LisResult* res, SearchEnd* end) {
+  if (res->work >= options_.max_hypotheses || res->cost >= options_.max_cost) {
+    *end = SearchEnd::kBudgetOut;
+    return false;
+  }
+  if (res->work - since.work >= since.budget || res->cost - since.cost >= since.cost_budget) {
+    *end = SearchEnd::kPaused;
+    return false;
+  }
+  if (num_pose_sets_ > 1 && !FirstTry(a, b, c)) return true;  // another prior pose's already
+  res->work += unit;
+  res->cost += unit;
+  ++res->hypotheses;
+  TryTriple(a, b, c, res);
+  if (res->confirmed) {
+    *end = SearchEnd::kDone;
+    return false;
+  }
+  return true;
+}
+
+// Whether beacons (a, b, c) are new to the current item (and marks them tried).
+bool LostInSpace::FirstTry(int a, int b, int c) {
+  static_assert(limits::kMaxBeacons <= 256, "a beacon index is 8 bits of the key");
+  static_assert((kTriedSlots & (kTriedSlots - 1)) == 0, "a power of two");
+  const std::uint32_t key = (static_cast<std::uint32_t>(a) << 16 | static_cast<std::uint32_t>(b) << 8 |
+                             static_cast<std::uint32_t>(c)) + 1U;
+  std::uint32_t h = (key * 2654435761U) >> 20U;  // (Fibonacci hashing onto 12 bits)
+  for (int n = 0; n < 8; ++n, h = (h + 1U) & static_cast<std::uint32_t>(kTriedSlots - 1)) {
+    TriedSlot& s = tried_[h];
+    if (s.stamp != tried_stamp_) {
+      s = TriedSlot{key, tried_stamp_};
+      return true;
+    }
+    if (s.key == key) return false;
+  }
+  return true;  // (no room nearby: tried again, which costs a solve and changes nothing)
 }
 
 // Whether the item of triple tr over range `band` had beacons (a, b) on its first pair, and the
@@ -794,25 +911,10 @@ LisStatus LostInSpace::Begin(const BlobObs* blobs, int num_blobs, const LisOptio
   pair_tol_m_ = o.pair_tolerance_m;
   pair_tol_rad_ = o.pair_angle_tolerance_rad;
   fourth_cos_sq_ = static_cast<float>(std::cos(o.fourth_blob_max_rad) * std::cos(o.fourth_blob_max_rad));
-  for (int i = 0; i < num_sel_; ++i) allowed_[static_cast<std::size_t>(i)] = PriorBeacons(i);
-  // An anchored blob is its beacon, and no other blob of its camera is.
+  PriorBeacons(&res);
   int anchored_sel = 0;
-  for (int i = 0; i < num_sel_; ++i) {
-    const int beacon = blob_anchor_[static_cast<std::size_t>(sel_[static_cast<std::size_t>(i)])];
-    if (beacon < 0) continue;
-    ++anchored_sel;
-    const int camera = blobs_[sel_[static_cast<std::size_t>(i)]].camera;
-    for (int j = 0; j < num_sel_; ++j) {
-      BeaconSet& allowed = allowed_[static_cast<std::size_t>(j)];
-      if (j == i) {
-        const bool had = allowed.Has(beacon);
-        allowed = BeaconSet{};
-        if (had) allowed.Set(beacon);
-      } else if (blobs_[sel_[static_cast<std::size_t>(j)]].camera == camera) {
-        allowed.Clear(beacon);
-      }
-    }
-  }
+  for (int i = 0; i < num_sel_; ++i)
+    anchored_sel += blob_anchor_[static_cast<std::size_t>(sel_[static_cast<std::size_t>(i)])] >= 0 ? 1 : 0;
   anchors_per_triple_ = std::min(anchored_sel, 3);
   for (auto& done : feasible_done_) done.fill(false);
   OrderItems(num_bands_);

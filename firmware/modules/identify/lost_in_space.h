@@ -305,7 +305,8 @@ class LostInSpace {
     std::uint8_t i, j, k;  // selected-blob indices, i < j < k
   };
   void SelectBlobs(const LisOptions& o, const std::uint8_t* steady);
-  BeaconSet PriorBeacons(int i) const;
+  void PriorBeacons(LisResult* result);
+  void ApplyAnchors(BeaconSet* allowed) const;
   void CoVisibilityTable();
   void SampleCoVisibility(const Eigen::Vector3d& p, double min_depth_m);
   void OrderItems(int num_bands);
@@ -319,6 +320,15 @@ class LostInSpace {
   bool ExplainsAFourth(const BodyPose& pose, int t_i, int t_j, int t_k, float cos_sq);
   enum class SearchEnd : unsigned char { kDone, kPaused, kBudgetOut };
   SearchEnd Search(int budget, double cost_budget, LisResult* result);
+  // The budgets of one Search call: what was spent when it began.
+  struct Spent {
+    int work = 0;
+    double cost = 0.0;
+    int budget = 0;
+    double cost_budget = 0.0;
+  };
+  bool Hypothesis(int a, int b, int c, int unit, const Spent& since, LisResult* result, SearchEnd* end);
+  bool FirstTry(int a, int b, int c);
   void TryTriple(int a, int b, int c, LisResult* result);
   void SetRange(int band);
   void Score(const BodyPose& pose, const LisOptions& o, LisResult* result);
@@ -358,7 +368,7 @@ class LostInSpace {
   bool searching_ = false;
   // The next hypothesis of a paused search: work item `item`, beacons (a, b, c) (-1: the set's first).
   struct Cursor {
-    int item = 0, a = 0, b = -1, c = -1;
+    int item = 0, p = 0, a = 0, b = -1, c = -1;  // p: the prior pose whose beacon sets are searched
     bool ready = false;  // triple_ holds the item's rays
   };
   Cursor cur_;
@@ -386,7 +396,24 @@ class LostInSpace {
   static constexpr int kMaxPairs = limits::kMaxLisBlobs * (limits::kMaxLisBlobs - 1) / 2;
   std::array<std::array<std::array<BeaconSet, limits::kMaxBeacons>, kMaxPairs>, kMaxBands> feasible_{};
   std::array<std::array<bool, kMaxPairs>, kMaxBands> feasible_done_{};
-  std::array<BeaconSet, limits::kMaxLisBlobs> allowed_{};  // per selected blob (prior)
+  std::array<BeaconSet, limits::kMaxLisBlobs> allowed_{};  // per selected blob (prior): the union over its poses
+  // Under a pose prior, each prior pose's own beacon sets per selected blob (PriorBeacons), and
+  // the selected blobs for which its set is not empty (bit i): a search item's beacon triples
+  // are those one pose allows for all three blobs, so that following many poses costs what
+  // each one's view does, not what their union's does (the union of 256 poses in a 16-beacon
+  // map is the map: a search as dear as a cold one, session 35).
+  static_assert(limits::kMaxLisBlobs <= 16, "pose_blobs_ is a 16-bit mask");
+  int num_pose_sets_ = 0;  // 0: no pose prior (the union sets alone)
+  std::array<std::array<BeaconSet, limits::kMaxLisBlobs>, limits::kMaxLisCandidates> pose_allowed_{};
+  std::array<std::uint16_t, limits::kMaxLisCandidates> pose_blobs_{};
+  // Beacon triples tried in the current item (FirstTry): poses near each other allow the same
+  // ones. Open addressing, stamped by item; a full table only lets a triple be tried twice.
+  struct TriedSlot {
+    std::uint32_t key = 0, stamp = 0;
+  };
+  static constexpr int kTriedSlots = 4096;
+  std::array<TriedSlot, kTriedSlots> tried_{};
+  std::uint32_t tried_stamp_ = 0;
   static constexpr int kMaxTriples = limits::kMaxLisBlobs * (limits::kMaxLisBlobs - 1) * (limits::kMaxLisBlobs - 2) / 6;
   std::array<Triple, kMaxTriples> triples_{};
   std::array<std::array<bool, kMaxTriples>, kMaxBands> band_done_{};  // the triple's item of the band is done
@@ -401,6 +428,7 @@ class LostInSpace {
   };
   std::array<Item, kMaxBands * kMaxTriples> items_{};
   int num_items_ = 0;
+  bool SearchPoseSets(const Item& item, const Spent& since, LisResult* result, SearchEnd* end);
   P3pRayTriple triple_;
   std::array<BodyPose, limits::kMaxP3pSolutions> solutions_{};
   int num_cand_ = 0;

@@ -1000,6 +1000,73 @@ TEST(LostInSpaceTest, AnOverflowedSearchCanBeStoppedThere) {
   EXPECT_GE(overflowed, 3);
 }
 
+// Many prior poses (the acquisition follows up to 256) cost what each one's own view does:
+// a search item's beacon triples are those one prior pose allows for all three blobs. The
+// union of their allowed beacons is most of a small map, and searching it cost as much as a
+// cold search (session 35). The list is the same: exactly the union of the lists of searches
+// near each prior pose alone, with the truth among them.
+TEST(LostInSpaceTest, ManyPriorPosesCostWhatTheirOwnViewsDo) {
+  std::mt19937_64 rng(931);
+  const Rig* rig = ResetOnCylinder(16, &rng);
+  ASSERT_NE(rig, nullptr);
+  static std::array<BodyPose, 48> poses;
+  static LisResult one;
+  const LisOptions o;
+  const auto same = [&](const BodyPose& a, const BodyPose& b) {
+    return (a.r_w_wb - b.r_w_wb).norm() <= o.same_pose_m && AngleBetween(a.C_w_b, b.C_w_b) <= o.same_pose_rad;
+  };
+  const auto listed = [&](const LisResult& r, const BodyPose& p) {
+    for (int i = 0; i < r.num_consistent; ++i)
+      if (same(r.consistent_poses[static_cast<std::size_t>(i)], p)) return true;
+    return false;
+  };
+  int cases = 0;
+  for (int trial = 0; trial < 400 && cases < testing::Trials(3, 1); ++trial) {
+    testing::Observe(*rig, testing::RandomCylinderPose(&rng), 0.1, &rng, &g_scene);
+    if (g_scene.NumVisibleBeacons() < 3) continue;
+    testing::AddSpurious(*rig, 6, &rng, &g_scene);  // two per camera
+    ++cases;
+    // The poses an acquisition follows: the truth and those a cold search lists (each a little
+    // off, as a followed pose is a frame set later), then poses anywhere in the module.
+    g_lis.Identify(g_scene.blobs.data(), g_scene.num_blobs, o, &g_res);
+    const double cold = g_res.cost;
+    poses[0] = g_scene.pose;
+    for (std::size_t i = 1; i < poses.size(); ++i)
+      poses[i] = static_cast<int>(i) <= g_res.num_consistent ? g_res.consistent_poses[i - 1] : testing::RandomCylinderPose(&rng);
+    for (BodyPose& p : poses) p.r_w_wb += Eigen::Vector3d(0.01, -0.01, 0.005);
+    const LisPrior prior{poses.data(), static_cast<int>(poses.size()), 0.1, 0.1};
+    g_lis.Identify(g_scene.blobs.data(), g_scene.num_blobs, o, &g_res, &prior);
+    const int num_listed = g_res.num_consistent;
+    ASSERT_TRUE(g_res.complete) << "case " << cases;
+    EXPECT_TRUE(listed(g_res, g_scene.pose)) << "case " << cases << ": the truth is not listed";
+    double alone_cost = 0.0;
+    int alone_listed = 0;
+    for (const BodyPose& p : poses) {
+      const LisPrior just{&p, 1, 0.1, 0.1};
+      g_lis.Identify(g_scene.blobs.data(), g_scene.num_blobs, o, &one, &just);
+      ASSERT_TRUE(one.complete);
+      alone_cost += one.cost;
+      alone_listed += one.num_consistent;
+      for (int i = 0; i < one.num_consistent; ++i)
+        EXPECT_TRUE(listed(g_res, one.consistent_poses[static_cast<std::size_t>(i)])) << "case " << cases;
+    }
+    for (int i = 0; i < g_res.num_consistent; ++i) {
+      bool found = false;
+      for (const BodyPose& p : poses) {
+        const LisPrior just{&p, 1, 0.1, 0.1};
+        g_lis.Identify(g_scene.blobs.data(), g_scene.num_blobs, o, &one, &just);
+        found = found || listed(one, g_res.consistent_poses[static_cast<std::size_t>(i)]);
+      }
+      EXPECT_TRUE(found) << "case " << cases << ": pose " << i << " is near no prior pose's own list";
+    }
+    const double together = g_res.cost;
+    std::printf("case %d: %d blobs, %d poses listed (%d alone); cost together %.0f, alone summed %.0f, cold %.0f\n",
+                cases, g_scene.num_blobs, num_listed, alone_listed, together, alone_cost, cold);
+    EXPECT_LE(together, alone_cost) << "case " << cases;
+  }
+  EXPECT_EQ(cases, testing::Trials(3, 1));
+}
+
 }  // namespace
 
 }  // namespace mfns::fw
