@@ -23,6 +23,8 @@ constexpr double kCostRepeatPerBeaconPair = 2e-3;  // RepeatedElsewhere's scan (
 // test of them (estimates: ~10 ns and ~3 ns per beacon).
 constexpr double kCostPriorPerCameraBeacon = 0.016;
 constexpr double kCostPriorPerBlobBeacon = 0.005;
+// MayComplete's count, per beacon pair of a blob triple (an estimate: ~3 ns).
+constexpr double kCostCountPerBeaconPair = 0.005;
 
 constexpr int PairIndex(int i, int j) { return j * (j - 1) / 2 + i; }  // i < j
 
@@ -746,6 +748,7 @@ bool LostInSpace::Hypothesis(int a, int b, int c, int unit, const Spent& since, 
   }
   if (num_pose_sets_ > 1 && !FirstTry(a, b, c)) return true;  // another prior pose's already
   res->work += unit;
+  hypothesis_work_ += unit;
   res->cost += unit;
   ++res->hypotheses;
   TryTriple(a, b, c, res);
@@ -883,6 +886,8 @@ LisStatus LostInSpace::Begin(const BlobObs* blobs, int num_blobs, const LisOptio
   res.repeats = 0;
   num_cand_ = 0;
   overflow_ = false;
+  work_bound_ = -1;
+  hypothesis_work_ = 0;
   num_repeated_ = 0;
   if (rig_ == nullptr || !o.IsValid() || num_blobs < 0 || num_blobs > limits::kMaxObservations ||
       (num_blobs > 0 && blobs == nullptr))
@@ -929,6 +934,42 @@ LisStatus LostInSpace::Continue(int budget, LisResult* result, double cost_budge
   if (end == SearchEnd::kPaused) return result->status = LisStatus::kSearching;
   searching_ = false;
   return Decide(end == SearchEnd::kBudgetOut, options_, result);
+}
+
+bool LostInSpace::MayComplete(LisResult* result) {
+  if (overflow_) return false;
+  if (num_pose_sets_ > 1) return true;  // (several poses may allow a triple: not counted)
+  if (work_bound_ < 0) {
+    // The hypotheses of every blob triple over the full range: its nested ranges together try
+    // the same beacon triples once (SearchPoseSets skips those the range before tried).
+    const int full = num_bands_ - 1, keep = band_;
+    SetRange(full);
+    long work = 0;
+    const int nb = rig_->num_beacons;
+    for (int t = 0; t < num_items_ && work <= options_.max_hypotheses; ++t) {
+      const Item& item = items_[static_cast<std::size_t>(t)];
+      if (item.band != full) continue;
+      const Triple& tr = triples_[item.t];
+      const auto& fij = Feasible(tr.i, tr.j);
+      const auto& fik = Feasible(tr.i, tr.k);
+      const auto& fjk = Feasible(tr.j, tr.k);
+      long n = 0;
+      for (int a = 0; a < nb; ++a) {
+        const BeaconSet& ta = fik[static_cast<std::size_t>(a)];
+        if (ta.Empty()) continue;
+        const BeaconSet& bs = fij[static_cast<std::size_t>(a)];
+        for (int b = bs.First(); b >= 0; b = bs.Next(b + 1)) {
+          const BeaconSet& tb = fjk[static_cast<std::size_t>(b)];
+          n += (ta & tb).Count() - (tb.Has(a) ? 1 : 0) - (ta.Has(b) ? 1 : 0);
+        }
+        result->cost += kCostCountPerBeaconPair * nb;
+      }
+      work += n * (item.same_camera ? 1 : options_.cross_camera_work);
+    }
+    SetRange(keep);
+    work_bound_ = static_cast<int>(std::min<long>(work, std::numeric_limits<int>::max()));
+  }
+  return static_cast<long>(result->work) + work_bound_ - hypothesis_work_ <= options_.max_hypotheses;
 }
 
 LisStatus LostInSpace::Stop(LisResult* result) {

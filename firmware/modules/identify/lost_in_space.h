@@ -288,6 +288,14 @@ class LostInSpace {
   // Whether the search in progress (or the last one) dropped from its full list a pose that may
   // be consistent: its list can no longer be complete (LisResult::complete).
   bool overflowed() const { return overflow_; }
+  // Whether the search in progress may still end with a complete list: not overflowed, and,
+  // with at most one prior pose, the work spent plus its beacon triples not tried yet (counted
+  // once per search, exactly: each blob triple's feasible ones over the full depth range) fit
+  // within max_hypotheses work units. (A search that
+  // cannot complete gives a fix only by confirming one, and its time is better spent on the next
+  // frame set's blobs: seen, 16-24-beacon stations with 8 blobs a frame set, searches of 20 000
+  // units, ~20 ms, that ended incomplete.) The count's cost is charged to *result.
+  bool MayComplete(LisResult* result);
   // Ends the search in progress as if its budget had run out: the result as Continue's then
   // (kBudgetExhausted, or the poses found so far, the list incomplete). Without a search in
   // progress, result->status.
@@ -433,6 +441,8 @@ class LostInSpace {
   std::array<BodyPose, limits::kMaxP3pSolutions> solutions_{};
   int num_cand_ = 0;
   bool overflow_ = false;
+  int work_bound_ = -1;  // MayComplete's count of the search in progress (-1: not counted)
+  int hypothesis_work_ = 0;  // the work units of the hypotheses tried so far (LisResult::work less the scoring's)
   // Beacon sets this search found repeated elsewhere in the map (RepeatedElsewhere's memo). A
   // regular map's view has as many copies as its symmetries take it to, and the search meets
   // them in turn: a regular grid in a cube gave a cycle of 24 (its rotations).

@@ -1151,22 +1151,24 @@ LisStatus Tracker::RunLis(const BlobObs* blobs, int num_blobs, const LisPrior* p
 // A small map's acquisition follows complete lists of three-beacon poses, which a search cut
 // by the frame set's budget would not give (the paper yaw sweep with two spurious blobs: lists
 // of 12 000-16 000 units; cut at 8 000, its first fix 43 -> 103 frame sets). So a search runs
-// past the budget while its list may still be complete; once the list has overflowed (a pose
-// that may be consistent dropped), only a confirmed fix can come of it, and it stops where the
+// past the budget while its list may still be complete (LostInSpace::MayComplete); once the
+// list has overflowed (a pose that may be consistent dropped), or its beacon triples are more
+// than its work units allow, only a confirmed fix can come of it, and it stops where the
 // budget does (seen: 16-beacon stations with 8 blobs a frame set, whose searches overflowed
-// and ran to their 20 000 work units, 20-40 ms, every frame set).
+// or ran to their 20 000 work units, 20-40 ms, every frame set).
 LisStatus Tracker::RunSmallMapLis(const BlobObs* blobs, int num_blobs, const LisPrior* prior, const TrackOptions& o) {
   // Work between two looks at the list (cost units): small against the budget.
   constexpr double kSmallMapStep = 500.0;
   LisStatus s = lis_.Begin(blobs, num_blobs, o.lis, &lis_res_, prior, cameras_, steady_);
   while (s == LisStatus::kSearching) {
     const double left = lis_budget_left_ - lis_res_.cost;
-    if (lis_.overflowed() && left <= 0.0) {
+    const bool may_complete = left > 0.0 || lis_.MayComplete(&lis_res_);
+    if (!may_complete) {
       ++counters_.overflow_stopped;
       s = lis_.Stop(&lis_res_);
       break;
     }
-    s = lis_.Continue(limits::kMaxLisHypotheses, &lis_res_, lis_.overflowed() ? left : kSmallMapStep);
+    s = lis_.Continue(limits::kMaxLisHypotheses, &lis_res_, left > 0.0 ? std::min(left, kSmallMapStep) : kSmallMapStep);
   }
   Charge(lis_res_.cost);
   view_repeated_ = lis_res_.repeats > 0;

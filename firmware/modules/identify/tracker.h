@@ -389,7 +389,7 @@ struct TrackCounters {
   std::uint32_t left_out_undecided = 0;   // ... refused: no leave-out, or several, fit
   std::uint32_t left_out_budget_out = 0;  // ... refused: the frame set's budget ran out first
   std::uint32_t left_two_out = 0;         // ... of the published, two beacons left out
-  std::uint32_t overflow_stopped = 0;     // a small map's search stopped at the budget, its list overflowed (RunSmallMapLis)
+  std::uint32_t overflow_stopped = 0;     // a small map's search stopped at the budget, its list overflowed or too long to complete (RunSmallMapLis)
   std::uint32_t continued = 0;            // tracked beyond max_gate_px on continuing blobs (TrackContinuing)
   std::uint32_t continuity_refused = 0;   // ... refused by tracking's tests or the motion filter
   SolveCounters solve;
