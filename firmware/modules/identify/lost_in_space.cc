@@ -612,7 +612,8 @@ const std::array<BeaconSet, limits::kMaxBeacons>& LostInSpace::Feasible(int i, i
 // in five of six map rows, docs/acquisition.md; against session 6's order, where the near
 // range of every triple came first, the matrix's first-fix lag fell). Within a group, a
 // same-camera triple by its largest ray angle (fewer beacon pairs are seen under a small
-// angle), a cross-camera one in the order of selection (brightest first). With at least three
+// angle), a cross-camera one in the order of selection (brightest first; of steady blobs, those
+// over two cameras before those over three: session 36). With at least three
 // steady blobs selected, the triples of three steady blobs come first (same-camera, then
 // cross-camera, each triple's ranges in a row): most other triples hold a spurious blob.
 void LostInSpace::OrderItems(int num_bands) {
@@ -629,8 +630,10 @@ void LostInSpace::OrderItems(int num_bands) {
         triples_[static_cast<std::size_t>(t)] =
             Triple{static_cast<std::uint8_t>(i), static_cast<std::uint8_t>(j), static_cast<std::uint8_t>(k)};
         const int ci = blobs_[sel_[static_cast<std::size_t>(i)]].camera;
-        const bool same = ci == blobs_[sel_[static_cast<std::size_t>(j)]].camera &&
-                          ci == blobs_[sel_[static_cast<std::size_t>(k)]].camera;
+        const int cj = blobs_[sel_[static_cast<std::size_t>(j)]].camera;
+        const int ck = blobs_[sel_[static_cast<std::size_t>(k)]].camera;
+        const bool same = ci == cj && ci == ck;
+        const bool three_cameras = ci != cj && ci != ck && cj != ck;
         const double widest = std::max({std::acos(std::clamp(d(i).dot(d(j)), -1.0, 1.0)),
                                         std::acos(std::clamp(d(i).dot(d(k)), -1.0, 1.0)),
                                         std::acos(std::clamp(d(j).dot(d(k)), -1.0, 1.0))});
@@ -643,8 +646,15 @@ void LostInSpace::OrderItems(int num_bands) {
                                   sel_steady_[static_cast<std::size_t>(j)] && sel_steady_[static_cast<std::size_t>(k)];
           const int cls = all_steady ? (same ? 0 : 1) : (steady_first ? 2 : 0) + (same ? 0 : 1);
           const int group = cls * kMaxBands + (all_steady ? 0 : band);
+          // Among the cross-camera triples of steady blobs, those with two blobs in one camera
+          // first: that pair's angle prunes its beacon pairs (the co-visibility table) where
+          // three cameras leave only distances, thousands of beacon triples more in a large map
+          // (seen: a 64-beacon cylinder's first fix 140 frame sets after four beacons were in
+          // view, 59 with this order; NavMatrix.SteadyTriplesOverTwoCamerasAreSearchedFirst).
+          const float key = same ? static_cast<float>(widest)
+                                 : static_cast<float>(t + (all_steady && three_cameras ? kMaxTriples : 0));
           items_[static_cast<std::size_t>(num_items_++)] = Item{static_cast<std::uint16_t>(t), static_cast<std::uint8_t>(band),
-                                                                same, group, static_cast<float>(same ? widest : t)};
+                                                                same, group, key};
         }
       }
   // (std::sort with the index as tie-break: deterministic, and no heap.)
@@ -936,6 +946,24 @@ LisStatus LostInSpace::Continue(int budget, LisResult* result, double cost_budge
   return Decide(end == SearchEnd::kBudgetOut, options_, result);
 }
 
+// The feasible beacon triples of blob triple tr over the current range.
+long LostInSpace::CountTriples(const Triple& tr) {
+  const auto& fij = Feasible(tr.i, tr.j);
+  const auto& fik = Feasible(tr.i, tr.k);
+  const auto& fjk = Feasible(tr.j, tr.k);
+  long n = 0;
+  for (int a = 0; a < rig_->num_beacons; ++a) {
+    const BeaconSet& ta = fik[static_cast<std::size_t>(a)];
+    if (ta.Empty()) continue;
+    const BeaconSet& bs = fij[static_cast<std::size_t>(a)];
+    for (int b = bs.First(); b >= 0; b = bs.Next(b + 1)) {
+      const BeaconSet& tb = fjk[static_cast<std::size_t>(b)];
+      n += (ta & tb).Count() - (tb.Has(a) ? 1 : 0) - (ta.Has(b) ? 1 : 0);
+    }
+  }
+  return n;
+}
+
 bool LostInSpace::MayComplete(LisResult* result) {
   if (overflow_) return false;
   if (num_pose_sets_ > 1) return true;  // (several poses may allow a triple: not counted)
@@ -949,22 +977,8 @@ bool LostInSpace::MayComplete(LisResult* result) {
     for (int t = 0; t < num_items_ && work <= options_.max_hypotheses; ++t) {
       const Item& item = items_[static_cast<std::size_t>(t)];
       if (item.band != full) continue;
-      const Triple& tr = triples_[item.t];
-      const auto& fij = Feasible(tr.i, tr.j);
-      const auto& fik = Feasible(tr.i, tr.k);
-      const auto& fjk = Feasible(tr.j, tr.k);
-      long n = 0;
-      for (int a = 0; a < nb; ++a) {
-        const BeaconSet& ta = fik[static_cast<std::size_t>(a)];
-        if (ta.Empty()) continue;
-        const BeaconSet& bs = fij[static_cast<std::size_t>(a)];
-        for (int b = bs.First(); b >= 0; b = bs.Next(b + 1)) {
-          const BeaconSet& tb = fjk[static_cast<std::size_t>(b)];
-          n += (ta & tb).Count() - (tb.Has(a) ? 1 : 0) - (ta.Has(b) ? 1 : 0);
-        }
-        result->cost += kCostCountPerBeaconPair * nb;
-      }
-      work += n * (item.same_camera ? 1 : options_.cross_camera_work);
+      result->cost += kCostCountPerBeaconPair * nb * nb;
+      work += CountTriples(triples_[item.t]) * (item.same_camera ? 1 : options_.cross_camera_work);
     }
     SetRange(keep);
     work_bound_ = static_cast<int>(std::min<long>(work, std::numeric_limits<int>::max()));

@@ -337,6 +337,7 @@ class LostInSpace {
   };
   bool Hypothesis(int a, int b, int c, int unit, const Spent& since, LisResult* result, SearchEnd* end);
   bool FirstTry(int a, int b, int c);
+  long CountTriples(const Triple& tr);
   void TryTriple(int a, int b, int c, LisResult* result);
   void SetRange(int band);
   void Score(const BodyPose& pose, const LisOptions& o, LisResult* result);
