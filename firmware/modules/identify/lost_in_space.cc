@@ -494,10 +494,11 @@ void LostInSpace::PriorBeacons(LisResult* res) {
   }
   std::fill(allowed_.begin(), allowed_.begin() + num_sel_, BeaconSet{});
   const auto cos_a = static_cast<float>(std::cos(alpha)), sin_a = static_cast<float>(std::sin(alpha));
-  num_pose_sets_ = std::min(prior_->num_poses, limits::kMaxLisCandidates);
-  for (int p = 0; p < num_pose_sets_; ++p) {
+  // More poses than there is room for (the tracker never passes them): their union alone.
+  const bool per_pose = prior_->num_poses <= limits::kMaxLisCandidates;
+  for (int p = 0; p < prior_->num_poses; ++p) {
     const BodyPose& q = prior_->poses[p];
-    auto& sets = pose_allowed_[static_cast<std::size_t>(p)];
+    auto& sets = pose_allowed_[static_cast<std::size_t>(per_pose ? p : 0)];
     std::uint32_t cameras_done = 0;
     for (int i = 0; i < num_sel_; ++i) {
       const BodyRay& ray = rays_[static_cast<std::size_t>(i)];
@@ -535,8 +536,9 @@ void LostInSpace::PriorBeacons(LisResult* res) {
       allowed_[static_cast<std::size_t>(i)] |= set;
       if (!set.Empty()) blobs = static_cast<std::uint16_t>(blobs | 1U << i);
     }
-    pose_blobs_[static_cast<std::size_t>(p)] = blobs;
+    pose_blobs_[static_cast<std::size_t>(per_pose ? p : 0)] = blobs;
   }
+  num_pose_sets_ = per_pose ? prior_->num_poses : 0;
 }
 
 // An anchored blob is its beacon, and no other blob of its camera is: applied to one set per

@@ -217,8 +217,12 @@ struct LisAnchor {
 
 // Optional prior for Identify: only poses within max_m / max_rad of one of `poses` are
 // considered (the tracker passes the poses it still follows). Raw P3P poses get raw_slack_m /
-// raw_slack_rad more, for their noise. No poses (num_poses 0) with anchors: a search anywhere
-// that keeps the anchors (the tracker's cold search after a gap).
+// raw_slack_rad more, for their noise. Each pose narrows each blob to the beacons it may see
+// along it, and a blob triple is searched with the beacon triples one pose allows for all three
+// blobs (up to limits::kMaxLisCandidates poses; beyond, the union of their beacons): the cost
+// grows with the poses' own views.
+// No poses (num_poses 0) with anchors: a search anywhere that keeps the anchors (the tracker's
+// cold search after a gap).
 struct LisPrior {
   const BodyPose* poses = nullptr;
   int num_poses = 0;
