@@ -26,9 +26,30 @@ void WriteAll(int fd, const std::uint8_t* data, std::size_t size, const std::str
   }
 }
 
+// A device, FIFO or socket at the path (--out /dev/null, /dev/stdout): written in place, as a
+// shell's redirection would; renaming a file over it would replace the node itself (seen: as
+// root, `mfns-sim navmatrix --out /dev/null` turned /dev/null into a regular file).
+bool WriteInPlaceIfSpecial(const std::filesystem::path& path, std::span<const std::uint8_t> bytes) {
+  struct stat st {};
+  if (::stat(path.c_str(), &st) != 0 || S_ISREG(st.st_mode)) return false;
+  const std::string name = OneLine(path.string());
+  if (S_ISDIR(st.st_mode)) throw UserError(name + ": is a directory, expected a file");
+  const int fd = ::open(path.c_str(), O_WRONLY | O_CLOEXEC | O_NOCTTY);
+  if (fd < 0) throw UserError(name + ": cannot open: " + Errno());
+  try {
+    WriteAll(fd, bytes.data(), bytes.size(), name);
+  } catch (...) {
+    ::close(fd);
+    throw;
+  }
+  if (::close(fd) != 0) throw UserError(name + ": close failed: " + Errno());
+  return true;
+}
+
 }  // namespace
 
 void WriteFileAtomic(const std::filesystem::path& path, std::span<const std::uint8_t> bytes) {
+  if (WriteInPlaceIfSpecial(path, bytes)) return;
   const std::filesystem::path dir = path.has_parent_path() ? path.parent_path() : ".";
   std::string tmpl = (dir / ("." + path.filename().string() + ".tmp.XXXXXX")).string();
   const int fd = ::mkstemp(tmpl.data());

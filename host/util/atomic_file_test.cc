@@ -1,7 +1,9 @@
 #include "host/util/atomic_file.h"
 
 #include <gtest/gtest.h>
+#include <fcntl.h>
 #include <sys/stat.h>
+#include <unistd.h>
 
 #include <filesystem>
 
@@ -34,6 +36,30 @@ TEST(AtomicFile, FailureKeepsTheOldFile) {
   // A target path whose directory does not exist cannot be written; nothing else changes.
   EXPECT_THROW(WriteFileAtomic(dir / "missing" / "x.txt", std::string_view("bad")), UserError);
   EXPECT_EQ(ReadFile(file), "good");
+  std::filesystem::remove_all(dir);
+}
+
+// A FIFO (like /dev/null or /dev/stdout, a node that is not a regular file) is written in place:
+// renaming a file over it replaced the node itself (as root, `--out /dev/null` turned /dev/null
+// into a regular file, and ssh then failed on "/dev/null: bad configuration options").
+TEST(AtomicFile, ASpecialFileIsWrittenInPlaceNotReplaced) {
+  const auto dir = TempDir();
+  const auto fifo = dir / "fifo";
+  ASSERT_EQ(::mkfifo(fifo.c_str(), 0600), 0);
+  const int reader = ::open(fifo.c_str(), O_RDONLY | O_NONBLOCK);  // so that the writer's open returns
+  ASSERT_GE(reader, 0);
+  WriteFileAtomic(fifo, std::string_view("through the pipe"));
+  struct stat st {};
+  ASSERT_EQ(::stat(fifo.c_str(), &st), 0);
+  EXPECT_TRUE(S_ISFIFO(st.st_mode));
+  char buf[64] = {};
+  EXPECT_EQ(::read(reader, buf, sizeof buf), 16);
+  EXPECT_EQ(std::string(buf), "through the pipe");
+  ::close(reader);
+  int entries = 0;
+  for ([[maybe_unused]] const auto& e : std::filesystem::directory_iterator(dir)) ++entries;
+  EXPECT_EQ(entries, 1);  // no temp file left beside it
+  EXPECT_THROW(WriteFileAtomic(dir, std::string_view("x")), UserError);  // a directory: refused
   std::filesystem::remove_all(dir);
 }
 

@@ -4,6 +4,8 @@
 #include <signal.h>
 #include <sys/resource.h>
 #include <sys/socket.h>
+#include <sys/stat.h>
+#include <fcntl.h>
 #include <unistd.h>
 
 #include <cstdlib>
@@ -432,6 +434,35 @@ TEST(PoseLog, WritesTheDesignCsvAndRenamesOnClose) {
                  "7:inconsistent 40:missing");
   EXPECT_FALSE(std::filesystem::exists(path + ".partial"));
   EXPECT_EQ(log.Open((tmpl + "/missing/x.csv").c_str()), PublishStatus::kFileError);
+  std::filesystem::remove_all(tmpl);
+}
+
+// A path that is a FIFO (like /dev/null or /dev/stdout) is written in place and never renamed
+// over: `mfns-navd --log /dev/null` as root would have replaced /dev/null with the log.
+TEST(PoseLog, ASpecialFileIsWrittenInPlace) {
+  std::string tmpl = (std::filesystem::temp_directory_path() / "mfns-poselog-XXXXXX").string();
+  ASSERT_NE(::mkdtemp(tmpl.data()), nullptr);
+  const std::string fifo = tmpl + "/fifo";
+  ASSERT_EQ(::mkfifo(fifo.c_str(), 0600), 0);
+  const int reader = ::open(fifo.c_str(), O_RDONLY | O_NONBLOCK);
+  ASSERT_GE(reader, 0);
+  PoseLog log;
+  ASSERT_EQ(log.Open(fifo.c_str()), PublishStatus::kOk);
+  EXPECT_STREQ(log.partial_path(), fifo.c_str());
+  PoseRecord r;
+  r.frame_set = 3;
+  ASSERT_EQ(log.Write(r), PublishStatus::kOk);
+  ASSERT_EQ(log.Close(), PublishStatus::kOk);
+  struct stat st {};
+  ASSERT_EQ(::stat(fifo.c_str(), &st), 0);
+  EXPECT_TRUE(S_ISFIFO(st.st_mode));
+  EXPECT_FALSE(std::filesystem::exists(fifo + ".partial"));
+  char buf[512] = {};
+  const ssize_t n = ::read(reader, buf, sizeof buf - 1);
+  ::close(reader);
+  ASSERT_GT(n, 0);
+  EXPECT_EQ(std::string(buf).rfind("frame,t_ns,status,", 0), 0u);
+  EXPECT_NE(std::string(buf).find("\n3,0,"), std::string::npos);
   std::filesystem::remove_all(tmpl);
 }
 

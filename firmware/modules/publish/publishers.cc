@@ -5,6 +5,7 @@
 #include <netdb.h>
 #include <netinet/in.h>
 #include <sys/socket.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include <cerrno>
@@ -188,7 +189,12 @@ PublishStatus PoseLog::Open(const char* path) {
   first_errno_ = 0;
   if (path == nullptr || std::strlen(path) >= sizeof(path_)) return PublishStatus::kFileError;
   std::strncpy(path_, path, sizeof(path_) - 1);
-  std::snprintf(partial_, sizeof(partial_), "%s.partial", path_);
+  // A device, FIFO or socket at the path (--log /dev/null, /dev/stdout) is written in place:
+  // renaming a file over it would replace the node itself (as root, /dev/null became a file).
+  struct stat st {};
+  in_place_ = ::stat(path_, &st) == 0 && !S_ISREG(st.st_mode) && !S_ISDIR(st.st_mode);
+  if (in_place_) std::snprintf(partial_, sizeof(partial_), "%s", path_);
+  else std::snprintf(partial_, sizeof(partial_), "%s.partial", path_);
   errno = 0;
   file_ = std::fopen(partial_, "w");
   if (file_ == nullptr) return Fail();
@@ -220,7 +226,9 @@ PublishStatus PoseLog::Write(const PoseRecord& r, const char* flagged_beacons) {
 PublishStatus PoseLog::Close() {
   if (file_ == nullptr) return failed() ? PublishStatus::kFileError : PublishStatus::kOk;
   errno = 0;
-  bool ok = !failed() && std::fflush(file_) == 0 && ::fsync(fileno(file_)) == 0 && std::ferror(file_) == 0;
+  // (fsync of a device or a pipe fails with EINVAL: nothing to make durable there.)
+  bool ok = !failed() && std::fflush(file_) == 0 && (in_place_ || ::fsync(fileno(file_)) == 0) &&
+            std::ferror(file_) == 0;
   if (!ok) Fail();
   errno = 0;
   const bool closed = std::fclose(file_) == 0;  // false: e.g. a deferred write error
@@ -228,7 +236,7 @@ PublishStatus PoseLog::Close() {
   if (ok && !closed) Fail();
   if (!ok || !closed) return PublishStatus::kFileError;
   errno = 0;
-  if (std::rename(partial_, path_) != 0) return Fail();
+  if (!in_place_ && std::rename(partial_, path_) != 0) return Fail();
   return PublishStatus::kOk;
 }
 

@@ -110,7 +110,8 @@ class Outputs {
 // succeeded, so <path> only ever holds a complete log and a failed run never replaces a good
 // one: after a failure (a full disk: the last row may be cut mid-number) later rows are dropped
 // and counted, and Close leaves <path> untouched and the .partial for inspection. Destroying an
-// open PoseLog without Close (a start that failed) also leaves <path> untouched.
+// open PoseLog without Close (a start that failed) also leaves <path> untouched. A path that
+// is a device, FIFO or socket (/dev/null, /dev/stdout) is written in place, never renamed over.
 class PoseLog {
  public:
   PoseLog() = default;
@@ -137,6 +138,7 @@ class PoseLog {
 
   std::FILE* file_ = nullptr;
   int first_errno_ = 0;
+  bool in_place_ = false;  // the path is a device, FIFO or socket: written directly, never renamed
   char path_[limits::kMaxPathChars] = {};
   char partial_[limits::kMaxPathChars + 16] = {};
   char buffer_[8192] = {};
