@@ -327,6 +327,24 @@ TEST(ReloadSignal, SignalsOnlyARunningProcessWithTheExpectedName) {
 
 // Issue 14: a FIFO as --params, or named like a slot, hung navd's start and its reload
 // mid-flight (frame processing stopped). Refused (the file) or skipped (a slot), at once.
+// A pid file path that is not a regular file (--pid-file /dev/null) is refused with EINVAL and
+// left as it was: the rename would have replaced the node itself.
+TEST(ReloadSignal, APidFileThatIsNotARegularFileIsRefusedAndLeftAlone) {
+  TempDir dir;
+  const std::string fifo = dir / "navd.pid";
+  ASSERT_EQ(::mkfifo(fifo.c_str(), 0644), 0);
+  errno = 0;
+  EXPECT_FALSE(WritePidFile(fifo.c_str()));
+  EXPECT_EQ(errno, EINVAL);
+  struct stat st {};
+  ASSERT_EQ(::stat(fifo.c_str(), &st), 0);
+  EXPECT_TRUE(S_ISFIFO(st.st_mode));
+  EXPECT_FALSE(std::filesystem::exists(fifo + ".tmp"));
+  const std::string file = dir / "ok.pid";
+  EXPECT_TRUE(WritePidFile(file.c_str()));
+  EXPECT_TRUE(RemovePidFile(file.c_str()));
+}
+
 TEST(ParamLoader, AFifoAsTheBlobFileOrASlotIsRefusedWithoutBlocking) {
   TempDir dir;
   const std::string fifo = dir / "cal.bin";

@@ -1,6 +1,7 @@
 #include "firmware/modules/params/reload_signal.h"
 
 #include <fcntl.h>
+#include <sys/stat.h>
 #include <signal.h>
 #include <unistd.h>
 
@@ -79,6 +80,13 @@ SignalStatus SignalReload(const char* pid_file, const char* process_name, int* p
 }
 
 bool WritePidFile(const char* path) {
+  // A pid file names a regular file: renaming one over a device or FIFO (--pid-file /dev/null)
+  // would replace the node itself.
+  struct stat st {};
+  if (path != nullptr && ::stat(path, &st) == 0 && !S_ISREG(st.st_mode)) {
+    errno = EINVAL;
+    return false;
+  }
   std::array<char, limits::kMaxPathChars + 8> tmp{};
   const int w = std::snprintf(tmp.data(), tmp.size(), "%s.tmp", path);
   if (w < 0 || static_cast<std::size_t>(w) >= tmp.size()) {

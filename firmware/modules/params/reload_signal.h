@@ -32,7 +32,8 @@ const char* ToString(SignalStatus s);
 // *pid (optional) receives the pid read (0 if none).
 SignalStatus SignalReload(const char* pid_file, const char* process_name, int* pid);
 
-// Writes getpid() to path atomically (path.tmp, fsync, rename). False with errno on failure.
+// Writes getpid() to path atomically (path.tmp, fsync, rename). False with errno on failure
+// (EINVAL: path exists and is not a regular file, e.g. /dev/null, which it leaves alone).
 bool WritePidFile(const char* path);
 
 // Removes path if it names this process. False when it did not.
