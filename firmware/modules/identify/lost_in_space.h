@@ -295,10 +295,10 @@ class LostInSpace {
   // Whether the search in progress may still end with a complete list: not overflowed, and,
   // with at most one prior pose, the work spent plus its beacon triples not tried yet (counted
   // once per search, exactly: each blob triple's feasible ones over the full depth range) fit
-  // within max_hypotheses work units. (A search that
-  // cannot complete gives a fix only by confirming one, and its time is better spent on the next
-  // frame set's blobs: seen, 16-24-beacon stations with 8 blobs a frame set, searches of 20 000
-  // units, ~20 ms, that ended incomplete.) The count's cost is charged to *result.
+  // within max_hypotheses work units. (A search that cannot complete gives a fix only by
+  // confirming one, and its time is better spent on the next frame set's blobs: seen,
+  // 16-24-beacon stations with 8 blobs a frame set, searches of 20 000 units, ~20 ms, that
+  // ended incomplete.) The count's cost is charged to *result.
   bool MayComplete(LisResult* result);
   // Ends the search in progress as if its budget had run out: the result as Continue's then
   // (kBudgetExhausted, or the poses found so far, the list incomplete). Without a search in
