@@ -1132,6 +1132,38 @@ TEST(LostInSpaceTest, ASearchThatCannotCompleteIsKnownEarly) {
   EXPECT_GE(cost_after_told, 0.8 * cost_incomplete);
 }
 
+// A search cut by its budget before a confirmed pose gives neither a fix nor a complete list,
+// so it ends where its budget does: it used to refine every raw pose it had kept (14 units
+// each, up to limits::kMaxLisCandidates of them) after the budget had run out - +45 % on a
+// small cluttered map's cold searches (the tracker's frame sets of 13 ms, session 37).
+TEST(LostInSpaceTest, ASearchCutByItsBudgetEndsWithinIt) {
+  std::mt19937_64 rng(937);
+  const Rig* rig = ResetOnCylinder(10, &rng);
+  ASSERT_NE(rig, nullptr);
+  LisOptions o;
+  o.max_cost = 1500.0;
+  // One hypothesis past the budget: up to 8 P3P roots, each reprojected and refined.
+  const double one_hypothesis = 8.0 * (14.0 + 0.113 * rig->num_beacons) + 4.0;
+  int cut = 0, with_poses = 0;
+  double worst_over = 0.0;
+  for (int trial = 0; trial < testing::Trials(24, 8); ++trial) {
+    testing::Observe(*rig, testing::RandomCylinderPose(&rng), 0.1, &rng, &g_scene);
+    testing::AddSpurious(*rig, 3 * rig->num_cameras, &rng, &g_scene);
+    g_lis.Identify(g_scene.blobs.data(), g_scene.num_blobs, o, &g_res);
+    if (g_res.search_complete || g_res.confirmed) continue;
+    ++cut;
+    with_poses += g_res.poses_scored > 100 ? 1 : 0;
+    worst_over = std::max(worst_over, g_res.cost - o.max_cost);
+    EXPECT_LE(g_res.cost, o.max_cost + one_hypothesis) << "trial " << trial;
+    EXPECT_NE(g_res.status, LisStatus::kFix) << "trial " << trial;
+    EXPECT_FALSE(g_res.complete) << "trial " << trial;
+  }
+  std::printf("%d searches cut by the budget (%d with > 100 poses scored), worst %.0f units over it\n", cut,
+              with_poses, worst_over);
+  EXPECT_GE(cut, testing::Trials(24, 8) / 2);
+  EXPECT_GT(with_poses, 0);
+}
+
 }  // namespace
 
 }  // namespace mfns::fw
