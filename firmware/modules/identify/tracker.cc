@@ -1188,6 +1188,24 @@ BlobTrackOptions Tracker::BlobTrackOptionsOf(const TrackOptions& o) const {
 // At least one unit per search, so that a frame set's searches always end.
 void Tracker::Charge(double cost) { lis_budget_left_ -= std::max(1.0, cost); }
 
+// The cheapest kind of blob triple the steady blobs make (the first of LostInSpace::
+// OrderItems' classes): three in one camera prune their beacon triples by two angles, two in
+// one camera by one, three in three cameras only by distances (thousands of beacon triples
+// more in a 64-beacon map: a whole cold search's work).
+Tracker::SteadyShape Tracker::SteadyShapeOf(const BlobObs* blobs, int num_blobs) const {
+  if (steady_ == nullptr) return SteadyShape::kNone;
+  std::array<int, limits::kMaxCameras> per_camera{};
+  int total = 0;
+  for (int i = 0; i < num_blobs; ++i)
+    if (steady_[static_cast<std::size_t>(i)] != 0) {
+      ++per_camera[static_cast<std::size_t>(blobs[i].camera)];
+      ++total;
+    }
+  const int most = *std::max_element(per_camera.begin(), per_camera.end());
+  if (total < 3) return SteadyShape::kNone;
+  return most >= 3 ? SteadyShape::kOneCamera : most == 2 ? SteadyShape::kTwoCameras : SteadyShape::kThreeCameras;
+}
+
 // Lost-in-space with no prior, spread over frame sets (LostInSpace::Begin/Continue): a search
 // begun on an earlier frame set goes on with this frame set's budget until it ends or grows
 // older than cold_search_s; then one begins on this frame set. *old: the result is of the
@@ -1198,13 +1216,13 @@ void Tracker::Charge(double cost) { lis_budget_left_ -= std::max(1.0, cost); }
 LisStatus Tracker::ColdSearch(const BlobObs* blobs, int num_blobs, std::uint64_t t_ns, const TrackOptions& o,
                               bool* old) {
   *old = false;
-  // A search begun before three blobs were steady starts over once they are: its own order
-  // has them nowhere in particular.
-  const int steady = steady_ != nullptr ? blob_tracks_.num_steady() : 0;
-  const bool steadier = cold_steady_ < 3 && steady >= 3;
+  // A search begun before the steady blobs made a triple of a cheaper shape starts over once
+  // they do: its own order has that triple nowhere in particular (or behind a dearer one).
+  const SteadyShape shape = SteadyShapeOf(blobs, num_blobs);
+  const bool steadier = shape < cold_shape_;
   if (!lis_.searching() || steadier || Seconds(t_ns, cold_t_ns_) > o.cold_search_s || t_ns < cold_t_ns_) {
     cold_t_ns_ = t_ns;
-    cold_steady_ = steady;
+    cold_shape_ = shape;
     cold_prior_ = LisPrior{};
     AnchorContinuingBlobs(o, &cold_prior_);
     const LisStatus s = lis_.Begin(blobs, num_blobs, o.lis, &lis_res_, cold_prior_.num_anchors > 0 ? &cold_prior_ : nullptr,

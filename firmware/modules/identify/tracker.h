@@ -541,7 +541,10 @@ class Tracker {
   int num_continuing_ = 0;
   static constexpr int kMaxAnchors = 5;
   std::array<LisAnchor, kMaxAnchors> anchors_{};  // continuing blobs as anchors (AnchorContinuingBlobs)
-  int cold_steady_ = 0;  // steady blobs when the cold search in progress began
+  // Steady blob triples, cheapest first (SteadyShapeOf).
+  enum class SteadyShape { kOneCamera, kTwoCameras, kThreeCameras, kNone };
+  SteadyShape SteadyShapeOf(const BlobObs* blobs, int num_blobs) const;
+  SteadyShape cold_shape_ = SteadyShape::kNone;  // when the cold search in progress began
   LisPrior cold_prior_;  // the cold search's anchors (no poses; AnchorContinuingBlobs)
   double lis_budget_left_ = 0.0;  // LisResult::cost left to this frame set
   std::uint64_t cold_t_ns_ = 0;  // the frame set of the cold search in progress

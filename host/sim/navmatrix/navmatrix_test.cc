@@ -962,6 +962,23 @@ TEST(NavMatrix, SteadyTriplesOverTwoCamerasAreSearchedFirst) {
   EXPECT_EQ(result.wrong_degraded, 0);
 }
 
+// A cold search begun when the steady blobs made only a dearer kind of triple (one blob in
+// each of three cameras) starts over once they make a cheaper one (two or three in one camera:
+// Tracker::SteadyShapeOf), which its own order has behind the dearer one: in a large map that
+// triple's beacon triples fill the search. The case as found: station box 64 seed 3, first fix
+// 13 frame sets after the first view of four beacons with a restart only when three blobs first
+// became steady, 2 with this rule (docs/acquisition.md, session 37).
+TEST(NavMatrix, AColdSearchStartsOverWhenTheSteadyBlobsMakeACheaperTriple) {
+  const RunSpec r{.preset = "station-box", .count = 64, .seed = 3, .facing = true, .frames = 90};
+  const RunResult result = RunNavigation(MatrixScenario(r), NavMatrixOptions{});
+  std::printf("box 64 seed 3: first view of 4 beacons %d, first fix %d; fixes %d, wrong %d / %d\n",
+              result.first_in_view, result.first_fix, result.fixes, result.wrong_fixes, result.wrong_degraded);
+  ASSERT_TRUE(result.HasLag());
+  EXPECT_LE(result.Lag(), 10);
+  EXPECT_EQ(result.wrong_fixes, 0);
+  EXPECT_EQ(result.wrong_degraded, 0);
+}
+
 }  // namespace
 
 }  // namespace mfns::host
