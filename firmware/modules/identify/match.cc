@@ -75,8 +75,13 @@ int BeaconMatcher::SetBlobs(const BlobObs* blobs, int num_blobs, std::uint32_t c
 
 bool BeaconMatcher::Predict(int k, const BodyPose& pose, const Eigen::Vector3d& P_w, double grow_px,
                             double margin_px, Eigen::Vector2d* uv_px, bool* inner) const {
+  return PredictInCamera(k, WorldToCamera(rig_->cameras[static_cast<std::size_t>(k)], pose, P_w), grow_px, margin_px,
+                         uv_px, inner);
+}
+
+bool BeaconMatcher::PredictInCamera(int k, const Eigen::Vector3d& p_k, double grow_px, double margin_px,
+                                    Eigen::Vector2d* uv_px, bool* inner) const {
   const RigCamera& cam = rig_->cameras[static_cast<std::size_t>(k)];
-  const Eigen::Vector3d p_k = WorldToCamera(cam, pose, P_w);
   if (!(p_k.z() > 0.0) ||
       p_k.head<2>().squaredNorm() > max_tan_sq_[static_cast<std::size_t>(k)] * p_k.z() * p_k.z())
     return false;
@@ -114,14 +119,19 @@ void BeaconMatcher::MatchPose(const BodyPose& pose, const MatchOptions& o, Match
     std::array<int, limits::kMaxBeacons> inner_beacon{};
     int n_inner = 0;
     const Eigen::Vector3d centre_w = pose.C_w_b * rig_->cameras[sk].r_b_bk + pose.r_w_wb;
+    // World to camera k in one product per beacon (WorldToCamera's two, and its call, were
+    // a tenth of a 256-beacon cold search).
+    const Eigen::Matrix3d C_k_w = rig_->cameras[sk].C_k_b * pose.C_w_b.transpose();
     for (int m = 0; m < rig_->num_beacons; ++m) {
       Eigen::Vector2d uv;
       bool inner = false;
       const auto sm = static_cast<std::size_t>(m);
       if (excluded_.Has(m)) continue;
-      if (rig_->has_facing && !BeaconFacesCos(*rig_, m, centre_w, cos_wide_[sm])) continue;
-      if (!Predict(k, pose, rig_->beacons_w[static_cast<std::size_t>(m)], o.gate_px, o.miss_margin_px, &uv, &inner))
+      // The camera's cone first: it leaves out most of a large map at the cost of a rotation,
+      // where the facing test takes a square root (a tenth of a 256-beacon cold search).
+      if (!PredictInCamera(k, C_k_w * (rig_->beacons_w[sm] - centre_w), o.gate_px, o.miss_margin_px, &uv, &inner))
         continue;
+      if (rig_->has_facing && !BeaconFacesCos(*rig_, m, centre_w, cos_wide_[sm])) continue;
       if (inner && rig_->has_facing && !BeaconFacesCos(*rig_, m, centre_w, cos_narrow_[sm])) inner = false;
       if (inner && o.skip_blind_cells && Blind(k, uv)) inner = false;  // glare or unwritten rows hide it
       if (InImage(rig_->cameras[sk].intrinsics, uv)) ++out->num_predicted;

@@ -178,6 +178,9 @@ class BeaconMatcher {
   // it is margin_px inside the image.
   bool Predict(int k, const BodyPose& pose, const Eigen::Vector3d& P_w, double grow_px, double margin_px,
                Eigen::Vector2d* uv_px, bool* inner) const;
+  // The same for the beacon's position in camera k's frame, p_k (m).
+  bool PredictInCamera(int k, const Eigen::Vector3d& p_k, double grow_px, double margin_px, Eigen::Vector2d* uv_px,
+                       bool* inner) const;
 
   // Beacons left out of every prediction until the next call (none at Reset): never matched,
   // never missing. Beacon health's inconsistent beacons (moved, or a reflection in their
