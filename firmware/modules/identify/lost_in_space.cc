@@ -299,7 +299,7 @@ bool LostInSpace::Refine(Candidate* c, const LisOptions& o) {
 
 // Whether some selected blob other than the hypothesis' three (t_i, t_j, t_k) sees a beacon
 // within max_rad of its ray at `pose`: a cheap necessary condition for a fourth match.
-bool LostInSpace::ExplainsAFourth(const BodyPose& pose, int t_i, int t_j, int t_k, float cos_sq) {
+bool LostInSpace::ExplainsAFourth(const BodyPose& pose, int t_i, int t_j, int t_k, float cos_sq, FourthOf which) {
   const int nb = rig_->num_beacons;
   // The blobs of one camera share its centre: its offsets to the beacons (and their squared
   // lengths times cos_sq) are computed once per pose, at its first blob (in 256-beacon maps
@@ -308,6 +308,7 @@ bool LostInSpace::ExplainsAFourth(const BodyPose& pose, int t_i, int t_j, int t_
   for (int s = 0; s < num_sel_; ++s) {
     if (s == t_i || s == t_j || s == t_k) continue;
     const auto ss = static_cast<std::size_t>(s);
+    if ((which == FourthOf::kSteady && !sel_steady_[ss]) || (which == FourthOf::kUnsteady && sel_steady_[ss])) continue;
     const auto k = static_cast<std::size_t>(blobs_[sel_[ss]].camera);
     CameraOffsets& c = offsets_[k];
     if ((offsets_of >> k & 1U) == 0) {
@@ -346,8 +347,17 @@ void LostInSpace::Score(const BodyPose& pose, const LisOptions& o, LisResult* re
   const double nb = rig_->num_beacons;
   const bool pairs_anchored = anchors_per_triple_ >= 2;
   const bool fourth_test = !PosePrior() && !pairs_anchored && rig_->num_beacons >= o.fourth_blob_min_beacons;
-  if (fourth_test) result->cost += kCostFourthPerBeaconBlob * nb * num_sel_;
-  if (fourth_test && !ExplainsAFourth(pose, cur_i_, cur_j_, cur_k_, fourth_cos_sq_)) return;
+  // A triple of steady blobs asks for a steady fourth (LisOptions::steady_fourth); a pose with
+  // only an unsteady one is deferred, and the list can no longer be exhaustive (deferred_).
+  const bool steady_only = o.steady_fourth && num_sel_steady_ >= 4 && sel_steady_[static_cast<std::size_t>(cur_i_)] &&
+                           sel_steady_[static_cast<std::size_t>(cur_j_)] && sel_steady_[static_cast<std::size_t>(cur_k_)];
+  if (fourth_test) {
+    result->cost += kCostFourthPerBeaconBlob * nb * num_sel_;
+    if (!ExplainsAFourth(pose, cur_i_, cur_j_, cur_k_, fourth_cos_sq_, steady_only ? FourthOf::kSteady : FourthOf::kAny)) {
+      if (steady_only && ExplainsAFourth(pose, cur_i_, cur_j_, cur_k_, fourth_cos_sq_, FourthOf::kUnsteady)) deferred_ = true;
+      return;
+    }
+  }
   // Under a prior (or two anchors) no fourth-blob test filters the poses: their full
   // reprojection is work the budget counts (a frame set's time would otherwise grow with the
   // map; seen: 22 ms).
@@ -902,6 +912,7 @@ LisStatus LostInSpace::Begin(const BlobObs* blobs, int num_blobs, const LisOptio
   res.repeats = 0;
   num_cand_ = 0;
   overflow_ = false;
+  deferred_ = false;
   work_bound_ = -1;
   hypothesis_work_ = 0;
   num_repeated_ = 0;
@@ -1000,14 +1011,17 @@ LisStatus LostInSpace::Stop(LisResult* result) {
 
 LisStatus LostInSpace::Decide(bool budget_out, const LisOptions& o, LisResult* result) {
   LisResult& res = *result;
-  res.search_complete = !budget_out && !res.confirmed;
+  // A search that deferred a pose (LisOptions::steady_fourth) has not listed every pose: like
+  // one cut by its budget, it fixes only on a confirmed pose.
+  const bool cut = budget_out || deferred_;
+  res.search_complete = !cut && !res.confirmed;
   // Refine every kept pose; those that predict a beacon well inside an image where no blob is
   // (missing) are refuted, the others are consistent with the blobs. Merge the ones that
   // turned out the same, rank by score. A search cut by its budget before a confirmed pose
   // can neither fix nor give a complete list (which alone the tracker follows), so its raw
   // poses are not refined: that was up to 256 refinements after the budget had run out (seen:
   // +45 % on a 10-beacon map's cold searches with clutter, 13 ms frame sets).
-  const bool refine_raw = !budget_out || res.confirmed;
+  const bool refine_raw = !cut || res.confirmed;
   int kept = 0;
   for (int i = 0; i < num_cand_; ++i) {
     Candidate& c = cand_[static_cast<std::size_t>(i)];
@@ -1035,7 +1049,7 @@ LisStatus LostInSpace::Decide(bool budget_out, const LisOptions& o, LisResult* r
     res.consistent_poses[static_cast<std::size_t>(i)] = cand_[static_cast<std::size_t>(i)].pose;
     res.consistent_scores[static_cast<std::size_t>(i)] = cand_[static_cast<std::size_t>(i)].score;
   }
-  const LisStatus none = budget_out ? LisStatus::kBudgetExhausted : LisStatus::kNoHypothesis;
+  const LisStatus none = budget_out ? LisStatus::kBudgetExhausted : deferred_ ? LisStatus::kAmbiguous : LisStatus::kNoHypothesis;
   if (num_cand_ == 0) return res.status = none;
   const Candidate& best = cand_[0];
   res.pose = best.pose;
@@ -1049,7 +1063,7 @@ LisStatus LostInSpace::Decide(bool budget_out, const LisOptions& o, LisResult* r
   // merged into a twin whose near miss was not excused: a three-beacon pose 3.5 m off won).
   if (res.confirmed && !SamePose(best, confirmed_, o)) return res.status = LisStatus::kBudgetExhausted;
   if (res.best_score - res.second_score < o.min_score_margin) return res.status = LisStatus::kAmbiguous;
-  if (budget_out && !res.confirmed) return res.status = LisStatus::kBudgetExhausted;
+  if (cut && !res.confirmed) return res.status = budget_out ? LisStatus::kBudgetExhausted : LisStatus::kAmbiguous;
   // The fix: a last solve over the final identities gives covariance and residuals.
   const SolveStatus s = SolvePose(*rig_, blobs_, num_blobs_, res.matches.matches.data(), res.matches.num_matches,
                                   best.pose, o.solve, &res.solve);

@@ -128,6 +128,12 @@ struct LisOptions {
   // (without it, a track in a large map was never re-identified with three beacons in view).
   // Nor when two blobs of every triple are anchored (LisPrior::anchors): ~N beacon triples each.
   int fourth_blob_min_beacons = 32;
+  // With at least four steady blobs selected, a triple of steady blobs passes that test only on
+  // a steady fourth: a beacon lined up with a flickering spurious blob was the common pass in a
+  // dense view, each a full reprojection. A pose whose only fourth is unsteady is deferred (found,
+  // if at all, from a triple holding that blob), and a search that deferred one cannot say it
+  // listed every pose: it fixes only on a confirmed pose (kAmbiguous otherwise).
+  bool steady_fourth = true;
   // Each blob triple is also searched with beacons paired as if within this depth of the
   // cameras, a cheaper work item visited earlier (<= 0: no such items; see SetRange), and then
   // within twice, four times ... that depth: near_bands ranges in all (those below the full
@@ -329,7 +335,8 @@ class LostInSpace {
   bool RepeatedElsewhere(const Candidate& c, const LisOptions& o, LisResult* result);
   bool CopyExplainsTheBlobs(const Candidate& c, const Eigen::Matrix3d& R, const Eigen::Vector3d& t, int n,
                             const LisOptions& o);
-  bool ExplainsAFourth(const BodyPose& pose, int t_i, int t_j, int t_k, float cos_sq);
+  enum class FourthOf : unsigned char { kAny, kSteady, kUnsteady };  // which selected blobs may be the fourth
+  bool ExplainsAFourth(const BodyPose& pose, int t_i, int t_j, int t_k, float cos_sq, FourthOf which);
   enum class SearchEnd : unsigned char { kDone, kPaused, kBudgetOut };
   SearchEnd Search(int budget, double cost_budget, LisResult* result);
   // The budgets of one Search call: what was spent when it began.
@@ -446,6 +453,7 @@ class LostInSpace {
   std::array<BodyPose, limits::kMaxP3pSolutions> solutions_{};
   int num_cand_ = 0;
   bool overflow_ = false;
+  bool deferred_ = false;  // a pose whose only fourth blob was unsteady was not scored (steady_fourth)
   int work_bound_ = -1;  // MayComplete's count of the search in progress (-1: not counted)
   int hypothesis_work_ = 0;  // the work units of the hypotheses tried so far (LisResult::work less the scoring's)
   // Beacon sets this search found repeated elsewhere in the map (RepeatedElsewhere's memo). A

@@ -1164,6 +1164,55 @@ TEST(LostInSpaceTest, ASearchCutByItsBudgetEndsWithinIt) {
   EXPECT_GT(with_poses, 0);
 }
 
+// Triples of steady blobs pass the fourth-blob test only on a steady fourth
+// (LisOptions::steady_fourth): in a dense map a beacon lined up with a flickering spurious blob
+// was the common pass, each a full reprojection (the matrix's box 256 seed 3: first fix 51 -> 19
+// frame sets after the first view of four beacons: NavMatrix.
+// ADenseBoxIsFixedSoonerWhenSteadyTriplesAskForASteadyFourth). A pose whose only fourth blob is
+// unsteady is deferred, and such a search no longer calls its list complete (the raw fourth
+// test is noisy: the triples that hold the unsteady blob need not list that pose; seen here).
+// A complete list is the same as without the rule. On a 10-beacon map with the test on from 8
+// beacons (a larger map's search seldom completes within its work units), the beacons just in
+// view (not steady yet) beside four steady reflections: the case the rule defers most.
+TEST(LostInSpaceTest, ASteadyFourthNeverShortensACompleteList) {
+  std::mt19937_64 rng(983);
+  const Rig* rig = ResetOnCylinder(10, &rng);
+  ASSERT_NE(rig, nullptr);
+  std::array<std::uint8_t, limits::kMaxObservations> steady{};
+  int both_complete = 0, only_without = 0;
+  for (int trial = 0; trial < testing::Trials(60, 20); ++trial) {
+    do testing::Observe(*rig, testing::RandomCylinderPose(&rng), 0.1, &rng, &g_scene);
+    while (g_scene.NumVisibleBeacons() < 4 || g_scene.num_blobs > 5);
+    const int beacon_blobs = g_scene.num_blobs;
+    testing::AddSpurious(*rig, 4, &rng, &g_scene);
+    for (int i = 0; i < g_scene.num_blobs; ++i) steady[static_cast<std::size_t>(i)] = i >= beacon_blobs ? 1 : 0;
+    std::array<LisResult, 2> r;
+    for (const bool on : {true, false}) {
+      LisOptions o;
+      o.fourth_blob_min_beacons = 8;
+      o.confirm_beacons = 0;  // (no confirmation: the search runs to its end)
+      o.steady_fourth = on;
+      g_lis.Identify(g_scene.blobs.data(), g_scene.num_blobs, o, &r[on ? 0 : 1], nullptr, kAllCameras, steady.data());
+    }
+    only_without += !r[0].complete && r[1].complete ? 1 : 0;
+    EXPECT_TRUE(!r[0].complete || r[1].complete) << "trial " << trial;
+    if (!r[0].complete || !r[1].complete) continue;
+    ++both_complete;
+    EXPECT_EQ(r[0].status, r[1].status) << "trial " << trial;
+    ASSERT_EQ(r[0].num_consistent, r[1].num_consistent) << "trial " << trial;
+    for (int i = 0; i < r[0].num_consistent; ++i) {
+      const BodyPose& p = r[0].consistent_poses[static_cast<std::size_t>(i)];
+      bool found = false;
+      for (int k = 0; k < r[1].num_consistent && !found; ++k)
+        found = (p.r_w_wb - r[1].consistent_poses[static_cast<std::size_t>(k)].r_w_wb).norm() < 1e-3;
+      EXPECT_TRUE(found) << "trial " << trial << ": pose " << i << " of the steady-fourth list is not in the other";
+    }
+  }
+  std::printf("%d complete lists alike; %d complete only without the rule (a pose deferred)\n", both_complete,
+              only_without);
+  EXPECT_GE(both_complete, testing::Trials(60, 20) / 6);
+}
+
 }  // namespace
 
 }  // namespace mfns::fw
