@@ -298,17 +298,22 @@ bool LostInSpace::Refine(Candidate* c, const LisOptions& o) {
 }
 
 // Whether some selected blob other than the hypothesis' three (t_i, t_j, t_k) sees a beacon
-// within max_rad of its ray at `pose`: a cheap necessary condition for a fourth match.
-bool LostInSpace::ExplainsAFourth(const BodyPose& pose, int t_i, int t_j, int t_k, float cos_sq, FourthOf which) {
+// within max_rad of its ray at `pose`: a cheap necessary condition for a fourth match. With
+// steady_only only a steady blob makes it kFound, and kUnsteadyOnly says an unsteady one would
+// have (one scan: each camera's offsets computed once).
+LostInSpace::Fourth LostInSpace::ExplainsAFourth(const BodyPose& pose, int t_i, int t_j, int t_k, float cos_sq,
+                                                 bool steady_only) {
   const int nb = rig_->num_beacons;
   // The blobs of one camera share its centre: its offsets to the beacons (and their squared
   // lengths times cos_sq) are computed once per pose, at its first blob (in 256-beacon maps
   // this test was a quarter of a cold search's time).
   std::uint32_t offsets_of = 0;  // bit k: off_*_[k] hold camera k's offsets for this pose
+  bool unsteady_hit = false;
   for (int s = 0; s < num_sel_; ++s) {
     if (s == t_i || s == t_j || s == t_k) continue;
     const auto ss = static_cast<std::size_t>(s);
-    if ((which == FourthOf::kSteady && !sel_steady_[ss]) || (which == FourthOf::kUnsteady && sel_steady_[ss])) continue;
+    const bool counts = !steady_only || sel_steady_[ss];
+    if (!counts && unsteady_hit) continue;  // (only a steady blob can change the answer now)
     const auto k = static_cast<std::size_t>(blobs_[sel_[ss]].camera);
     CameraOffsets& c = offsets_[k];
     if ((offsets_of >> k & 1U) == 0) {
@@ -332,9 +337,10 @@ bool LostInSpace::ExplainsAFourth(const BodyPose& pose, int t_i, int t_j, int t_
       const float t = c.x[sm] * dx + c.y[sm] * dy + c.z[sm] * dz;
       hits += static_cast<int>((t > 0.0F) & (t * t >= c.cos_sq_len_sq[sm]));
     }
-    if (hits > 0) return true;
+    if (hits > 0 && counts) return Fourth::kFound;
+    unsteady_hit = unsteady_hit || hits > 0;
   }
-  return false;
+  return unsteady_hit ? Fourth::kUnsteadyOnly : Fourth::kNone;
 }
 
 void LostInSpace::Score(const BodyPose& pose, const LisOptions& o, LisResult* result) {
@@ -347,16 +353,15 @@ void LostInSpace::Score(const BodyPose& pose, const LisOptions& o, LisResult* re
   const double nb = rig_->num_beacons;
   const bool pairs_anchored = anchors_per_triple_ >= 2;
   const bool fourth_test = !PosePrior() && !pairs_anchored && rig_->num_beacons >= o.fourth_blob_min_beacons;
-  // A triple of steady blobs asks for a steady fourth (LisOptions::steady_fourth); a pose with
-  // only an unsteady one is deferred, and the list can no longer be exhaustive (deferred_).
-  const bool steady_only = o.steady_fourth && num_sel_steady_ >= 4 && sel_steady_[static_cast<std::size_t>(cur_i_)] &&
-                           sel_steady_[static_cast<std::size_t>(cur_j_)] && sel_steady_[static_cast<std::size_t>(cur_k_)];
   if (fourth_test) {
+    // A triple of steady blobs asks for a steady fourth (LisOptions::steady_fourth); a pose with
+    // only an unsteady one is deferred, and the list can no longer be exhaustive (deferred_).
+    const bool steady_only = o.steady_fourth && num_sel_steady_ >= 4 && sel_steady_[static_cast<std::size_t>(cur_i_)] &&
+                             sel_steady_[static_cast<std::size_t>(cur_j_)] && sel_steady_[static_cast<std::size_t>(cur_k_)];
     result->cost += kCostFourthPerBeaconBlob * nb * num_sel_;
-    if (!ExplainsAFourth(pose, cur_i_, cur_j_, cur_k_, fourth_cos_sq_, steady_only ? FourthOf::kSteady : FourthOf::kAny)) {
-      if (steady_only && ExplainsAFourth(pose, cur_i_, cur_j_, cur_k_, fourth_cos_sq_, FourthOf::kUnsteady)) deferred_ = true;
-      return;
-    }
+    const Fourth fourth = ExplainsAFourth(pose, cur_i_, cur_j_, cur_k_, fourth_cos_sq_, steady_only);
+    if (fourth == Fourth::kUnsteadyOnly) deferred_ = true;
+    if (fourth != Fourth::kFound) return;
   }
   // Under a prior (or two anchors) no fourth-blob test filters the poses: their full
   // reprojection is work the budget counts (a frame set's time would otherwise grow with the
@@ -1049,7 +1054,9 @@ LisStatus LostInSpace::Decide(bool budget_out, const LisOptions& o, LisResult* r
     res.consistent_poses[static_cast<std::size_t>(i)] = cand_[static_cast<std::size_t>(i)].pose;
     res.consistent_scores[static_cast<std::size_t>(i)] = cand_[static_cast<std::size_t>(i)].score;
   }
-  const LisStatus none = budget_out ? LisStatus::kBudgetExhausted : deferred_ ? LisStatus::kAmbiguous : LisStatus::kNoHypothesis;
+  // (A deferred pose may be a rival: ambiguous rather than nothing.)
+  const LisStatus cut_status = budget_out ? LisStatus::kBudgetExhausted : LisStatus::kAmbiguous;
+  const LisStatus none = cut ? cut_status : LisStatus::kNoHypothesis;
   if (num_cand_ == 0) return res.status = none;
   const Candidate& best = cand_[0];
   res.pose = best.pose;
@@ -1063,7 +1070,7 @@ LisStatus LostInSpace::Decide(bool budget_out, const LisOptions& o, LisResult* r
   // merged into a twin whose near miss was not excused: a three-beacon pose 3.5 m off won).
   if (res.confirmed && !SamePose(best, confirmed_, o)) return res.status = LisStatus::kBudgetExhausted;
   if (res.best_score - res.second_score < o.min_score_margin) return res.status = LisStatus::kAmbiguous;
-  if (cut && !res.confirmed) return res.status = budget_out ? LisStatus::kBudgetExhausted : LisStatus::kAmbiguous;
+  if (cut && !res.confirmed) return res.status = cut_status;
   // The fix: a last solve over the final identities gives covariance and residuals.
   const SolveStatus s = SolvePose(*rig_, blobs_, num_blobs_, res.matches.matches.data(), res.matches.num_matches,
                                   best.pose, o.solve, &res.solve);

@@ -335,8 +335,8 @@ class LostInSpace {
   bool RepeatedElsewhere(const Candidate& c, const LisOptions& o, LisResult* result);
   bool CopyExplainsTheBlobs(const Candidate& c, const Eigen::Matrix3d& R, const Eigen::Vector3d& t, int n,
                             const LisOptions& o);
-  enum class FourthOf : unsigned char { kAny, kSteady, kUnsteady };  // which selected blobs may be the fourth
-  bool ExplainsAFourth(const BodyPose& pose, int t_i, int t_j, int t_k, float cos_sq, FourthOf which);
+  enum class Fourth : unsigned char { kNone, kUnsteadyOnly, kFound };
+  Fourth ExplainsAFourth(const BodyPose& pose, int t_i, int t_j, int t_k, float cos_sq, bool steady_only);
   enum class SearchEnd : unsigned char { kDone, kPaused, kBudgetOut };
   SearchEnd Search(int budget, double cost_budget, LisResult* result);
   // The budgets of one Search call: what was spent when it began.
