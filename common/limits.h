@@ -95,6 +95,7 @@ inline constexpr int kMaxLisBlobs = 16;          // lost-in-space: brightest blo
 inline constexpr int kMaxLisHypotheses = 20000;  // lost-in-space: beacon-triple P3P solves per frame set
 inline constexpr int kMaxLisCandidates = 256;    // lost-in-space: distinct poses kept (and tracked when ambiguous)
 inline constexpr int kMaxLisCandidateMatches = 32;  // lost-in-space: matches kept per candidate pose
+inline constexpr int kMaxLisDeferred = 256;  // lost-in-space: poses deferred by the steady-fourth rule, scored last
 inline constexpr int kMaxP3pScanSteps = 512;     // P3pOptions::scan_steps (validated; the former 1-D scan, kept as the tests' reference)
 inline constexpr int kMaxP3pSolutions = 16;      // P3P: the octic's 8 roots and the twins sought beside them
 inline constexpr int kMaxBisectionIterations = 64;

@@ -355,19 +355,32 @@ void LostInSpace::Score(const BodyPose& pose, const LisOptions& o, LisResult* re
   const bool fourth_test = !PosePrior() && !pairs_anchored && rig_->num_beacons >= o.fourth_blob_min_beacons;
   if (fourth_test) {
     // A triple of steady blobs asks for a steady fourth (LisOptions::steady_fourth); a pose with
-    // only an unsteady one is deferred, and the list can no longer be exhaustive (deferred_).
+    // only an unsteady one is deferred: scored after the last item (ScoreDeferred), so only a
+    // search that ends early never pays for it.
     const bool steady_only = o.steady_fourth && num_sel_steady_ >= 4 && sel_steady_[static_cast<std::size_t>(cur_i_)] &&
                              sel_steady_[static_cast<std::size_t>(cur_j_)] && sel_steady_[static_cast<std::size_t>(cur_k_)];
     result->cost += kCostFourthPerBeaconBlob * nb * num_sel_;
     const Fourth fourth = ExplainsAFourth(pose, cur_i_, cur_j_, cur_k_, fourth_cos_sq_, steady_only);
-    if (fourth == Fourth::kUnsteadyOnly) deferred_ = true;
+    if (fourth == Fourth::kUnsteadyOnly) {
+      ++result->deferred;
+      if (num_deferred_ < limits::kMaxLisDeferred)
+        deferred_[static_cast<std::size_t>(num_deferred_++)] = pose;
+      else
+        deferred_lost_ = true;
+    }
     if (fourth != Fourth::kFound) return;
   }
   // Under a prior (or two anchors) no fourth-blob test filters the poses: their full
   // reprojection is work the budget counts (a frame set's time would otherwise grow with the
   // map; seen: 22 ms).
   if (!fourth_test) ++result->work;
-  result->cost += kCostReprojectionPerBeacon * nb;
+  ScoreMatched(pose, o, result);
+}
+
+// A raw pose's full reprojection: listed (Insert) if it explains enough, refined and perhaps
+// confirmed if it explains many.
+void LostInSpace::ScoreMatched(const BodyPose& pose, const LisOptions& o, LisResult* result) {
+  result->cost += kCostReprojectionPerBeacon * rig_->num_beacons;
   matcher_.MatchPose(pose, o.hypothesis_match, &match_scratch_);
   // Too few beacons, or refuted even allowing for the raw pose's error at the margins.
   const int beacons = match_scratch_.num_beacons, missing = match_scratch_.num_missing;
@@ -692,6 +705,15 @@ void LostInSpace::OrderItems(int num_bands) {
 // next hypothesis, so that a paused search resumes exactly where it stopped.
 LostInSpace::SearchEnd LostInSpace::Search(int budget, double cost_budget, LisResult* res) {
   const Spent since{res->work, res->cost, budget, cost_budget};
+  const SearchEnd items_end = SearchItems(since, res);
+  if (items_end != SearchEnd::kDone || res->confirmed) return items_end;
+  SearchEnd end = SearchEnd::kDone;
+  ScoreDeferred(since, res, &end);
+  return end;
+}
+
+// The work items from the cursor on: kDone when the last is done (or a pose confirmed).
+LostInSpace::SearchEnd LostInSpace::SearchItems(const Spent& since, LisResult* res) {
   for (; cur_.item < num_items_; ++cur_.item, cur_ = Cursor{cur_.item}) {
     const Item& item = items_[static_cast<std::size_t>(cur_.item)];
     const Triple& tr = triples_[item.t];
@@ -713,6 +735,34 @@ LostInSpace::SearchEnd LostInSpace::Search(int budget, double cost_budget, LisRe
     band_done_[item.band][item.t] = true;
   }
   return SearchEnd::kDone;
+}
+
+// The poses the steady-fourth rule deferred, scored as they would have been without it (each
+// a full reprojection, within the budgets): a search that reaches its end lists every pose.
+bool LostInSpace::ScoreDeferred(const Spent& since, LisResult* res, SearchEnd* end) {
+  for (; next_deferred_ < num_deferred_; ++next_deferred_) {
+    if (!WithinBudget(since, *res, end, /*work_cap=*/false)) return false;
+    ScoreMatched(deferred_[static_cast<std::size_t>(next_deferred_)], options_, res);
+    if (res->confirmed) {
+      *end = SearchEnd::kDone;
+      return false;
+    }
+  }
+  return true;
+}
+
+// Whether the search may go on: false when it has spent its budget (kBudgetOut: max_cost, and
+// max_hypotheses if work_cap) or this call's (kPaused; it resumes where it stopped).
+bool LostInSpace::WithinBudget(const Spent& since, const LisResult& res, SearchEnd* end, bool work_cap) const {
+  if ((work_cap && res.work >= options_.max_hypotheses) || res.cost >= options_.max_cost) {
+    *end = SearchEnd::kBudgetOut;
+    return false;
+  }
+  if (res.work - since.work >= since.budget || res.cost - since.cost >= since.cost_budget) {
+    *end = SearchEnd::kPaused;
+    return false;
+  }
+  return true;
 }
 
 // The current item's beacon triples, from the cursor on: those one prior pose allows for all
@@ -769,14 +819,7 @@ bool LostInSpace::SearchPoseSets(const Item& item, const Spent& since, LisResult
 // One hypothesis within the budgets (of the search, then of this call): false when the search
 // stops here (*end says why; a paused one resumes with this hypothesis).
 bool LostInSpace::Hypothesis(int a, int b, int c, int unit, const Spent& since, LisResult* res, SearchEnd* end) {
-  if (res->work >= options_.max_hypotheses || res->cost >= options_.max_cost) {
-    *end = SearchEnd::kBudgetOut;
-    return false;
-  }
-  if (res->work - since.work >= since.budget || res->cost - since.cost >= since.cost_budget) {
-    *end = SearchEnd::kPaused;
-    return false;
-  }
+  if (!WithinBudget(since, *res, end, /*work_cap=*/true)) return false;
   if (num_pose_sets_ > 1 && !FirstTry(a, b, c)) return true;  // another prior pose's already
   res->work += unit;
   hypothesis_work_ += unit;
@@ -908,7 +951,7 @@ LisStatus LostInSpace::Begin(const BlobObs* blobs, int num_blobs, const LisOptio
   res.matches.num_beacons = 0;
   res.best_score = 0.0;
   res.second_score = -std::numeric_limits<double>::infinity();
-  res.hypotheses = res.work = res.poses_scored = res.blob_triples = 0;
+  res.hypotheses = res.work = res.poses_scored = res.blob_triples = res.deferred = 0;
   res.cost = 0.0;
   res.false_alarms = 0.0;
   res.search_complete = res.confirmed = false;
@@ -917,7 +960,8 @@ LisStatus LostInSpace::Begin(const BlobObs* blobs, int num_blobs, const LisOptio
   res.repeats = 0;
   num_cand_ = 0;
   overflow_ = false;
-  deferred_ = false;
+  num_deferred_ = next_deferred_ = 0;
+  deferred_lost_ = false;
   work_bound_ = -1;
   hypothesis_work_ = 0;
   num_repeated_ = 0;
@@ -1016,9 +1060,9 @@ LisStatus LostInSpace::Stop(LisResult* result) {
 
 LisStatus LostInSpace::Decide(bool budget_out, const LisOptions& o, LisResult* result) {
   LisResult& res = *result;
-  // A search that deferred a pose (LisOptions::steady_fourth) has not listed every pose: like
-  // one cut by its budget, it fixes only on a confirmed pose.
-  const bool cut = budget_out || deferred_;
+  // A search that deferred more poses than it could keep (LisOptions::steady_fourth) has not
+  // listed every pose: like one cut by its budget, it fixes only on a confirmed pose.
+  const bool cut = budget_out || deferred_lost_;
   res.search_complete = !cut && !res.confirmed;
   // Refine every kept pose; those that predict a beacon well inside an image where no blob is
   // (missing) are refuted, the others are consistent with the blobs. Merge the ones that

@@ -130,9 +130,12 @@ struct LisOptions {
   int fourth_blob_min_beacons = 32;
   // With at least four steady blobs selected, a triple of steady blobs passes that test only on
   // a steady fourth: a beacon lined up with a flickering spurious blob was the common pass in a
-  // dense view, each a full reprojection. A pose whose only fourth is unsteady is deferred (found,
-  // if at all, from a triple holding that blob), and a search that deferred one cannot say it
-  // listed every pose: it fixes only on a confirmed pose (kAmbiguous otherwise).
+  // dense view, each a full reprojection. A pose whose only fourth is unsteady is deferred: kept
+  // (up to limits::kMaxLisDeferred) and scored after the last item, so a search that reaches
+  // its end lists every pose as without the rule; one that deferred more than it could keep
+  // cannot say it listed every pose: it fixes only on a confirmed pose (kAmbiguous otherwise).
+  // (Scoring them also when the items stop at max_hypotheses was measured: it gives back the
+  // rule's gains, docs/acquisition.md session 38.)
   bool steady_fourth = true;
   // Each blob triple is also searched with beacons paired as if within this depth of the
   // cameras, a cheaper work item visited earlier (<= 0: no such items; see SetRange), and then
@@ -185,6 +188,7 @@ struct LisResult {
   double false_alarms = 0.0;      // FalseAlarms of the confirmed pose (confirmed only)
   int poses_scored = 0;           // P3P solutions scored
   int blob_triples = 0;           // blob triples visited
+  int deferred = 0;               // poses deferred by LisOptions::steady_fourth (scored last, if reached)
   bool search_complete = false;   // every feasible triple was tried
   bool confirmed = false;         // ended early on a confirmed pose
   int repeats = 0;                // poses not confirmed: the map repeats their beacons (repeat_tolerance_m)
@@ -352,6 +356,10 @@ class LostInSpace {
   void TryTriple(int a, int b, int c, LisResult* result);
   void SetRange(int band);
   void Score(const BodyPose& pose, const LisOptions& o, LisResult* result);
+  void ScoreMatched(const BodyPose& pose, const LisOptions& o, LisResult* result);
+  bool ScoreDeferred(const Spent& since, LisResult* result, SearchEnd* end);
+  bool WithinBudget(const Spent& since, const LisResult& result, SearchEnd* end, bool work_cap) const;
+  SearchEnd SearchItems(const Spent& since, LisResult* result);
   bool Refine(Candidate* c, const LisOptions& o);
   bool SamePose(const Candidate& a, const Candidate& b, const LisOptions& o) const;
   void Insert(const Candidate& c, const LisOptions& o);
@@ -453,7 +461,12 @@ class LostInSpace {
   std::array<BodyPose, limits::kMaxP3pSolutions> solutions_{};
   int num_cand_ = 0;
   bool overflow_ = false;
-  bool deferred_ = false;  // a pose whose only fourth blob was unsteady was not scored (steady_fourth)
+  // Poses whose only fourth blob was unsteady (steady_fourth), scored after the last item
+  // (ScoreDeferred); deferred_lost_: more than the array holds, so the list cannot be complete.
+  std::array<BodyPose, limits::kMaxLisDeferred> deferred_{};
+  int num_deferred_ = 0;
+  int next_deferred_ = 0;  // the first not yet scored (a search may pause among them)
+  bool deferred_lost_ = false;
   int work_bound_ = -1;  // MayComplete's count of the search in progress (-1: not counted)
   int hypothesis_work_ = 0;  // the work units of the hypotheses tried so far (LisResult::work less the scoring's)
   // Beacon sets this search found repeated elsewhere in the map (RepeatedElsewhere's memo). A
