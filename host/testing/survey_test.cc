@@ -5,6 +5,7 @@
 
 #include <gtest/gtest.h>
 
+#include <Eigen/QR>
 #include <algorithm>
 #include <random>
 #include <sstream>
@@ -23,6 +24,26 @@ struct Case {
   std::vector<SurveyFrameSet> sets;
 };
 
+// Appends the frame sets of truth's run (its seed draws the centroid noise and the start poses'
+// errors) as pivot group `group`.
+void AddFrameSets(const Scenario& truth, int group, std::vector<SurveyFrameSet>* sets) {
+  std::mt19937_64 rng(truth.seed * 7919);
+  std::normal_distribution<double> n(0.0, 1.0);
+  for (const FrameTruth& f : SimulateTrajectory(truth)) {
+    const BlobFrameSet b = SimulateBlobs(truth, f);
+    SurveyFrameSet s;
+    s.t_ns = static_cast<std::uint64_t>(f.t_ns);
+    s.pivot_group = group;
+    for (std::size_t i = 0; i < b.blobs.size(); ++i)
+      if (b.beacon[i] >= 0) s.observations.push_back({b.blobs[i].camera, b.beacon[i], b.blobs[i].uv_px});
+    if (s.observations.size() < 3) continue;
+    PoseDelta d;
+    for (int k = 0; k < 3; ++k) d(k) = 2e-3 * n(rng), d(k + 3) = 2e-3 * n(rng);
+    s.pose = Retract(f.pose, d);
+    sets->push_back(std::move(s));
+  }
+}
+
 Case MakeCase(const std::string& preset, std::uint64_t seed, int frames, std::uint64_t map_seed = 0) {
   Case c;
   c.truth = LoadPreset(preset);
@@ -32,20 +53,7 @@ Case MakeCase(const std::string& preset, std::uint64_t seed, int frames, std::ui
   c.truth.errors.beacon_map = true;
   c.truth.errors.beacon_sigma = 0.4e-3;
   c.surveyed = BelievedRig(c.truth);
-  std::mt19937_64 rng(seed * 7919);
-  std::normal_distribution<double> n(0.0, 1.0);
-  for (const FrameTruth& f : SimulateTrajectory(c.truth)) {
-    const BlobFrameSet b = SimulateBlobs(c.truth, f);
-    SurveyFrameSet s;
-    s.t_ns = static_cast<std::uint64_t>(f.t_ns);
-    for (std::size_t i = 0; i < b.blobs.size(); ++i)
-      if (b.beacon[i] >= 0) s.observations.push_back({b.blobs[i].camera, b.beacon[i], b.blobs[i].uv_px});
-    if (s.observations.size() < 3) continue;
-    PoseDelta d;
-    for (int k = 0; k < 3; ++k) d(k) = 2e-3 * n(rng), d(k + 3) = 2e-3 * n(rng);
-    s.pose = Retract(f.pose, d);
-    c.sets.push_back(std::move(s));
-  }
+  AddFrameSets(c.truth, -1, &c.sets);
   return c;
 }
 
@@ -74,24 +82,25 @@ Score ScoreMap(const Case& c, const SurveyResult& r, int min_sets) {
   return s;
 }
 
+// Free flights through three module maps and draws of each (other maps, trajectories and noise;
+// free-flight's map is fixed, its survey errors drawn).
+struct Draw {
+  const char* preset;
+  std::uint64_t seed;
+};
+const Draw kMapDraws[] = {{"free-flight", 1}, {"free-flight", 2},      {"station-box", 1},
+                          {"station-box", 2}, {"station-cylinder", 1}, {"station-cylinder", 3}};
+
 TEST(SurveyTest, RefinedMapsBeatTheSurveyWithHonestSigma) {
-  struct Draw {
-    const char* preset;
-    std::uint64_t seed;
-    int frames;
-  };
-  // Free flights through three module maps and draws of each (other maps, trajectories and noise).
-  const Draw draws[] = {{"free-flight", 1, 600}, {"free-flight", 2, 600}, {"station-box", 1, 600},
-                        {"station-box", 2, 600}, {"station-cylinder", 1, 600}, {"station-cylinder", 3, 600}};
   int coordinates = 0, within = 0;
-  for (const Draw& d : draws) {
-    const Case c = MakeCase(d.preset, d.seed, d.frames);
+  for (const Draw& d : kMapDraws) {
+    const Case c = MakeCase(d.preset, d.seed, 600);
     const SurveyResult r = AdjustMap(c.surveyed, c.sets, SurveyOptions{});
     const Score s = ScoreMap(c, r, 20);
     SCOPED_TRACE(std::string(d.preset) + " seed " + std::to_string(d.seed));
     ASSERT_GT(s.coordinates, 30);
-    // Issue 16 asks 1/3; 600 frame sets of one flight give 0.35-0.57 (docs/calibration.md,
-    // "Beacon-map self-survey"): asserted at what is reached, the gap stated there.
+    // 600 frame sets (32 s) give 0.35-0.57; issue 16's 1/3 takes a longer flight
+    // (OneTwoMinuteFlightReachesAThirdOfTheSurveysError).
     EXPECT_LE(s.refined_rms_m, 0.6 * s.surveyed_rms_m) << s.refined_rms_m << " vs " << s.surveyed_rms_m;
     EXPECT_NEAR(r.sigma_px, 0.1, 0.02);
     EXPECT_EQ(s.moved, 0);
@@ -124,6 +133,26 @@ TEST(SurveyTest, SeveralFlightsOfOneStation) {
     // Issue 16: the refined map at most 1/3 of the survey's error (measured 0.25-0.30).
     EXPECT_LE(s4.refined_rms_m, s4.surveyed_rms_m / 3.0);
     EXPECT_GE(s4.within_3_sigma, 0.95 * s4.coordinates);
+  }
+}
+
+// Issue 16 (a, d) on one flight: 2400 frame sets (2.2 min at 18.6 Hz) of each draw above bring
+// the map to at most 1/3 of the survey's error (measured 0.19-0.31; 600 frame sets: 0.35-0.57,
+// 1200: 0.25-0.39), the sigma honest. What remains is mostly the survey's own rigid error of
+// the whole map (its mean translation and rotation), which no image sees.
+TEST(SurveyTest, OneTwoMinuteFlightReachesAThirdOfTheSurveysError) {
+  for (const Draw& d : kMapDraws) {
+    SCOPED_TRACE(std::string(d.preset) + " seed " + std::to_string(d.seed));
+    const Case c = MakeCase(d.preset, d.seed, 2400);
+    const SurveyResult r = AdjustMap(c.surveyed, c.sets, SurveyOptions{});
+    const Score s = ScoreMap(c, r, 20);
+    std::printf("%s seed %llu, 2400 frame sets: %d beacons, %.3f of the survey's error, %d/%d within 3 sigma\n",
+                d.preset, static_cast<unsigned long long>(d.seed), s.coordinates / 3,
+                s.refined_rms_m / s.surveyed_rms_m, s.within_3_sigma, s.coordinates);
+    ASSERT_GT(s.coordinates, 30);
+    EXPECT_LE(s.refined_rms_m, s.surveyed_rms_m / 3.0);
+    EXPECT_GE(s.within_3_sigma, 0.95 * s.coordinates);
+    EXPECT_EQ(s.moved, 0);
   }
 }
 
@@ -207,10 +236,6 @@ void DrawMountings(const Rig& truth, double sigma_rad, double sigma_m, std::uint
 // map is better than with the cameras held at their errors.
 TEST(SurveyTest, RefineCamerasFindsTheMountings) {
   const double rot = DegToRad(0.03), pos = 0.3e-3;
-  struct Draw {
-    const char* preset;
-    std::uint64_t seed;
-  };
   const Draw draws[] = {{"free-flight", 1}, {"station-box", 2}, {"station-cylinder", 3}};
   double nees_sum = 0.0;
   int nees_n = 0;
@@ -313,6 +338,87 @@ TEST(SurveyTest, TurntableRunsTurnAboutOneFixedPoint) {
   }
   EXPECT_GE(within, 0.95 * coordinates);
   EXPECT_LT(std::sqrt(pivot_sq), 0.85 * std::sqrt(free_sq));  // measured 0.81
+}
+
+// The part of map errors e (at the true positions t) that one rigid motion of the whole map
+// explains (linearised, a + w x t_i; least squares): images see a map's shape, not where the
+// whole map sits or how it is turned in the world, which the survey alone says.
+std::vector<Eigen::Vector3d> RigidPart(const std::vector<Eigen::Vector3d>& t, const std::vector<Eigen::Vector3d>& e) {
+  const auto n = static_cast<Eigen::Index>(t.size());
+  Eigen::MatrixXd A(3 * n, 6);
+  Eigen::VectorXd b(3 * n);
+  for (Eigen::Index i = 0; i < n; ++i) {
+    const auto& ti = t[static_cast<std::size_t>(i)];
+    A.block<3, 3>(3 * i, 0).setIdentity();
+    A.block<3, 3>(3 * i, 3) = -Skew(ti);
+    b.segment<3>(3 * i) = e[static_cast<std::size_t>(i)];
+  }
+  const Eigen::VectorXd fit = A * A.colPivHouseholderQr().solve(b);
+  std::vector<Eigen::Vector3d> out;
+  for (Eigen::Index i = 0; i < n; ++i) out.emplace_back(fit.segment<3>(3 * i));
+  return out;
+}
+
+// RMS per coordinate of a - b (b empty: of a).
+double Rms(const std::vector<Eigen::Vector3d>& a, const std::vector<Eigen::Vector3d>& b = {}) {
+  double sum = 0.0;
+  for (std::size_t i = 0; i < a.size(); ++i) sum += (b.empty() ? a[i] : a[i] - b[i]).squaredNorm();
+  return std::sqrt(sum / (3.0 * static_cast<double>(std::max<std::size_t>(1, a.size()))));
+}
+
+// A map's errors over its seen beacons: the whole and its rigid part (the rest is its shape's).
+struct MapErrors {
+  std::vector<Eigen::Vector3d> whole, rigid;
+  double ShapeRms() const { return Rms(whole, rigid); }
+};
+
+MapErrors SeenMapErrors(const Case& c, const SurveyResult& r, bool refined) {
+  std::vector<Eigen::Vector3d> t;
+  MapErrors m;
+  for (std::size_t b = 0; b < r.beacons.size(); ++b) {
+    if (r.beacons[b].frame_sets == 0) continue;
+    t.push_back(c.truth.rig.beacons_w[b]);
+    m.whole.push_back((refined ? r.beacons[b].refined_w : r.beacons[b].surveyed_w) - t.back());
+  }
+  m.rigid = RigidPart(t, m.whole);
+  return m;
+}
+
+// Issue 16 (a) on the demo's station (paper Table 4: ten beacons, 0.6-0.9 m from the
+// turntable; the cameras 0.12 m from its centre). A sweep sees each beacon along about one ray,
+// but the cameras' lever arm gives depth too: one sweep leaves 0.17-0.32 of the survey's error
+// in the map's shape. A second placement (0.4 m along y, its own pivot group) sees each beacon
+// from elsewhere: the shape's error falls on every draw (to 0.07-0.19), while the map's rigid
+// error stays the survey's (within 0.01 of its RMS): ten beacons' survey errors hold 6 of their
+// 30 degrees of freedom in it (expected sqrt(6/30) = 0.45 of the survey's RMS; 0.31-0.45 on
+// these draws), so 1/3 over all coordinates in the world frame is out of reach of images of
+// this station, however many placements (measured 0.34-0.47 with two).
+TEST(SurveyTest, ASecondTurntablePlacementFixesTheShapeNotThePlacement) {
+  for (std::uint64_t seed = 1; seed <= 6; ++seed) {
+    SCOPED_TRACE("paper-turntable seed " + std::to_string(seed));
+    Case c = MakeCase("paper-turntable", seed, 300);
+    for (SurveyFrameSet& f : c.sets) f.pivot_group = 0;
+    const SurveyResult one = AdjustMap(c.surveyed, c.sets, SurveyOptions{});
+    Scenario moved = c.truth;  // the same station and survey, the turntable moved; other noise
+    moved.seed = seed + 100;
+    moved.turntable.r_w_wt += Eigen::Vector3d(0.0, 0.4, 0.0);
+    AddFrameSets(moved, 1, &c.sets);
+    const SurveyResult two = AdjustMap(c.surveyed, c.sets, SurveyOptions{});
+    const MapErrors survey = SeenMapErrors(c, two, false), e1 = SeenMapErrors(c, one, true),
+                    e2 = SeenMapErrors(c, two, true);
+    const double s = Rms(survey.whole);
+    std::printf(
+        "paper-turntable seed %llu: shape %.2f -> %.2f of the survey's error, whole %.2f -> %.2f, the survey's "
+        "rigid part %.2f, the refined map's off it by %.2f\n",
+        static_cast<unsigned long long>(seed), e1.ShapeRms() / s, e2.ShapeRms() / s, Rms(e1.whole) / s,
+        Rms(e2.whole) / s, Rms(survey.rigid) / s, Rms(e2.rigid, survey.rigid) / s);
+    ASSERT_EQ(e2.whole.size(), 10u);
+    EXPECT_LT(e2.ShapeRms(), e1.ShapeRms());
+    EXPECT_LE(e2.ShapeRms(), s / 3.0);
+    EXPECT_LT(Rms(e2.rigid, survey.rigid), 0.05 * s);  // images do not move the whole map
+    const Score sc = ScoreMap(c, two, 20);
+    EXPECT_GE(sc.within_3_sigma, 0.95 * sc.coordinates);
+  }
 }
 
 // The image cost's analytic Jacobians (pose, beacon, pivot and camera blocks) against Ceres's
