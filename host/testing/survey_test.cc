@@ -141,6 +141,11 @@ TEST(SurveyTest, SeveralFlightsOfOneStation) {
 // 1200: 0.25-0.39), the sigma honest. What remains is mostly the survey's own rigid error of
 // the whole map (its mean translation and rotation), which no image sees.
 TEST(SurveyTest, OneTwoMinuteFlightReachesAThirdOfTheSurveysError) {
+#if defined(__SANITIZE_ADDRESS__)
+  // 11 s in the host build, 44 s under the sanitizers' Debug build: the same AdjustMap path
+  // runs there in the 600-frame-set tests above; this one measures the estimate, not memory.
+  GTEST_SKIP() << "the 2400-frame-set flights run in the host build (the same code under ASan above)";
+#endif
   for (const Draw& d : kMapDraws) {
     SCOPED_TRACE(std::string(d.preset) + " seed " + std::to_string(d.seed));
     const Case c = MakeCase(d.preset, d.seed, 2400);
