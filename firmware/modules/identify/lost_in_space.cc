@@ -707,9 +707,7 @@ LostInSpace::SearchEnd LostInSpace::Search(int budget, double cost_budget, LisRe
   const Spent since{res->work, res->cost, budget, cost_budget};
   const SearchEnd items_end = SearchItems(since, res);
   if (items_end != SearchEnd::kDone || res->confirmed) return items_end;
-  SearchEnd end = SearchEnd::kDone;
-  ScoreDeferred(since, res, &end);
-  return end;
+  return ScoreDeferred(since, res);
 }
 
 // The work items from the cursor on: kDone when the last is done (or a pose confirmed).
@@ -739,16 +737,14 @@ LostInSpace::SearchEnd LostInSpace::SearchItems(const Spent& since, LisResult* r
 
 // The poses the steady-fourth rule deferred, scored as they would have been without it (each
 // a full reprojection, within the budgets): a search that reaches its end lists every pose.
-bool LostInSpace::ScoreDeferred(const Spent& since, LisResult* res, SearchEnd* end) {
-  for (; next_deferred_ < num_deferred_; ++next_deferred_) {
-    if (!WithinBudget(since, *res, end, /*work_cap=*/false)) return false;
+// kDone when the last is scored or one is confirmed.
+LostInSpace::SearchEnd LostInSpace::ScoreDeferred(const Spent& since, LisResult* res) {
+  SearchEnd end = SearchEnd::kDone;
+  for (; next_deferred_ < num_deferred_ && !res->confirmed; ++next_deferred_) {
+    if (!WithinBudget(since, *res, &end, /*work_cap=*/false)) return end;
     ScoreMatched(deferred_[static_cast<std::size_t>(next_deferred_)], options_, res);
-    if (res->confirmed) {
-      *end = SearchEnd::kDone;
-      return false;
-    }
   }
-  return true;
+  return SearchEnd::kDone;
 }
 
 // Whether the search may go on: false when it has spent its budget (kBudgetOut: max_cost, and

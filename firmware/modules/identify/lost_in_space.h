@@ -357,7 +357,7 @@ class LostInSpace {
   void SetRange(int band);
   void Score(const BodyPose& pose, const LisOptions& o, LisResult* result);
   void ScoreMatched(const BodyPose& pose, const LisOptions& o, LisResult* result);
-  bool ScoreDeferred(const Spent& since, LisResult* result, SearchEnd* end);
+  SearchEnd ScoreDeferred(const Spent& since, LisResult* result);
   bool WithinBudget(const Spent& since, const LisResult& result, SearchEnd* end, bool work_cap) const;
   SearchEnd SearchItems(const Spent& since, LisResult* result);
   bool Refine(Candidate* c, const LisOptions& o);
