@@ -4,16 +4,9 @@
 #include <algorithm>
 #include <cmath>
 
+#include "common/rotation/rotation.h"
+
 namespace mfns::host {
-namespace {
-
-Eigen::Matrix3d Skew(const Eigen::Vector3d& v) {
-  Eigen::Matrix3d S;
-  S << 0, -v.z(), v.y(), v.z(), 0, -v.x(), -v.y(), v.x(), 0;
-  return S;
-}
-
-}  // namespace
 
 double ProjectionSigmaPx(const CameraResult& cam, RayFrame frame, const Eigen::Vector2d& uv_px) {
   Eigen::Vector2d x_n;
