@@ -88,6 +88,7 @@ bool Tracker::Reset(const Rig& rig) {
   view_repeated_ = false;
   motion_.Forget();
   acquisition_.Clear();
+  lis_owner_ = LisOwner::kNone;
   counters_ = TrackCounters{};
   blob_tracks_.Reset();
   beacon_track_.fill(0);
@@ -111,6 +112,7 @@ void Tracker::SetPose(const BodyPose& pose, std::uint64_t t_ns, double sigma_m, 
   given_seed_ = true;
   motion_.Start(pose, t_ns, sigma_m, sigma_rad);
   acquisition_.Clear();
+  lis_owner_ = LisOwner::kNone;
 }
 
 // Solve from `start` with the identities in set_, then re-match with the tight gate and solve
@@ -1045,6 +1047,7 @@ void Tracker::Accept(std::uint64_t t_ns, const TrackOptions& o, TrackResult* r) 
               r->solve.has_covariance ? &r->solve.covariance : nullptr);
   has_pose_ = true;
   acquisition_.Clear();
+  lis_owner_ = LisOwner::kNone;  // (a search near the followed poses has nothing left to follow)
   // Three beacons fit their pose exactly: a new track is verified only by a pose with residuals
   // to test (verify_three_beacons).
   if (!continues) verified_ = false;
@@ -1142,6 +1145,7 @@ LisStatus Tracker::RunLis(const BlobObs* blobs, int num_blobs, const LisPrior* p
   }
   LisOptions lo = o.lis;
   lo.max_cost = lis_budget_left_;
+  lis_owner_ = LisOwner::kNone;  // (Identify abandons a search under way)
   const LisStatus s = lis_.Identify(blobs, num_blobs, lo, &lis_res_, prior, cameras_, steady_);
   Charge(lis_res_.cost);
   view_repeated_ = lis_res_.repeats > 0;
@@ -1159,6 +1163,7 @@ LisStatus Tracker::RunLis(const BlobObs* blobs, int num_blobs, const LisPrior* p
 LisStatus Tracker::RunSmallMapLis(const BlobObs* blobs, int num_blobs, const LisPrior* prior, const TrackOptions& o) {
   // Work between two looks at the list (cost units): small against the budget.
   constexpr double kSmallMapStep = 500.0;
+  lis_owner_ = LisOwner::kNone;
   LisStatus s = lis_.Begin(blobs, num_blobs, o.lis, &lis_res_, prior, cameras_, steady_);
   while (s == LisStatus::kSearching) {
     const double left = lis_budget_left_ - lis_res_.cost;
@@ -1183,6 +1188,13 @@ BlobTrackOptions Tracker::BlobTrackOptionsOf(const TrackOptions& o) const {
   b.tight_gate_px = o.steady_gate_px;
   b.tight_gate_fraction = o.steady_gate_fraction;
   return b;
+}
+
+int Tracker::SteadyBlobs() const {
+  if (steady_ == nullptr) return 0;
+  int n = 0;
+  for (int i = 0; i < num_blobs_; ++i) n += steady_[static_cast<std::size_t>(i)] != 0 ? 1 : 0;
+  return n;
 }
 
 // At least one unit per search, so that a frame set's searches always end.
@@ -1220,7 +1232,9 @@ LisStatus Tracker::ColdSearch(const BlobObs* blobs, int num_blobs, std::uint64_t
   // they do: its own order has that triple nowhere in particular (or behind a dearer one).
   const SteadyShape shape = SteadyShapeOf(blobs, num_blobs);
   const bool steadier = shape < cold_shape_;
-  if (!lis_.searching() || steadier || Seconds(t_ns, cold_t_ns_) > o.cold_search_s || t_ns < cold_t_ns_) {
+  if (lis_owner_ != LisOwner::kCold || !lis_.searching() || steadier || Seconds(t_ns, cold_t_ns_) > o.cold_search_s ||
+      t_ns < cold_t_ns_) {
+    lis_owner_ = LisOwner::kCold;
     cold_t_ns_ = t_ns;
     cold_shape_ = shape;
     cold_prior_ = LisPrior{};
@@ -1236,6 +1250,72 @@ LisStatus Tracker::ColdSearch(const BlobObs* blobs, int num_blobs, std::uint64_t
   // A search under way keeps the last one's answer until it finds a copy or ends.
   if (s != LisStatus::kSearching || lis_res_.repeats > 0) view_repeated_ = lis_res_.repeats > 0;
   return s;
+}
+
+// Lost-in-space near the followed poses (prior), begun on this frame set: as RunLis while it
+// ends within the frame set's budget; else it goes on over the next frame sets
+// (ContinueSeededSearch) and returns kSearching. Its prior is kept (seeded_prior_): its poses
+// are the acquisition's prior copy, which only ChainPrior rewrites, and that runs again only
+// once this search has ended or been dropped.
+LisStatus Tracker::SeededSearch(const BlobObs* blobs, int num_blobs, const LisPrior& prior, std::uint64_t t_ns,
+                                const TrackOptions& o) {
+  seeded_prior_ = prior;
+  lis_owner_ = LisOwner::kNone;
+  LisStatus s = lis_.Begin(blobs, num_blobs, o.lis, &lis_res_, &seeded_prior_, cameras_, steady_);
+  if (s == LisStatus::kSearching)
+    s = lis_.Continue(limits::kMaxLisHypotheses, &lis_res_, std::max(1.0, lis_budget_left_ - lis_res_.cost));
+  Charge(lis_res_.cost);
+  if (s != LisStatus::kSearching) {
+    view_repeated_ = lis_res_.repeats > 0;
+    return s;
+  }
+  lis_owner_ = LisOwner::kSeeded;
+  seeded_t_ns_ = t_ns;
+  seeded_steady_ = SteadyBlobs();
+  seeded_blobs_ = num_blobs;
+  ++counters_.seeded_spread;
+  return s;
+}
+
+// Goes on with the search near the followed poses begun at seeded_t_ns_ (SeededSearch). True
+// when it settles this frame set (*status): still searching, or a confirmed fix of its frame
+// set, which seeds this one (as a cold search's does). False: this frame set searches on its
+// own, after the chain has followed a complete list of the search's frame set (the next search
+// then starts near poses of that time, within bounds of the time since), or when it was
+// dropped (older than cold_search_s) or ended with nothing to tell.
+bool Tracker::ContinueSeededSearch(std::uint64_t t_ns, const TrackOptions& o, TrackResult* r, TrackStatus* status) {
+  lis_owner_ = LisOwner::kNone;
+  if (!lis_.searching() || t_ns < seeded_t_ns_ || Seconds(t_ns, seeded_t_ns_) > o.cold_search_s) return false;
+  // More blobs, or more steady ones, than it began with: perhaps a beacon come into view, which
+  // a search of this frame set's blobs may confirm at once (TrackOptions::restart_seeded_search).
+  if (o.restart_seeded_search && (SteadyBlobs() > seeded_steady_ || num_blobs_ > seeded_blobs_)) {
+    ++counters_.seeded_spread_restarted;
+    return false;
+  }
+  const double before = lis_res_.cost;
+  const LisStatus s = lis_.Continue(limits::kMaxLisHypotheses, &lis_res_, std::max(1.0, lis_budget_left_));
+  Charge(lis_res_.cost - before);
+  r->lis_status = s;
+  r->acquisition_poses = acquisition_.size();
+  if (s == LisStatus::kSearching) {
+    lis_owner_ = LisOwner::kSeeded;
+    *status = Lost(TrackReason::kAcquiring, r);
+    return true;
+  }
+  ++counters_.seeded_spread_ended;
+  view_repeated_ = lis_res_.repeats > 0;
+  if (s == LisStatus::kFix && lis_res_.confirmed) {
+    SetPose(lis_res_.pose, seeded_t_ns_, PositionSigma(lis_res_.solve.covariance), AttitudeSigma(lis_res_.solve.covariance));
+    --counters_.frames;  // the same frame set again, now with a seed
+    *status = TrackOnce(blobs_, num_blobs_, t_ns, o, r);
+    return true;
+  }
+  // (Acquire's pruning by the image tracks and its acceptance need the list's own frame set's
+  // blobs: they come with this frame set's search.)
+  if (lis_res_.complete &&
+      (s == LisStatus::kFix || s == LisStatus::kAmbiguous || s == LisStatus::kNoHypothesis))
+    acquisition_.Follow(lis_res_, seeded_t_ns_);
+  return false;
 }
 
 TrackStatus Tracker::TrackOnce(const BlobObs* blobs, int num_blobs, std::uint64_t t_ns, const TrackOptions& o,
@@ -1285,12 +1365,24 @@ TrackStatus Tracker::Reidentify(const BlobObs* blobs, int num_blobs, std::uint64
   if (num_blobs < 3) return Lost(motion_.known() ? TrackReason::kTooFewBeacons : TrackReason::kTooFewBlobs, r);
   r->lis_run = true;
   ++counters_.lis_runs;
+  // A search near the followed poses begun on an earlier frame set goes on first.
+  if (lis_owner_ == LisOwner::kSeeded) {
+    TrackStatus status = TrackStatus::kLost;
+    if (ContinueSeededSearch(t_ns, o, r, &status)) return status;
+  }
   // While poses are being followed (or a recent pose can seed them), lost-in-space only looks
   // near them: cheaper, and complete far more often when spurious blobs multiply the poses.
   LisPrior prior;
   const bool use_prior = ChainPrior(t_ns, o, &prior);
   if (use_prior) AnchorContinuingBlobs(o, &prior);
-  if (!use_prior && rig_->num_beacons >= o.lis.fourth_blob_min_beacons) {
+  const bool large_map = rig_->num_beacons >= o.lis.fourth_blob_min_beacons;
+  if (use_prior && large_map && o.spread_seeded_search) {
+    r->lis_status = SeededSearch(blobs, num_blobs, prior, t_ns, o);
+    if (r->lis_status == LisStatus::kSearching) {
+      r->acquisition_poses = acquisition_.size();
+      return Lost(TrackReason::kAcquiring, r);
+    }
+  } else if (!use_prior && large_map) {
     // Nothing to follow, and a map too large for complete lists of three-beacon poses (the
     // acquisition's chain): the search may span frame sets (ColdSearch).
     bool old = false;

@@ -199,6 +199,18 @@ struct TrackOptions {
   // the current one. (Smaller maps search each frame set on its own: the acquisition follows
   // their complete lists of poses over frame sets.)
   double cold_search_s = 0.6;
+  // In such maps, a search near the followed (or predicted) poses that the frame set's budget
+  // cuts goes on over the next frame sets too (within cold_search_s), its list of the frame set
+  // it began on: the chain is followed to that frame set, and this one's search starts near
+  // it. (False: each frame set searches afresh within its budget; after a gap the prediction's
+  // bounds hold more beacon triples than one budget tries, and every search was cut: seen,
+  // 34 frame sets in a row in a 64-beacon box; docs/acquisition.md, session 39.)
+  bool spread_seeded_search = true;
+  // With spread_seeded_search: such a search starts over on the current frame set when it has
+  // more blobs, or more steady ones, than the search's own (a beacon come into view: a view of
+  // five beacons is confirmed within a budget, where the older blobs cannot be; seen: a random
+  // 64-beacon box, 11 frame sets later than by a search of each frame set).
+  bool restart_seeded_search = true;
   // Lost-in-space searches the triples of steady blobs first (blob_tracks.h): blobs that
   // continued a blob of the previous frame sets with a constant image velocity. The image
   // gates come from the motion bounds above and these (false: every blob alike, as before).
@@ -389,6 +401,9 @@ struct TrackCounters {
   std::uint32_t left_out_undecided = 0;   // ... refused: no leave-out, or several, fit
   std::uint32_t left_out_budget_out = 0;  // ... refused: the frame set's budget ran out first
   std::uint32_t left_two_out = 0;         // ... of the published, two beacons left out
+  std::uint32_t seeded_spread = 0;        // searches near followed poses that went on over frame sets
+  std::uint32_t seeded_spread_ended = 0;  // ... and ended there (their list followed to their frame set)
+  std::uint32_t seeded_spread_restarted = 0;  // ... dropped for the current frame set's blobs (restart_seeded_search)
   std::uint32_t overflow_stopped = 0;     // a small map's search stopped at the budget, its list overflowed or too long to complete (RunSmallMapLis)
   std::uint32_t continued = 0;            // tracked beyond max_gate_px on continuing blobs (TrackContinuing)
   std::uint32_t continuity_refused = 0;   // ... refused by tracking's tests or the motion filter
@@ -505,6 +520,9 @@ class Tracker {
   LisStatus RunSmallMapLis(const BlobObs* blobs, int num_blobs, const LisPrior* prior, const TrackOptions& o);
   void Charge(double cost);
   LisStatus ColdSearch(const BlobObs* blobs, int num_blobs, std::uint64_t t_ns, const TrackOptions& o, bool* old);
+  LisStatus SeededSearch(const BlobObs* blobs, int num_blobs, const LisPrior& prior, std::uint64_t t_ns,
+                         const TrackOptions& o);
+  bool ContinueSeededSearch(std::uint64_t t_ns, const TrackOptions& o, TrackResult* r, TrackStatus* status);
   BlobTrackOptions BlobTrackOptionsOf(const TrackOptions& o) const;
 
   const Rig* rig_ = nullptr;
@@ -548,6 +566,15 @@ class Tracker {
   LisPrior cold_prior_;  // the cold search's anchors (no poses; AnchorContinuingBlobs)
   double lis_budget_left_ = 0.0;  // LisResult::cost left to this frame set
   std::uint64_t cold_t_ns_ = 0;  // the frame set of the cold search in progress
+  // Whose search lis_ has under way over frame sets (lis_.searching()): the cold one, or one
+  // near the followed poses (SeededSearch: its prior, whose poses are acquisition_'s prior
+  // copy, unchanged until the search ends, and its frame set).
+  enum class LisOwner { kNone, kCold, kSeeded };
+  LisOwner lis_owner_ = LisOwner::kNone;
+  LisPrior seeded_prior_;
+  std::uint64_t seeded_t_ns_ = 0;
+  int seeded_steady_ = 0, seeded_blobs_ = 0;  // its frame set's steady blobs, and all its blobs
+  int SteadyBlobs() const;  // this frame set's (BlobTracks)
   MatchSet set_;
   // Tracking's trials of ambiguous beacons: the unambiguous matches, the ambiguous beacons,
   // the best consistent trial and every consistent trial.

@@ -5,6 +5,7 @@
 #include <Eigen/Cholesky>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -415,6 +416,59 @@ TEST(TrackerTest, LargeMapStallIsBridgedBySeededSearch) {
   }
   EXPECT_LE(worst, 10);  // measured 0-2
   EXPECT_GT(cases, 0);
+}
+
+// A search near the prediction that one frame set's budget cuts goes on over the next ones
+// (TrackOptions::spread_seeded_search). After a 2 s stall (nothing from any camera; tracking
+// gives up after max_coast_s = 0.5 s), four or five beacons in view and 4 spots a frame set in
+// random 64-beacon cylinders: the prediction's bounds have grown past what one budget searches,
+// and a search of each frame set afresh is cut every time. Spread, the searches end, and the
+// track is found again sooner, never later, never wrong (measured on 24 draws: 5 found sooner
+// when spread - after 1 frame set against 2, 39, 48, 52 or never; the others identical, 4 of
+// them never found in 60 frame sets either way).
+TEST(TrackerTest, SeededSearchCutByTheBudgetGoesOnOverFrameSets) {
+  std::mt19937_64 rng(2812);
+  static Rig rig;
+  constexpr Stall kStall{.from = 20, .to = 80, .frames = 140, .spurious = 4};
+  const int draws = testing::Trials(24, 12);
+  int cases = 0, lost_fresh = 0, lost_spread = 0;  // frame sets after the stall until a pose
+  std::uint32_t spread_ended = 0;
+  for (int trial = 0; cases < draws && trial < 2000; ++trial) {
+    rig = testing::RandomCylinderRig(64, true, &rng);
+    const BodyPose start = testing::RandomCylinderPose(&rng, 2.1, 6.0, 0.8);
+    bool few = true;  // four or five beacons in view before the stall and after it
+    for (int f : {0, kStall.from - 1, kStall.to, kStall.to + 4}) {
+      testing::Observe(rig, SlowPathPose(start, f), 0.1, &rng, &g_scene);
+      few = few && g_scene.NumVisibleBeacons() >= 4 && g_scene.NumVisibleBeacons() <= 5;
+    }
+    if (!few) continue;
+    ++cases;
+    std::array<int, 2> recovered{};
+    for (const bool spread : {false, true}) {
+      TrackOptions o;
+      o.max_coast_s = 0.5;
+      o.spread_seeded_search = spread;
+      std::mt19937_64 noise(static_cast<std::uint64_t>(trial));  // the same frame sets in both
+      Sweep run;
+      int lost_before = 0;
+      recovered[spread] = TrackThroughStall(rig, start, kStall, o, &noise, &run, &lost_before);
+      EXPECT_EQ(run.wrong, 0) << "trial " << trial << " spread " << spread;
+      EXPECT_EQ(lost_before, 0) << "trial " << trial << " spread " << spread;
+      if (spread) spread_ended += g_tracker.counters().seeded_spread_ended;
+    }
+    std::printf("trial %d: found again %d frame sets after the stall searching afresh, %d spread\n", trial,
+                recovered[0], recovered[1]);
+    const int never = kStall.frames - kStall.to;
+    lost_fresh += recovered[0] >= 0 ? recovered[0] : never;
+    lost_spread += recovered[1] >= 0 ? recovered[1] : never;
+    if (recovered[0] >= 0) {
+      EXPECT_GE(recovered[1], 0) << "trial " << trial;
+      EXPECT_LE(recovered[1], recovered[0] + 2) << "trial " << trial;
+    }
+  }
+  EXPECT_EQ(cases, draws);
+  EXPECT_LT(lost_spread, lost_fresh);
+  EXPECT_GT(spread_ended, 0U);
 }
 
 // After a stall longer than max_coast_s (0.5 s here; no frame from any camera), the last pose
