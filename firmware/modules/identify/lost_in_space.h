@@ -86,7 +86,7 @@ struct LisOptions {
                                   // (the beacon map's diameter + workspace_margin_m). 64 scan
                                   // steps: half the cost of 128 for a cross-camera triple, and
                                   // the same root misses (2-5 in 20000 random triples to 8 m)
-  int max_hypotheses = limits::kMaxLisHypotheses;  // work units per search (LisResult::work), 1..limit
+  int max_hypotheses = 20000;  // work units per search (LisResult::work), 1..limits::kMaxLisHypotheses
   // CPU cost per search (LisResult::cost), > 0; infinity: none. The tracker's time budget.
   double max_cost = std::numeric_limits<double>::infinity();
   int max_blobs = limits::kMaxLisBlobs;            // blobs used for triples, 3..limit

@@ -844,7 +844,7 @@ bool TruthOrItsRootListed(const LisResult& r, const Rig& rig, const Scene& s) {
 // 20 (truth listed 20, 742 units on average, cost at most 2 241).
 TEST(LostInSpaceTest, AnAnchorCompletesTwoPlusOneColdSearches) {
   std::mt19937_64 rng(2101);
-  LisOptions o;  // the cold search's budget: limits::kMaxLisHypotheses units over its frame sets
+  LisOptions o;  // the cold search's budget: max_hypotheses units over its frame sets
   int cases = 0, plain_complete = 0, plain_listed = 0, anchored_complete = 0, anchored_listed = 0;
   long plain_work = 0, anchored_work = 0;
   double anchored_cost_max = 0.0;

@@ -58,6 +58,7 @@ bool TrackOptions::IsValid(const char** why) const {
   else if (lis_budget_per_frame < 1) bad = "lis_budget_per_frame";
   else if (!positive(chain_stale_s)) bad = "chain_stale_s";
   else if (!(cold_search_s >= 0.0) || !std::isfinite(cold_search_s)) bad = "cold_search_s";
+  else if (seeded_max_hypotheses < 1 || seeded_max_hypotheses > limits::kMaxLisHypotheses) bad = "seeded_max_hypotheses";
 
   else if (!positive(twin_m) || !positive(twin_rad)) bad = "twin";
   else if (!positive(innovation_m) || !positive(innovation_rad)) bad = "innovation";

@@ -1261,7 +1261,9 @@ LisStatus Tracker::SeededSearch(const BlobObs* blobs, int num_blobs, const LisPr
                                 const TrackOptions& o) {
   seeded_prior_ = prior;
   lis_owner_ = LisOwner::kNone;
-  LisStatus s = lis_.Begin(blobs, num_blobs, o.lis, &lis_res_, &seeded_prior_, cameras_, steady_);
+  LisOptions lo = o.lis;
+  lo.max_hypotheses = o.seeded_max_hypotheses;  // (spread, its work is no longer one frame set's time)
+  LisStatus s = lis_.Begin(blobs, num_blobs, lo, &lis_res_, &seeded_prior_, cameras_, steady_);
   if (s == LisStatus::kSearching)
     s = lis_.Continue(limits::kMaxLisHypotheses, &lis_res_, std::max(1.0, lis_budget_left_ - lis_res_.cost));
   Charge(lis_res_.cost);

@@ -211,6 +211,12 @@ struct TrackOptions {
   // five beacons is confirmed within a budget, where the older blobs cannot be; seen: a random
   // 64-beacon box, 11 frame sets later than by a search of each frame set).
   bool restart_seeded_search = true;
+  // With spread_seeded_search: the work units (LisResult::work) such a search may spend in all,
+  // 1..limits::kMaxLisHypotheses (lis.max_hypotheses for the others). Spread, its work costs no
+  // frame set more time; with 20 000 the searches after gaps among static reflections ended
+  // at that cap, incomplete (box 64, 25 reflections, seeds 1-12: 35 000 gives 4 runs +4 to +118
+  // fixes, one -6; 60 000 more wrong degraded poses, 9 -> 14; docs/acquisition.md, session 39).
+  int seeded_max_hypotheses = 35000;
   // Lost-in-space searches the triples of steady blobs first (blob_tracks.h): blobs that
   // continued a blob of the previous frame sets with a constant image velocity. The image
   // gates come from the motion bounds above and these (false: every blob alike, as before).

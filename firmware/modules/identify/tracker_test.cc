@@ -786,6 +786,12 @@ TEST(TrackerTest, StatusesCountersAndOptions) {
   o.lis.max_blobs = 2;
   EXPECT_FALSE(o.IsValid(&why));
   EXPECT_STREQ(why, "max_blobs");
+  for (const int work : {0, limits::kMaxLisHypotheses + 1}) {
+    o = {};
+    o.seeded_max_hypotheses = work;
+    EXPECT_FALSE(o.IsValid(&why));
+    EXPECT_STREQ(why, "seeded_max_hypotheses");
+  }
   const TrackCounters& c = tr.counters();
   EXPECT_EQ(c.frames, 3U);
   EXPECT_EQ(c.by_status[static_cast<std::size_t>(TrackStatus::kLost)], 3U);
