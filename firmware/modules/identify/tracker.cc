@@ -1190,11 +1190,24 @@ BlobTrackOptions Tracker::BlobTrackOptionsOf(const TrackOptions& o) const {
   return b;
 }
 
-int Tracker::SteadyBlobs() const {
-  if (steady_ == nullptr) return 0;
-  int n = 0;
-  for (int i = 0; i < num_blobs_; ++i) n += steady_[static_cast<std::size_t>(i)] != 0 ? 1 : 0;
-  return n;
+int Tracker::SteadyBlobs() const { return steady_ == nullptr ? 0 : blob_tracks_.num_steady(); }
+
+// Goes on with lis_'s search in progress (ColdSearch, SeededSearch) within what is left of this
+// frame set's budget, and charges it.
+LisStatus Tracker::ContinueLis() {
+  const double before = lis_res_.cost;
+  const LisStatus s = lis_.Continue(limits::kMaxLisHypotheses, &lis_res_, std::max(1.0, lis_budget_left_));
+  Charge(lis_res_.cost - before);
+  return s;
+}
+
+// A confirmed fix that a search spread over frame sets found for the frame set at found_t_ns
+// seeds this one (within the motion bounds since then): this frame set is tracked again.
+TrackStatus Tracker::SeedFromEarlierFix(std::uint64_t found_t_ns, std::uint64_t t_ns, const TrackOptions& o,
+                                        TrackResult* r) {
+  SetPose(lis_res_.pose, found_t_ns, PositionSigma(lis_res_.solve.covariance), AttitudeSigma(lis_res_.solve.covariance));
+  --counters_.frames;  // the same frame set again, now with a seed
+  return TrackOnce(blobs_, num_blobs_, t_ns, o, r);
 }
 
 // At least one unit per search, so that a frame set's searches always end.
@@ -1244,9 +1257,7 @@ LisStatus Tracker::ColdSearch(const BlobObs* blobs, int num_blobs, std::uint64_t
     if (s != LisStatus::kSearching) return s;
   }
   *old = cold_t_ns_ != t_ns;
-  const double before = lis_res_.cost;
-  const LisStatus s = lis_.Continue(limits::kMaxLisHypotheses, &lis_res_, std::max(1.0, lis_budget_left_));
-  Charge(lis_res_.cost - before);
+  const LisStatus s = ContinueLis();
   // A search under way keeps the last one's answer until it finds a copy or ends.
   if (s != LisStatus::kSearching || lis_res_.repeats > 0) view_repeated_ = lis_res_.repeats > 0;
   return s;
@@ -1294,9 +1305,7 @@ bool Tracker::ContinueSeededSearch(std::uint64_t t_ns, const TrackOptions& o, Tr
     ++counters_.seeded_spread_restarted;
     return false;
   }
-  const double before = lis_res_.cost;
-  const LisStatus s = lis_.Continue(limits::kMaxLisHypotheses, &lis_res_, std::max(1.0, lis_budget_left_));
-  Charge(lis_res_.cost - before);
+  const LisStatus s = ContinueLis();
   r->lis_status = s;
   r->acquisition_poses = acquisition_.size();
   if (s == LisStatus::kSearching) {
@@ -1307,9 +1316,7 @@ bool Tracker::ContinueSeededSearch(std::uint64_t t_ns, const TrackOptions& o, Tr
   ++counters_.seeded_spread_ended;
   view_repeated_ = lis_res_.repeats > 0;
   if (s == LisStatus::kFix && lis_res_.confirmed) {
-    SetPose(lis_res_.pose, seeded_t_ns_, PositionSigma(lis_res_.solve.covariance), AttitudeSigma(lis_res_.solve.covariance));
-    --counters_.frames;  // the same frame set again, now with a seed
-    *status = TrackOnce(blobs_, num_blobs_, t_ns, o, r);
+    *status = SeedFromEarlierFix(seeded_t_ns_, t_ns, o, r);
     return true;
   }
   // (Acquire's pruning by the image tracks and its acceptance need the list's own frame set's
@@ -1394,10 +1401,7 @@ TrackStatus Tracker::Reidentify(const BlobObs* blobs, int num_blobs, std::uint64
       // The search ended on an earlier frame set. Only a confirmed fix tells anything now: it
       // seeds this frame set (within the motion bounds since then); otherwise start afresh.
       if (r->lis_status != LisStatus::kFix || !lis_res_.confirmed) return Lost(TrackReason::kAcquiring, r);
-      SetPose(lis_res_.pose, cold_t_ns_, PositionSigma(lis_res_.solve.covariance),
-              AttitudeSigma(lis_res_.solve.covariance));
-      --counters_.frames;  // the same frame set again, now with a seed
-      return TrackOnce(blobs, num_blobs, t_ns, o, r);
+      return SeedFromEarlierFix(cold_t_ns_, t_ns, o, r);
     }
   } else {
     r->lis_status = RunLis(blobs, num_blobs, use_prior ? &prior : nullptr, o);

@@ -529,6 +529,8 @@ class Tracker {
   LisStatus SeededSearch(const BlobObs* blobs, int num_blobs, const LisPrior& prior, std::uint64_t t_ns,
                          const TrackOptions& o);
   bool ContinueSeededSearch(std::uint64_t t_ns, const TrackOptions& o, TrackResult* r, TrackStatus* status);
+  LisStatus ContinueLis();
+  TrackStatus SeedFromEarlierFix(std::uint64_t found_t_ns, std::uint64_t t_ns, const TrackOptions& o, TrackResult* r);
   BlobTrackOptions BlobTrackOptionsOf(const TrackOptions& o) const;
 
   const Rig* rig_ = nullptr;
@@ -580,7 +582,7 @@ class Tracker {
   LisPrior seeded_prior_;
   std::uint64_t seeded_t_ns_ = 0;
   int seeded_steady_ = 0, seeded_blobs_ = 0;  // its frame set's steady blobs, and all its blobs
-  int SteadyBlobs() const;  // this frame set's (BlobTracks)
+  int SteadyBlobs() const;  // this frame set's (BlobTracks::num_steady; 0 without them)
   MatchSet set_;
   // Tracking's trials of ambiguous beacons: the unambiguous matches, the ambiguous beacons,
   // the best consistent trial and every consistent trial.
