@@ -218,5 +218,47 @@ TEST_F(SurveyCommandTest, BadInputLosesNothingAndNamesTheProblem) {
   EXPECT_FALSE(fs::exists(dir_ / "kept" / "calibration.bin"));
 }
 
+// The turntable's surveyed placement: refused naming the option before anything is read.
+TEST_F(SurveyCommandTest, BadTurntablePlacementIsRefusedNamingTheOption) {
+  struct Bad {
+    const char* expected;
+    void (*edit)(SurveyCommandOptions*);
+  };
+  const Bad bad[] = {
+      {"--turntable-centre-mm: only with --turntable", [](SurveyCommandOptions* o) {
+         o->turntable = false;
+         o->turntable_centre_mm = {1, 2, 3};
+       }},
+      {"--turntable-centre-mm: expected 3 finite", [](SurveyCommandOptions* o) { o->turntable_centre_mm = {1, NAN, 3}; }},
+      {"--turntable-centre-sigma-mm", [](SurveyCommandOptions* o) {
+         o->turntable_centre_mm = {1, 2, 3};
+         o->turntable_centre_sigma_set = true;
+         o->turntable_centre_sigma_mm = 0.0;
+       }},
+      {"--turntable-centre-sigma-mm", [](SurveyCommandOptions* o) { o->turntable_centre_sigma_set = true; }},
+      {"--turntable-axis: expected 3 finite numbers X,Y,Z, not all 0",
+       [](SurveyCommandOptions* o) { o->turntable_axis = {0, 0, 0}; }},
+      {"--turntable-axis-sigma-deg", [](SurveyCommandOptions* o) {
+         o->turntable_axis = {0, 0, 1};
+         o->turntable_axis_sigma_deg = -1.0;
+       }},
+      {"--turntable-axis-sigma-deg", [](SurveyCommandOptions* o) { o->turntable_axis_sigma_set = true; }},
+  };
+  for (const Bad& b : bad) {
+    SurveyCommandOptions o = Options("never");
+    o.turntable = true;
+    b.edit(&o);
+    std::ostringstream log;
+    try {
+      RunSurveyCommand(o, log);
+      ADD_FAILURE() << b.expected;
+    } catch (const UserError& e) {
+      EXPECT_NE(std::string(e.what()).find(b.expected), std::string::npos) << e.what();
+      EXPECT_EQ(std::string(e.what()).find('\n'), std::string::npos) << e.what();
+    }
+  }
+  EXPECT_FALSE(fs::exists(dir_ / "never"));
+}
+
 }  // namespace
 }  // namespace mfns::host

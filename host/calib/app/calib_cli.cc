@@ -1,5 +1,6 @@
 #include "host/calib/app/calib_cli.h"
 
+#include <algorithm>
 #include <charconv>
 #include <cmath>
 
@@ -97,9 +98,43 @@ CLI::App* AddSurveyCommand(CLI::App& app, SurveyCommandOptions* o, std::string* 
   cmd->add_flag("--turntable", o->turntable,
                 "Each recording is a turntable run: the body turns about one fixed point (where the axes meet), "
                 "so its poses share their position model and the beacons' depths are better determined");
+  cmd->add_option("--turntable-centre-mm", o->turntable_centre_mm,
+                  "X,Y,Z (mm, world): the first recording's turntable centre (where its axes meet), surveyed")
+      ->delimiter(',')
+      ->expected(3);
+  cmd->add_option("--turntable-centre-sigma-mm", o->turntable_centre_sigma_mm,
+                  "Its 1-sigma per coordinate (mm; default the rig's beacon_sigma_mm: the beacons' instrument)");
+  cmd->add_option("--turntable-axis", o->turntable_axis,
+                  "X,Y,Z (world): the first recording's turntable axis, surveyed or levelled (a run about one axis)")
+      ->delimiter(',')
+      ->expected(3);
+  cmd->add_option("--turntable-axis-sigma-deg", o->turntable_axis_sigma_deg, "Its 1-sigma across it (deg)")
+      ->capture_default_str();
   return cmd;
 }
 
+}  // namespace
+
+namespace {
+void ValidateTurntablePlacement(const SurveyCommandOptions& o) {
+  const auto finite3 = [](const std::vector<double>& v) {
+    return v.size() == 3 && std::all_of(v.begin(), v.end(), [](double x) { return std::isfinite(x); });
+  };
+  const bool centre = !o.turntable_centre_mm.empty(), axis = !o.turntable_axis.empty();
+  if ((centre || axis || o.turntable_centre_sigma_set || o.turntable_axis_sigma_set) && !o.turntable)
+    throw UserError(std::string(centre ? "--turntable-centre-mm" : axis ? "--turntable-axis" : "a turntable sigma") +
+                    ": only with --turntable (a turntable run's surveyed placement)");
+  if (centre && !finite3(o.turntable_centre_mm)) throw UserError("--turntable-centre-mm: expected 3 finite numbers X,Y,Z");
+  if (o.turntable_centre_sigma_set && (!centre || !(o.turntable_centre_sigma_mm > 0) ||
+                                       !std::isfinite(o.turntable_centre_sigma_mm)))
+    throw UserError("--turntable-centre-sigma-mm: a positive number, with --turntable-centre-mm");
+  if (axis && (!finite3(o.turntable_axis) ||
+               std::hypot(o.turntable_axis[0], o.turntable_axis[1], o.turntable_axis[2]) == 0.0))
+    throw UserError("--turntable-axis: expected 3 finite numbers X,Y,Z, not all 0");
+  if (!(o.turntable_axis_sigma_deg > 0) || !std::isfinite(o.turntable_axis_sigma_deg) ||
+      (o.turntable_axis_sigma_set && !axis))
+    throw UserError("--turntable-axis-sigma-deg: a positive number, with --turntable-axis");
+}
 }  // namespace
 
 void ValidateSurveyCommand(const SurveyCommandOptions& o) {
@@ -117,6 +152,7 @@ void ValidateSurveyCommand(const SurveyCommandOptions& o) {
     throw UserError("--initial-sigma: expected two positive numbers MM,DEG");
   if (!(o.sigma_px > 0) || !std::isfinite(o.sigma_px)) throw UserError("--sigma-px must be a positive number");
   if (o.jobs < 1 || o.jobs > 64) throw UserError("--jobs must be 1..64");
+  ValidateTurntablePlacement(o);
 }
 
 std::uint64_t ParseGenerationOption(const std::string& text) {
@@ -184,6 +220,8 @@ void ParseCalibCommandLine(CLI::App& app, int argc, char** argv, CalibCommandLin
   cl->rig.angle_sigma_set = rig->count("--angle-sigma-arcsec") > 0;
   cl->survey.generation_set = survey->count("--generation") > 0;
   if (cl->survey.generation_set) cl->survey.generation = ParseGenerationOption(survey_generation);
+  cl->survey.turntable_centre_sigma_set = survey->count("--turntable-centre-sigma-mm") > 0;
+  cl->survey.turntable_axis_sigma_set = survey->count("--turntable-axis-sigma-deg") > 0;
 }
 
 }  // namespace mfns::host

@@ -69,6 +69,15 @@ struct SurveyCommandOptions {
   int jobs = 2;
   bool refine_cameras = false;        // also refine each camera's mounting (SurveyOptions)
   bool turntable = false;             // each recording turns about one fixed point (pivot_group)
+  // The first recording's turntable placement, surveyed (TurntablePlacement; only with
+  // --turntable): its centre (mm, world) and 1-sigma (mm; default the rig's beacon_sigma_mm), its
+  // rotation axis (world, any length) and 1-sigma (deg).
+  std::vector<double> turntable_centre_mm;
+  double turntable_centre_sigma_mm = 0.0;
+  bool turntable_centre_sigma_set = false;
+  std::vector<double> turntable_axis;
+  double turntable_axis_sigma_deg = 5.0 / 3600.0;
+  bool turntable_axis_sigma_set = false;
   std::string command_line;  // for report.html (the tool sets it)
 };
 
@@ -110,7 +119,9 @@ bool SbAccuracy(bool fast_detect, bool refine_corners);
 // `intrinsics`: --out, --target (returned, parsed) and the images.
 CalibrationTarget ValidateIntrinsicsCommand(const IntrinsicsCommandOptions& o);
 // `survey`: --out, --rig, the recordings, --initial-pose (6 finite numbers), --initial-sigma (2
-// positive), --sigma-px, --jobs.
+// positive), --sigma-px, --jobs; --turntable-centre-mm (3 finite numbers), --turntable-axis (3
+// finite, not all 0) and their sigmas (positive), each only with --turntable and a sigma only
+// with its value.
 void ValidateSurveyCommand(const SurveyCommandOptions& o);
 
 }  // namespace mfns::host

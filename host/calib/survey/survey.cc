@@ -15,6 +15,17 @@
 
 namespace mfns::host {
 
+bool TurntablePlacement::IsValid(const char** why) const {
+  const auto positive = [](double v) { return v > 0.0 && std::isfinite(v); };
+  const char* bad = nullptr;
+  if (has_centre && (!centre_w.allFinite() || !positive(centre_sigma_m))) bad = "turntable centre";
+  else if (has_centre_b && (!centre_b.allFinite() || !positive(centre_b_sigma_m))) bad = "turntable centre in the body";
+  else if (has_axis && (!axis_w.allFinite() || std::abs(axis_w.norm() - 1.0) > 1e-6 || !positive(axis_sigma_rad)))
+    bad = "turntable axis";
+  if (why != nullptr) *why = bad;
+  return bad == nullptr;
+}
+
 bool SurveyOptions::IsValid(const char** why) const {
   const char* bad = nullptr;
   if (!(start_sigma_px > 0.0) || !std::isfinite(start_sigma_px)) bad = "start_sigma_px";
@@ -24,6 +35,9 @@ bool SurveyOptions::IsValid(const char** why) const {
   else if (max_iterations < 1) bad = "max_iterations";
   else if (!(moved_sigmas > 0.0) || !std::isfinite(moved_sigmas)) bad = "moved_sigmas";
   else if (threads < 1) bad = "threads";
+  else if (!(turntable_wobble_rad > 0.0) || !std::isfinite(turntable_wobble_rad)) bad = "turntable_wobble_rad";
+  for (const TurntablePlacement& t : turntables)
+    if (bad == nullptr && !t.IsValid(&bad)) break;
   if (why != nullptr) *why = bad;
   return bad == nullptr;
 }
@@ -121,15 +135,49 @@ Eigen::Vector3d PivotPosition(const std::array<double, 6>& pv, const Eigen::Matr
   return Eigen::Vector3d(pv[3], pv[4], pv[5]) - C_w_b * Eigen::Vector3d(pv[0], pv[1], pv[2]);
 }
 
-// A pivot's body point held near its start (1 m): a run about one axis leaves it free along
-// the axis, where it changes no pose.
-struct PivotPrior {
-  Eigen::Vector3d p_b0;
+// A point known to 1-sigma sigma per coordinate as a Gaussian prior on the 3 parameters at
+// `offset` of its block: a surveyed beacon, a turntable's surveyed centre (p_w) or its centre in
+// the body (p_b; without the mount, its start by 1 m: a run about one axis leaves it free along
+// the axis, where it changes no pose), a turntable's surveyed axis.
+struct PointPrior {
+  Eigen::Vector3d P0;
+  double inv_sigma;
+  int offset = 0;
   template <typename T>
-  bool operator()(const T* p, T* res) const {
-    for (int i = 0; i < 3; ++i) res[i] = p[i] - T(p_b0(i));
+  bool operator()(const T* P, T* res) const {
+    for (int i = 0; i < 3; ++i) res[i] = (P[offset + i] - T(P0(i))) * T(inv_sigma);
     return true;
   }
+};
+
+// A turntable run about one axis: the pose's attitude C_w_b = C_ref Exp(dtheta) maps the body
+// axis a_b to the world axis a_w, r = (C_w_b a_b - a_w) / wobble. Blocks: pose delta (6;
+// its translation unused), a_b (3), a_w (3), both unit (SphereManifold).
+class TurntableAxisCost final : public ceres::SizedCostFunction<3, 6, 3, 3> {
+ public:
+  TurntableAxisCost(const Eigen::Matrix3d& C_ref, double inv_wobble) : C_ref_(C_ref), inv_(inv_wobble) {}
+
+  bool Evaluate(double const* const* params, double* residuals, double** jacobians) const override {
+    const Eigen::Vector3d dtheta = Eigen::Map<const Eigen::Vector3d>(params[0] + 3);
+    const Eigen::Matrix3d C = C_ref_ * ExpSO3(dtheta);
+    const Eigen::Vector3d a_b = Eigen::Map<const Eigen::Vector3d>(params[1]);
+    Eigen::Map<Eigen::Vector3d> res(residuals);
+    res = (C * a_b - Eigen::Map<const Eigen::Vector3d>(params[2])) * inv_;
+    if (jacobians == nullptr) return true;
+    if (jacobians[0] != nullptr) {  // d(C Exp(e) a_b) = -C [a_b]x J_r(dtheta) de
+      Eigen::Map<Eigen::Matrix<double, 3, 6, Eigen::RowMajor>> j(jacobians[0]);
+      j.leftCols<3>().setZero();
+      j.rightCols<3>() = -inv_ * C * Skew(a_b) * RightJacobianSO3(dtheta);
+    }
+    using Block3 = Eigen::Map<Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>;
+    if (jacobians[1] != nullptr) Block3(jacobians[1], 3, 3) = inv_ * C;
+    if (jacobians[2] != nullptr) Block3(jacobians[2], 3, 3) = -inv_ * Eigen::Matrix3d::Identity();
+    return true;
+  }
+
+ private:
+  const Eigen::Matrix3d C_ref_;
+  const double inv_;
 };
 
 // A camera's calibrated mounting as a Gaussian prior: its total change from the given one
@@ -179,17 +227,6 @@ Eigen::Matrix<double, 6, 6> CalibrationCovariance6(const Rig& rig, int k) {
   return cov;
 }
 
-// The surveyed position as a Gaussian prior of 1-sigma sigma_m per coordinate.
-struct BeaconPrior {
-  Eigen::Vector3d P0;
-  double inv_sigma;
-  template <typename T>
-  bool operator()(const T* P, T* res) const {
-    for (int i = 0; i < 3; ++i) res[i] = (P[i] - T(P0(i))) * T(inv_sigma);
-    return true;
-  }
-};
-
 struct State {
   std::vector<BodyPose> ref;                        // per frame set
   std::vector<std::array<double, 6>> delta;         // per frame set
@@ -201,6 +238,9 @@ struct State {
   std::vector<int> group;                           // per frame set: pivot group or -1
   std::vector<std::array<double, 6>> pivot;         // per pivot group: p_b, p_w
   std::vector<Eigen::Vector3d> pivot_b0;            // per pivot group: p_b's start
+  std::vector<TurntablePlacement> placement;        // per pivot group (SurveyOptions::turntables)
+  std::vector<std::array<double, 3>> axis_b, axis_w;  // per pivot group (placement's has_axis)
+  std::vector<bool> pivot_solved;                   // per pivot group: in the problem (has observations)
 };
 
 void CheckInput(const Rig& rig, const std::vector<SurveyFrameSet>& sets) {
@@ -218,6 +258,32 @@ void CheckInput(const Rig& rig, const std::vector<SurveyFrameSet>& sets) {
                         std::to_string(o.camera) + ", beacon " + std::to_string(o.beacon) + " (rig: " +
                         std::to_string(rig.num_cameras) + " cameras, " + std::to_string(rig.num_beacons) +
                         " beacons) or is not finite");
+}
+
+// Each pivot group's priors: p_b (the mount, else its start by 1 m), p_w (the surveyed centre);
+// with the surveyed axis, each of its poses' axis term and the axis's prior.
+void AddTurntableTerms(const SurveyOptions& o, State* s, ceres::Problem* problem) {
+  using Prior6 = ceres::AutoDiffCostFunction<PointPrior, 3, 6>;
+  for (std::size_t g = 0; g < s->pivot.size(); ++g) {
+    double* pivot = s->pivot[g].data();
+    if (!problem->HasParameterBlock(pivot)) continue;
+    const TurntablePlacement& t = s->placement[g];
+    problem->AddResidualBlock(t.has_centre_b ? new Prior6(new PointPrior{t.centre_b, 1.0 / t.centre_b_sigma_m, 0})
+                                             : new Prior6(new PointPrior{s->pivot_b0[g], 1.0, 0}),
+                              nullptr, pivot);
+    if (t.has_centre)
+      problem->AddResidualBlock(new Prior6(new PointPrior{t.centre_w, 1.0 / t.centre_sigma_m, 3}), nullptr, pivot);
+    if (!t.has_axis) continue;
+    for (std::size_t i = 0; i < s->group.size(); ++i)
+      if (s->group[i] == static_cast<int>(g) && problem->HasParameterBlock(s->delta[i].data()))
+        problem->AddResidualBlock(new TurntableAxisCost(s->ref[i].C_w_b, 1.0 / o.turntable_wobble_rad), nullptr,
+                                  s->delta[i].data(), s->axis_b[g].data(), s->axis_w[g].data());
+    problem->AddResidualBlock(
+        new ceres::AutoDiffCostFunction<PointPrior, 3, 3>(new PointPrior{t.axis_w, 1.0 / t.axis_sigma_rad}), nullptr,
+        s->axis_w[g].data());
+    problem->SetManifold(s->axis_b[g].data(), new ceres::SphereManifold<3>());
+    problem->SetManifold(s->axis_w[g].data(), new ceres::SphereManifold<3>());
+  }
 }
 
 // Builds the problem at the current state with centroid sigma sigma_px.
@@ -238,14 +304,11 @@ void BuildProblem(const Rig& rig, const std::vector<SurveyFrameSet>& sets, const
   for (std::size_t i = 0; i < sets.size(); ++i)
     if (s->group[i] >= 0 && problem->HasParameterBlock(s->delta[i].data()))
       problem->SetManifold(s->delta[i].data(), new ceres::SubsetManifold(6, {0, 1, 2}));
-  for (std::size_t g = 0; g < s->pivot.size(); ++g)
-    if (problem->HasParameterBlock(s->pivot[g].data()))
-      problem->AddResidualBlock(new ceres::AutoDiffCostFunction<PivotPrior, 3, 6>(new PivotPrior{s->pivot_b0[g]}), nullptr,
-                                s->pivot[g].data());
+  AddTurntableTerms(o, s, problem);
   for (int b = 0; b < rig.num_beacons; ++b) {
     if (!s->seen[static_cast<std::size_t>(b)]) continue;
-    problem->AddResidualBlock(new ceres::AutoDiffCostFunction<BeaconPrior, 3, 3>(
-                                  new BeaconPrior{rig.beacons_w[static_cast<std::size_t>(b)], 1.0 / rig.beacon_sigma}),
+    problem->AddResidualBlock(new ceres::AutoDiffCostFunction<PointPrior, 3, 3>(
+                                  new PointPrior{rig.beacons_w[static_cast<std::size_t>(b)], 1.0 / rig.beacon_sigma}),
                               nullptr, s->beacon[static_cast<std::size_t>(b)].data());
   }
   if (!o.refine_cameras || !rig.has_sigma) return;
@@ -374,6 +437,14 @@ SurveyResult Summarise(const Rig& rig, const std::vector<SurveyFrameSet>& sets, 
     res.pivots[g].p_b = Eigen::Vector3d(s.pivot[g][0], s.pivot[g][1], s.pivot[g][2]);
     res.pivots[g].p_w = Eigen::Vector3d(s.pivot[g][3], s.pivot[g][4], s.pivot[g][5]);
     res.pivots[g].frame_sets = static_cast<int>(std::count(s.group.begin(), s.group.end(), static_cast<int>(g)));
+    res.pivots[g].has_axis = s.placement[g].has_axis;
+    if (res.pivots[g].has_axis) {
+      res.pivots[g].axis_b = Eigen::Map<const Eigen::Vector3d>(s.axis_b[g].data());
+      res.pivots[g].axis_w = Eigen::Map<const Eigen::Vector3d>(s.axis_w[g].data());
+    }
+    Eigen::Matrix<double, 6, 6, Eigen::RowMajor> m;
+    if (s.pivot_solved[g] && cov.GetCovarianceBlock(s.pivot[g].data(), s.pivot[g].data(), m.data()))
+      res.pivots[g].covariance = m;
   }
   res.cameras.resize(static_cast<std::size_t>(rig.num_cameras));
   for (std::size_t c = 0; c < res.cameras.size(); ++c) {
@@ -460,6 +531,82 @@ int SetUpPivots(const std::vector<SurveyFrameSet>& sets, State* s) {
   return groups;
 }
 
+// Each pivot group's placement (SurveyOptions::turntables) and, with a surveyed axis, the axis
+// of its turn to start from: in the body, the axis of the relative rotation between its first
+// pose and the one turned farthest from it (the surveyed axis carried into the body when it
+// turns less than a degree); in the world, the first pose's image of it, signed as surveyed.
+void SetUpAxes(const SurveyOptions& o, State* s) {
+  const std::size_t groups = s->pivot.size();
+  if (o.turntables.size() > groups)
+    throw UserError("survey: a turntable placement for pivot group " + std::to_string(groups) +
+                    ", which has no frame sets");
+  s->placement.assign(groups, TurntablePlacement{});
+  std::copy(o.turntables.begin(), o.turntables.end(), s->placement.begin());
+  s->axis_b.assign(groups, std::array<double, 3>{});
+  s->axis_w.assign(groups, std::array<double, 3>{});
+  for (std::size_t g = 0; g < groups; ++g) {
+    if (!s->placement[g].has_axis) continue;
+    int first = -1;
+    Eigen::Vector3d turn = Eigen::Vector3d::Zero();
+    for (std::size_t i = 0; i < s->group.size(); ++i) {
+      if (s->group[i] != static_cast<int>(g)) continue;
+      if (first < 0) first = static_cast<int>(i);
+      const Eigen::Vector3d w = LogSO3(s->ref[static_cast<std::size_t>(first)].C_w_b.transpose() * s->ref[i].C_w_b);
+      if (w.norm() > turn.norm()) turn = w;
+    }
+    if (first < 0) continue;  // (a group without frame sets: nothing to turn)
+    const Eigen::Matrix3d& C0 = s->ref[static_cast<std::size_t>(first)].C_w_b;
+    const Eigen::Vector3d& surveyed = s->placement[g].axis_w;
+    Eigen::Vector3d a_b = turn.norm() > DegToRad(1.0) ? turn.normalized() : Eigen::Vector3d(C0.transpose() * surveyed);
+    if ((C0 * a_b).dot(surveyed) < 0.0) a_b = -a_b;
+    const Eigen::Vector3d a_w = C0 * a_b;
+    for (int k = 0; k < 3; ++k) s->axis_b[g][static_cast<std::size_t>(k)] = a_b(k);
+    for (int k = 0; k < 3; ++k) s->axis_w[g][static_cast<std::size_t>(k)] = a_w(k);
+  }
+}
+
+// The degrees of freedom the adjustment takes from the image residuals: 6 per free pose, 3 per
+// pivoted one and 6 per pivot group, 3 per beacon seen, 6 per refined camera; a pose turning
+// about a surveyed axis keeps 1 of its attitude's 3, and the axis in the body and in the world
+// take 2 each.
+int DofTaken(const State& s, int groups) {
+  const int seen = static_cast<int>(std::count(s.seen.begin(), s.seen.end(), true));
+  const int free_cameras = static_cast<int>(std::count(s.cam_free.begin(), s.cam_free.end(), true));
+  int pivoted = 0, on_axis = 0, axes = 0;
+  for (const int g : s.group) {
+    pivoted += g >= 0 ? 1 : 0;
+    on_axis += g >= 0 && s.placement[static_cast<std::size_t>(g)].has_axis ? 1 : 0;
+  }
+  for (const TurntablePlacement& t : s.placement) axes += t.has_axis ? 1 : 0;
+  return 6 * static_cast<int>(s.ref.size()) - 3 * pivoted + 6 * groups + 3 * seen + 6 * free_cameras - 2 * on_axis +
+         4 * axes;
+}
+
+ceres::Covariance::Options CovarianceOptions(const SurveyOptions& o) {
+  ceres::Covariance::Options co;
+  co.algorithm_type = ceres::SPARSE_QR;
+  co.num_threads = o.threads;
+  return co;
+}
+
+// The covariance of every seen beacon, refined camera and pivot group in the problem.
+void ComputeCovariance(const Rig& rig, State* s, ceres::Problem* problem, ceres::Covariance* cov) {
+  std::vector<std::pair<const double*, const double*>> blocks;
+  for (int b = 0; b < rig.num_beacons; ++b)
+    if (s->seen[static_cast<std::size_t>(b)])
+      blocks.emplace_back(s->beacon[static_cast<std::size_t>(b)].data(), s->beacon[static_cast<std::size_t>(b)].data());
+  for (std::size_t k = 0; k < s->cam_free.size(); ++k)
+    if (s->cam_free[k]) blocks.emplace_back(s->cam_delta[k].data(), s->cam_delta[k].data());
+  s->pivot_solved.assign(s->pivot.size(), false);
+  for (std::size_t g = 0; g < s->pivot.size(); ++g) {
+    s->pivot_solved[g] = problem->HasParameterBlock(s->pivot[g].data());
+    if (s->pivot_solved[g]) blocks.emplace_back(s->pivot[g].data(), s->pivot[g].data());
+  }
+  if (!blocks.empty() && !cov->Compute(blocks, problem))
+    throw UserError("survey: the covariance cannot be computed (a beacon seen from too few poses, or a camera's "
+                    "mounting unobservable?)");
+}
+
 }  // namespace
 
 Eigen::Matrix3d EulerToRotationJacobian(const Eigen::Matrix3d& C) {
@@ -496,10 +643,8 @@ SurveyResult AdjustMap(const Rig& rig, const std::vector<SurveyFrameSet>& sets, 
   }
   SetUpCameras(rig, sets, o, &s);
   const int groups = SetUpPivots(sets, &s);
-  const int seen = static_cast<int>(std::count(s.seen.begin(), s.seen.end(), true));
-  const int free_cameras = static_cast<int>(std::count(s.cam_free.begin(), s.cam_free.end(), true));
-  const int pivoted = static_cast<int>(std::count_if(s.group.begin(), s.group.end(), [](int g) { return g >= 0; }));
-  const int dof_taken = 6 * static_cast<int>(sets.size()) - 3 * pivoted + 6 * groups + 3 * seen + 6 * free_cameras;
+  SetUpAxes(o, &s);
+  const int dof_taken = DofTaken(s, groups);
   double sigma_px = o.start_sigma_px;
   bool estimated = true;
   for (int pass = 0; pass < o.reweight_passes; ++pass) {
@@ -521,19 +666,8 @@ SurveyResult AdjustMap(const Rig& rig, const std::vector<SurveyFrameSet>& sets, 
   Solve(rig, sets, o, sigma_px, &s, progress, "final");
   ceres::Problem problem;
   BuildProblem(rig, sets, o, sigma_px, &s, &problem);
-  ceres::Covariance::Options co;
-  co.algorithm_type = ceres::SPARSE_QR;
-  co.num_threads = o.threads;
-  ceres::Covariance cov(co);
-  std::vector<std::pair<const double*, const double*>> blocks;
-  for (int b = 0; b < rig.num_beacons; ++b)
-    if (s.seen[static_cast<std::size_t>(b)]) blocks.emplace_back(s.beacon[static_cast<std::size_t>(b)].data(),
-                                                                 s.beacon[static_cast<std::size_t>(b)].data());
-  for (std::size_t k = 0; k < s.cam_free.size(); ++k)
-    if (s.cam_free[k]) blocks.emplace_back(s.cam_delta[k].data(), s.cam_delta[k].data());
-  if (!blocks.empty() && !cov.Compute(blocks, &problem))
-    throw UserError("survey: the covariance cannot be computed (a beacon seen from too few poses, or a camera's "
-                    "mounting unobservable?)");
+  ceres::Covariance cov(CovarianceOptions(o));
+  ComputeCovariance(rig, &s, &problem, &cov);
   SurveyResult res = Summarise(rig, sets, o, s, cov, sigma_px);
   res.sigma_estimated = estimated;
   return res;

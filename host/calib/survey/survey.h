@@ -36,6 +36,34 @@ struct SurveyFrameSet {
   int pivot_group = -1;
 };
 
+// What a turntable run's own placement tells (one per pivot group, SurveyFrameSet::pivot_group),
+// each part optional. Images see the map's shape and where the run's fixed point and axis sit in
+// it, not where the whole map sits in the world: these place it (the survey's own rigid error).
+// Frames and units: world w and body b (DESIGN.md), m, rad.
+struct TurntablePlacement {
+  // The turntable's centre (where its axes meet: the group's fixed point p_w), surveyed in the
+  // world; 1-sigma per coordinate (m, > 0). It places the map across the axis; along the axis
+  // only with the body's point (below): a run about one axis fixes p_w - C_w_b p_b, not both.
+  bool has_centre = false;
+  Eigen::Vector3d centre_w = Eigen::Vector3d::Zero();
+  double centre_sigma_m = 0.0;
+  // The same point in the body frame (the group's p_b): the mount, which defines the body frame
+  // in the rig's calibration (docs/calibration.md --mount-mm: p_b = -C_p_b^T r_p_pb); 1-sigma per
+  // coordinate (m, > 0). Without it p_b is held only near its start by 1 m.
+  bool has_centre_b = false;
+  Eigen::Vector3d centre_b = Eigen::Vector3d::Zero();
+  double centre_b_sigma_m = 0.0;
+  // Its rotation axis in the world (unit; its sign is the one the refined axis keeps), levelled
+  // or surveyed, 1-sigma across it (rad, > 0). Holds only for a run that turns about one axis
+  // (the main axis, the auxiliary held): every pose of the group then maps one body axis a_b
+  // (refined, unit) to one world axis a_w (refined, unit; its prior is this), within
+  // SurveyOptions::turntable_wobble_rad.
+  bool has_axis = false;
+  Eigen::Vector3d axis_w = Eigen::Vector3d::UnitZ();
+  double axis_sigma_rad = 0.0;
+  bool IsValid(const char** why = nullptr) const;
+};
+
 struct SurveyOptions {
   double start_sigma_px = 0.15;  // centroid 1-sigma before it is re-estimated from the residuals
   int reweight_passes = 3;       // solve, re-estimate the centroid sigma, solve again
@@ -49,6 +77,12 @@ struct SurveyOptions {
   // calibration sigma (Rig::has_sigma) each camera has it as its prior, which also fixes the
   // body frame; without, camera 0 is held (it defines the body frame) and the others are free.
   bool refine_cameras = false;
+  // Per pivot group (index: group; fewer entries than groups: the rest have none): the
+  // turntable's surveyed placement. A group's fixed point and axis need its frame sets.
+  std::vector<TurntablePlacement> turntables;
+  // The turntable's wobble: how far (rad, 1-sigma) each pose's image of the body axis a_b may
+  // stray from the world axis a_w (with TurntablePlacement::has_axis). A few arcsec.
+  double turntable_wobble_rad = 2.0 / 3600.0 * 3.14159265358979323846 / 180.0;
   int threads = 1;
   // Tests: Ceres compares every analytic Jacobian with numeric differences during the solves
   // (a mismatch fails the solve: UserError).
@@ -87,6 +121,11 @@ struct SurveyCamera {
 struct SurveyPivot {
   Eigen::Vector3d p_b = Eigen::Vector3d::Zero();  // body frame, m
   Eigen::Vector3d p_w = Eigen::Vector3d::Zero();  // world frame, m
+  // With TurntablePlacement::has_axis: the refined axis in the body and in the world (unit).
+  bool has_axis = false;
+  Eigen::Vector3d axis_b = Eigen::Vector3d::Zero();
+  Eigen::Vector3d axis_w = Eigen::Vector3d::Zero();
+  Eigen::Matrix<double, 6, 6> covariance = Eigen::Matrix<double, 6, 6>::Zero();  // of [p_b; p_w], m^2
   int frame_sets = 0;
 };
 

@@ -96,6 +96,24 @@ Rig RefinedRig(const Rig& in, const SurveyResult& r, const std::string& rig_id) 
   return out;
 }
 
+// The first recording's surveyed turntable placement (--turntable-centre-mm, --turntable-axis):
+// none, or one for pivot group 0; the centre's sigma defaults to the map's (the same instrument).
+std::vector<TurntablePlacement> TurntablePlacementsOf(const SurveyCommandOptions& o, const Rig& rig) {
+  if (o.turntable_centre_mm.empty() && o.turntable_axis.empty()) return {};
+  TurntablePlacement t;
+  t.has_centre = o.turntable_centre_mm.size() == 3;
+  if (t.has_centre) {
+    t.centre_w = Eigen::Vector3d(o.turntable_centre_mm[0], o.turntable_centre_mm[1], o.turntable_centre_mm[2]) * 1e-3;
+    t.centre_sigma_m = o.turntable_centre_sigma_set ? o.turntable_centre_sigma_mm * 1e-3 : rig.beacon_sigma;
+  }
+  t.has_axis = o.turntable_axis.size() == 3;
+  if (t.has_axis) {
+    t.axis_w = Eigen::Vector3d(o.turntable_axis[0], o.turntable_axis[1], o.turntable_axis[2]).normalized();
+    t.axis_sigma_rad = DegToRad(o.turntable_axis_sigma_deg);
+  }
+  return {t};
+}
+
 std::vector<std::uint8_t> BlobOf(const Rig& rig, std::uint64_t generation) {
   std::vector<std::uint8_t> bytes(limits::kMaxBlobBytes);
   std::size_t written = 0;
@@ -103,6 +121,38 @@ std::vector<std::uint8_t> BlobOf(const Rig& rig, std::uint64_t generation) {
   if (s != BlobStatus::kOk) throw UserError(std::string("survey: cannot encode the refined rig: ") + ToString(s));
   bytes.resize(written);
   return bytes;
+}
+
+// The refined cameras' (with refine_cameras) and the pivot groups' lines of the log.
+void LogCamerasAndPivots(const Rig& rig, const SurveyResult& r, bool refine_cameras, std::ostream& log) {
+  for (std::size_t k = 0; k < r.cameras.size(); ++k) {
+    const SurveyCamera& c = r.cameras[k];
+    if (!refine_cameras) break;
+    char line[256];
+    std::snprintf(line, sizeof line, "survey: camera %s: %s", rig.cameras[k].name.data(),
+                  c.refined ? "" : (c.observations > 0 ? "held (it defines the body frame)" : "held (never seen)"));
+    log << line;
+    if (c.refined) {
+      const Eigen::Matrix<double, 6, 1> sg = c.covariance.diagonal().cwiseSqrt();
+      std::snprintf(line, sizeof line, "rotation changed %.4f deg (1-sigma %.4f), position %.3f mm (1-sigma %.3f)",
+                    RadToDeg(c.rotation_change_rad.norm()), RadToDeg(sg.head<3>().norm()),
+                    1e3 * c.translation_change_m.norm(), 1e3 * sg.tail<3>().norm());
+      log << line;
+    }
+    log << std::endl;
+  }
+  for (std::size_t g = 0; g < r.pivots.size(); ++g) {
+    const SurveyPivot& p = r.pivots[g];
+    char line[256];
+    std::snprintf(line, sizeof line, "survey: recording %zu turns about p_w = (%.1f, %.1f, %.1f) mm, p_b = (%.1f, %.1f, %.1f) mm",
+                  g + 1, 1e3 * p.p_w.x(), 1e3 * p.p_w.y(), 1e3 * p.p_w.z(), 1e3 * p.p_b.x(), 1e3 * p.p_b.y(), 1e3 * p.p_b.z());
+    log << line;
+    if (p.has_axis) {
+      std::snprintf(line, sizeof line, ", axis (%.6f, %.6f, %.6f) in the world", p.axis_w.x(), p.axis_w.y(), p.axis_w.z());
+      log << line;
+    }
+    log << std::endl;
+  }
 }
 
 }  // namespace
@@ -178,6 +228,7 @@ SurveyResult RunSurveyCommand(const SurveyCommandOptions& o, std::ostream& log) 
   so.start_sigma_px = o.sigma_px;
   so.threads = o.jobs;
   so.refine_cameras = o.refine_cameras;
+  so.turntables = TurntablePlacementsOf(o, rig);
   const SurveyResult r = AdjustMap(rig, sets, so, &log);
   const Rig out = RefinedRig(rig, r, o.rig_id);
   // Everything is encoded before anything is written: a failure leaves DIR as it was.
@@ -195,29 +246,7 @@ SurveyResult RunSurveyCommand(const SurveyCommandOptions& o, std::ostream& log) 
   WriteFileAtomic(dir / "report.html", html);
   WriteFileAtomic(dir / "calibration.bin", blob);
   WriteFileAtomic(dir / "rig.yaml", rig_text);
-  for (std::size_t k = 0; k < r.cameras.size(); ++k) {
-    const SurveyCamera& c = r.cameras[k];
-    if (!so.refine_cameras) break;
-    char line[256];
-    std::snprintf(line, sizeof line, "survey: camera %s: %s", rig.cameras[k].name.data(),
-                  c.refined ? "" : (c.observations > 0 ? "held (it defines the body frame)" : "held (never seen)"));
-    log << line;
-    if (c.refined) {
-      const Eigen::Matrix<double, 6, 1> sg = c.covariance.diagonal().cwiseSqrt();
-      std::snprintf(line, sizeof line, "rotation changed %.4f deg (1-sigma %.4f), position %.3f mm (1-sigma %.3f)",
-                    RadToDeg(c.rotation_change_rad.norm()), RadToDeg(sg.head<3>().norm()),
-                    1e3 * c.translation_change_m.norm(), 1e3 * sg.tail<3>().norm());
-      log << line;
-    }
-    log << std::endl;
-  }
-  for (std::size_t g = 0; g < r.pivots.size(); ++g) {
-    const SurveyPivot& p = r.pivots[g];
-    char line[256];
-    std::snprintf(line, sizeof line, "survey: recording %zu turns about p_w = (%.1f, %.1f, %.1f) mm, p_b = (%.1f, %.1f, %.1f) mm",
-                  g + 1, 1e3 * p.p_w.x(), 1e3 * p.p_w.y(), 1e3 * p.p_w.z(), 1e3 * p.p_b.x(), 1e3 * p.p_b.y(), 1e3 * p.p_b.z());
-    log << line << std::endl;
-  }
+  LogCamerasAndPivots(rig, r, so.refine_cameras, log);
   int seen = 0, moved = 0;
   for (const SurveyBeacon& b : r.beacons) {
     seen += b.observations > 0 ? 1 : 0;

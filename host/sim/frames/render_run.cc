@@ -123,6 +123,19 @@ std::string TurntableCsv(const std::vector<FrameTruth>& frames) {
   return o.str();
 }
 
+// turntable-survey.yaml: the turntable's placement as surveyed (SurveyTurntable), what
+// `mfns-calib survey --turntable-centre-mm ... --turntable-axis ...` takes; never the truth.
+std::string TurntableSurveyYaml(const Scenario& s) {
+  const SurveyedTurntable t = SurveyTurntable(s);
+  const auto triple = [](const Eigen::Vector3d& v, double scale, int digits) {
+    return "[" + Fmt(digits, scale * v.x()) + ", " + Fmt(digits, scale * v.y()) + ", " + Fmt(digits, scale * v.z()) + "]";
+  };
+  return "# The turntable's placement as surveyed (drawn about the truth; host/sim/scenario SurveyTurntable)\n"
+         "centre_mm: " + triple(t.centre_w, 1e3, 4) + "\ncentre_sigma_mm: " + Fmt(4, 1e3 * t.centre_sigma) +
+         "\ncentre_b_mm: " + triple(t.centre_b, 1e3, 4) + "\naxis: " + triple(t.axis_w, 1.0, 9) +
+         "\naxis_sigma_deg: " + Fmt(7, RadToDeg(t.axis_sigma)) + "\n";
+}
+
 void EnsureDir(const std::filesystem::path& dir) {
   std::error_code ec;
   std::filesystem::create_directories(dir, ec);
@@ -261,7 +274,10 @@ RenderSummary RenderScenario(const Scenario& s, const std::string& scenario_text
         << Fmt(6, r.uv_geom.y()) << '\n';
   WriteFileAtomic(dir / "blobs.csv", b.str());
   WriteFileAtomic(dir / "truth.csv", TruthCsv(frames));
-  if (s.trajectory.kind == TrajectoryKind::kTurntable) WriteFileAtomic(dir / "turntable.csv", TurntableCsv(frames));
+  if (s.trajectory.kind == TrajectoryKind::kTurntable) {
+    WriteFileAtomic(dir / "turntable.csv", TurntableCsv(frames));
+    WriteFileAtomic(dir / "turntable-survey.yaml", TurntableSurveyYaml(s));
+  }
   // rig.yaml is the truth: its beacon map is exact (beacon_sigma 0, whatever survey accuracy the
   // scenario's rig quotes); believed-rig.yaml carries the surveyed map and its sigma. Both carry
   // the beacons' facing only when the scenario's map does (map_facing).

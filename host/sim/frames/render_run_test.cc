@@ -55,6 +55,7 @@ TEST(RenderRun, WritesTheDesignLayoutAndTruth) {
   EXPECT_EQ(ReadRigYaml(dir / "rig.yaml").beacon_sigma, 0.0);
   EXPECT_TRUE(std::filesystem::exists(dir / "believed-rig.yaml"));
   EXPECT_TRUE(std::filesystem::exists(dir / "turntable.csv"));
+  EXPECT_TRUE(std::filesystem::exists(dir / "turntable-survey.yaml"));  // the surveyed placement
   // blobs.csv lists exactly the beacons crb.csv counts as visible.
   const CsvTable blobs = CsvTable::Read(dir / "blobs.csv");
   std::vector<int> per_frame(12, 0);

@@ -33,6 +33,7 @@ errors:
   extrinsic_rotation: {enabled: false, sigma_deg: 0.1}
   extrinsic_translation: {enabled: false, sigma_mm: 0.6}
   turntable_angle: {enabled: false, sigma_arcsec: 8}
+  turntable_axis: {enabled: true, sigma_arcsec: 5}   # the surveyed axis (turntable-survey.yaml)
 sensor:
   psf_sigma_px: 1.0
   flux_e_at_1m: 12000

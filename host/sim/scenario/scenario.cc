@@ -252,7 +252,7 @@ void ReadSwitch(const YAML::Node& n, const char* name, const char* magnitude_key
 
 void ReadErrors(const YAML::Node& n, const YamlCtx& ctx, ErrorSources* e) {
   RejectUnknownKeys(n, {"pixel_noise", "beacon_map", "intrinsics", "extrinsic_rotation", "extrinsic_translation",
-                        "turntable_angle"}, ctx);
+                        "turntable_angle", "turntable_axis"}, ctx);
   ReadSwitch(n, "pixel_noise", "centroid_sigma_px", 1.0, ctx, &e->pixel_noise, &e->centroid_sigma_px);
   ReadSwitch(n, "beacon_map", "sigma_mm", kMm, ctx, &e->beacon_map, &e->beacon_sigma);
   ReadSwitch(n, "intrinsics", "scale", 1.0, ctx, &e->intrinsics, &e->intrinsics_scale);
@@ -261,6 +261,7 @@ void ReadErrors(const YAML::Node& n, const YamlCtx& ctx, ErrorSources* e) {
   ReadSwitch(n, "extrinsic_translation", "sigma_mm", kMm, ctx, &e->extrinsic_translation,
              &e->extrinsic_translation_sigma);
   ReadSwitch(n, "turntable_angle", "sigma_arcsec", kArcsec, ctx, &e->turntable_angle, &e->turntable_angle_sigma);
+  ReadSwitch(n, "turntable_axis", "sigma_arcsec", kArcsec, ctx, &e->turntable_axis, &e->turntable_axis_sigma);
 }
 
 void ReadSensor(const YAML::Node& n, const YamlCtx& ctx, SensorSetup* s) {
@@ -601,6 +602,23 @@ Rig BelievedRig(const Scenario& s) {
   }
   rig.has_facing = rig.has_facing && s.map_facing;
   return rig;
+}
+
+SurveyedTurntable SurveyTurntable(const Scenario& s) {
+  std::mt19937_64 rng(s.seed * 0x94D049BB133111EBull + 13);  // its own stream
+  std::normal_distribution<double> n01(0.0, 1.0);
+  const ErrorSources& e = s.errors;
+  const Turntable& tt = s.turntable;
+  SurveyedTurntable out;
+  out.centre_sigma = e.beacon_map ? e.beacon_sigma : 0.0;
+  out.centre_w = tt.r_w_wt + out.centre_sigma * Eigen::Vector3d(n01(rng), n01(rng), n01(rng));
+  out.centre_b = -(tt.C_p_b.transpose() * tt.r_p_pb);
+  const Eigen::Vector3d axis = tt.C_w_t * R1(s.trajectory.aux_start).transpose() * Eigen::Vector3d::UnitZ();
+  out.axis_sigma = e.turntable_axis ? e.turntable_axis_sigma : 0.0;
+  // A turn of axis_sigma per direction across the axis (two normal draws in its tangent plane).
+  const Eigen::Vector3d u = axis.unitOrthogonal(), v = axis.cross(u);
+  out.axis_w = (ExpSO3(out.axis_sigma * (n01(rng) * u + n01(rng) * v)) * axis).normalized();
+  return out;
 }
 
 Rig TruthMapRig(const Scenario& s) {

@@ -81,6 +81,10 @@ struct ErrorSources {
   double extrinsic_translation_sigma = 0.6e-3;  // m per axis
   bool turntable_angle = true;
   double turntable_angle_sigma = 8.0 / 3600.0 * 3.14159265358979323846 / 180.0;  // rad
+  // The turntable's placement as surveyed (SurveyedTurntable): its centre with the beacons'
+  // instrument (beacon_sigma, when beacon_map is on), its axis levelled to this 1-sigma.
+  bool turntable_axis = true;
+  double turntable_axis_sigma = 5.0 / 3600.0 * 3.14159265358979323846 / 180.0;  // rad
 };
 
 // Image formation of LED beacons (host/sim/render).
@@ -211,6 +215,22 @@ std::vector<FrameTruth> SimulateTrajectory(const Scenario& s);
 // trajectory's draws). Its beacon_sigma is the survey error's when beacon_map is enabled, else
 // 0 (the believed map is the true one). Facing data only when map_facing.
 Rig BelievedRig(const Scenario& s);
+
+// A turntable run's placement as a user surveys it (issue 16; `DIR/turntable-survey.yaml` of a
+// rendered turntable run), never the truth: the centre Ot (where the axes meet, r_w_wt) drawn
+// about the truth with beacon_sigma per coordinate when beacon_map is on (else exact), and the
+// main axis Zt in the world at the run's first auxiliary angle (C_w_t R1(aux)^T e_z) turned by
+// turntable_axis_sigma per direction across it when turntable_axis is on. The centre in the body
+// is the mount's (-C_p_b^T r_p_pb: the mount defines the body frame, docs/calibration.md), exact.
+// Seeded from the scenario's seed, independent of the trajectory's and BelievedRig's draws.
+struct SurveyedTurntable {
+  Eigen::Vector3d centre_w = Eigen::Vector3d::Zero();  // m
+  double centre_sigma = 0.0;                           // m, 0: exact
+  Eigen::Vector3d centre_b = Eigen::Vector3d::Zero();  // m
+  Eigen::Vector3d axis_w = Eigen::Vector3d::UnitZ();   // unit
+  double axis_sigma = 0.0;                             // rad, 0: exact
+};
+SurveyedTurntable SurveyTurntable(const Scenario& s);
 
 // The true rig as a navigator would load it (rig.yaml): exact map (beacon_sigma 0), facing
 // data only when map_facing.
