@@ -1245,11 +1245,18 @@ LisStatus Tracker::ColdSearch(const BlobObs* blobs, int num_blobs, std::uint64_t
   // they do: its own order has that triple nowhere in particular (or behind a dearer one).
   const SteadyShape shape = SteadyShapeOf(blobs, num_blobs);
   const bool steadier = shape < cold_shape_;
-  if (lis_owner_ != LisOwner::kCold || !lis_.searching() || steadier || Seconds(t_ns, cold_t_ns_) > o.cold_search_s ||
-      t_ns < cold_t_ns_) {
+  // More blobs, or more steady ones, than its own frame set's, which held too few steady blobs
+  // to confirm a pose with one to spare: perhaps a beacon come into view (restart_cold_search).
+  const bool in_progress = lis_owner_ == LisOwner::kCold && lis_.searching();
+  const bool more = in_progress && o.restart_cold_search && cold_steady_ <= o.lis.confirm_beacons &&
+                    (SteadyBlobs() > cold_steady_ || num_blobs > cold_blobs_);
+  counters_.cold_search_restarted += more ? 1U : 0U;
+  if (!in_progress || steadier || more || Seconds(t_ns, cold_t_ns_) > o.cold_search_s || t_ns < cold_t_ns_) {
     lis_owner_ = LisOwner::kCold;
     cold_t_ns_ = t_ns;
     cold_shape_ = shape;
+    cold_steady_ = SteadyBlobs();
+    cold_blobs_ = num_blobs;
     cold_prior_ = LisPrior{};
     AnchorContinuingBlobs(o, &cold_prior_);
     const LisStatus s = lis_.Begin(blobs, num_blobs, o.lis, &lis_res_, cold_prior_.num_anchors > 0 ? &cold_prior_ : nullptr,

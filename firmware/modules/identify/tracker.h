@@ -199,6 +199,13 @@ struct TrackOptions {
   // the current one. (Smaller maps search each frame set on its own: the acquisition follows
   // their complete lists of poses over frame sets.)
   double cold_search_s = 0.6;
+  // Such a search starts over on a frame set with more blobs, or more steady ones, than its own
+  // while its own held at most lis.confirm_beacons steady blobs: in so sparse a view a beacon
+  // come into view (its blob new, then steady) is what a confirmation lacks, and a search of the
+  // newer blobs may confirm within a budget. A denser view's search goes on: at a cold start
+  // its blobs turn steady one by one, and restarting on each lost its work (256-beacon boxes:
+  // first fixes 1-7 frame sets later; docs/acquisition.md, session 40).
+  bool restart_cold_search = true;
   // In such maps, a search near the followed (or predicted) poses that the frame set's budget
   // cuts goes on over the next frame sets too (within cold_search_s), its list of the frame set
   // it began on: the chain is followed to that frame set, and this one's search starts near
@@ -410,6 +417,7 @@ struct TrackCounters {
   std::uint32_t seeded_spread = 0;        // searches near followed poses that went on over frame sets
   std::uint32_t seeded_spread_ended = 0;  // ... and ended there (their list followed to their frame set)
   std::uint32_t seeded_spread_restarted = 0;  // ... dropped for the current frame set's blobs (restart_seeded_search)
+  std::uint32_t cold_search_restarted = 0;    // a cold search in progress started over for more blobs (restart_cold_search)
   std::uint32_t overflow_stopped = 0;     // a small map's search stopped at the budget, its list overflowed or too long to complete (RunSmallMapLis)
   std::uint32_t continued = 0;            // tracked beyond max_gate_px on continuing blobs (TrackContinuing)
   std::uint32_t continuity_refused = 0;   // ... refused by tracking's tests or the motion filter
@@ -574,6 +582,7 @@ class Tracker {
   LisPrior cold_prior_;  // the cold search's anchors (no poses; AnchorContinuingBlobs)
   double lis_budget_left_ = 0.0;  // LisResult::cost left to this frame set
   std::uint64_t cold_t_ns_ = 0;  // the frame set of the cold search in progress
+  int cold_steady_ = 0, cold_blobs_ = 0;  // its frame set's steady blobs, and all its blobs
   // Whose search lis_ has under way over frame sets (lis_.searching()): the cold one, or one
   // near the followed poses (SeededSearch: its prior, whose poses are acquisition_'s prior
   // copy, unchanged until the search ends, and its frame set).

@@ -472,6 +472,58 @@ TEST(TrackerTest, SeededSearchCutByTheBudgetGoesOnOverFrameSets) {
   EXPECT_GT(spread_ended, 0U);
 }
 
+// A cold start in a sparse view: four beacons of a random 64-beacon cylinder in view (4 spots
+// per frame set; a lost-in-space fix confirms on five), then a fifth comes into view. The cold
+// search in progress starts over on a frame set with more blobs or more steady ones
+// (restart_cold_search), where it went on with the older blobs until its work ran out or
+// cold_search_s passed. Both modes on the same frame sets: never wrong, the first pose never
+// later by more than 2 frame sets with the restart, sooner in all.
+TEST(TrackerTest, ColdSearchStartsOverForABeaconComeIntoView) {
+  std::mt19937_64 rng(4021);
+  static Rig rig;
+  const int draws = testing::Trials(16, 8);
+  constexpr int kFrames = 60;
+  const Eigen::Vector3d v_w(0.15, 0.0, 0.0), omega_b(0.0, 0.0, 0.2);  // m/s, rad/s
+  int cases = 0;
+  std::array<int, 2> total{};  // frame sets to the first pose, without and with the restart
+  std::uint32_t restarts = 0;
+  for (int trial = 0; cases < draws && trial < 4000; ++trial) {
+    rig = testing::RandomCylinderRig(64, true, &rng);
+    const BodyPose start = testing::RandomCylinderPose(&rng, 2.1, 6.0, 0.8);
+    bool sparse_then_more = true;
+    for (int f : {0, 4, 20, 30}) {
+      testing::Observe(rig, ConstantRatePose(start, v_w, omega_b, f), 0.1, &rng, &g_scene);
+      const int n = g_scene.NumVisibleBeacons();
+      sparse_then_more = sparse_then_more && (f <= 4 ? n == 4 : n >= 5);
+    }
+    if (!sparse_then_more) continue;
+    ++cases;
+    std::array<int, 2> first{};
+    for (const bool restart : {false, true}) {
+      TrackOptions o;
+      o.restart_cold_search = restart;
+      std::mt19937_64 noise(static_cast<std::uint64_t>(trial));  // the same frame sets in both
+      EXPECT_TRUE(g_tracker.Reset(rig));
+      Sweep run;
+      for (int f = 0; f < kFrames; ++f) {
+        testing::Observe(rig, ConstantRatePose(start, v_w, omega_b, f), 0.1, &noise, &g_scene);
+        testing::AddSpurious(rig, 4, &noise, &g_scene);
+        Step(rig, g_scene, static_cast<std::uint64_t>(f) * kFrameNs, o, &run);
+      }
+      EXPECT_EQ(run.wrong, 0) << "trial " << trial << " restart " << restart;
+      first[restart] = run.first_fix >= 0 ? run.first_fix : kFrames;
+      if (restart) restarts += g_tracker.counters().cold_search_restarted;
+    }
+    std::printf("trial %d: first pose at frame set %d going on, %d starting over\n", trial, first[0], first[1]);
+    EXPECT_LE(first[1], first[0] + 2) << "trial " << trial;
+    total[0] += first[0];
+    total[1] += first[1];
+  }
+  EXPECT_EQ(cases, draws);
+  EXPECT_LT(total[1], total[0]);
+  EXPECT_GT(restarts, 0U);
+}
+
 // After a stall longer than max_coast_s (0.5 s here; no frame from any camera), the last pose
 // still seeds re-identification (max_seed_s). With spots in view that no beacon explains, a
 // seeded survivor on three beacons waits min_acquire_frames frame sets (two beacons and a
