@@ -11,6 +11,18 @@ function(mfns_warnings target)
   endif()
 endfunction()
 
+# Unity builds (CMAKE_UNITY_BUILD, on in the host-asan preset only: its build is CI's longest
+# stage) merge a target's sources into one translation unit, which parses the shared headers
+# once. A target of one source gains nothing, and a file whose types with linkage hold types of
+# its anonymous namespace (detect.cc's workspace) would then warn as a header does
+# (-Wsubobject-linkage): such targets stay file by file.
+function(mfns_unity_sources target)
+  list(LENGTH ARGN _mfns_n)
+  if(_mfns_n LESS 2)
+    set_target_properties(${target} PROPERTIES UNITY_BUILD OFF)
+  endif()
+endfunction()
+
 # Code that runs on the flyer (common/ and firmware/ libraries): no exceptions, no RTTI.
 function(mfns_flight_code target)
   mfns_warnings(${target})
@@ -22,6 +34,7 @@ endfunction()
 function(mfns_flight_library name)
   cmake_parse_arguments(ARG "" "" "SOURCES;DEPS" ${ARGN})
   add_library(${name} STATIC ${ARG_SOURCES})
+  mfns_unity_sources(${name} ${ARG_SOURCES})
   target_include_directories(${name} PUBLIC ${PROJECT_SOURCE_DIR})
   target_link_libraries(${name} PUBLIC Eigen3::Eigen ${ARG_DEPS})
   mfns_flight_code(${name})
@@ -31,6 +44,7 @@ endfunction()
 function(mfns_host_library name)
   cmake_parse_arguments(ARG "" "" "SOURCES;DEPS" ${ARGN})
   add_library(${name} STATIC ${ARG_SOURCES})
+  mfns_unity_sources(${name} ${ARG_SOURCES})
   target_include_directories(${name} PUBLIC ${PROJECT_SOURCE_DIR})
   target_link_libraries(${name} PUBLIC Eigen3::Eigen ${ARG_DEPS})
   mfns_warnings(${name})
@@ -48,6 +62,7 @@ endfunction()
 function(mfns_gtest name)
   cmake_parse_arguments(ARG "" "COST" "SOURCES;DEPS;LABELS;SHARED_SETUP" ${ARGN})
   add_executable(${name} ${ARG_SOURCES})
+  mfns_unity_sources(${name} ${ARG_SOURCES})
   target_link_libraries(${name} PRIVATE ${ARG_DEPS} GTest::gtest GTest::gmock GTest::gtest_main)
   target_include_directories(${name} PRIVATE ${PROJECT_SOURCE_DIR})
   mfns_warnings(${name})

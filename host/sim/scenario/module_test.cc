@@ -16,15 +16,7 @@
 namespace mfns::host {
 namespace {
 
-StationModule Cylinder() {
-  StationModule m;
-  m.shape = ModuleShape::kCylinder;
-  m.diameter = 4.2;
-  m.length = 6.0;
-  return m;
-}
-
-StationModule Box() {
+StationModule ModuleBox() {
   StationModule m;
   m.shape = ModuleShape::kBox;
   m.size = Eigen::Vector3d(5.0, 2.2, 2.2);
@@ -69,7 +61,7 @@ OnWall NearestWall(const StationModule& m, const Eigen::Vector3d& p) {
 }
 
 TEST(ModuleBeacons, LieOnTheWallsFacingInwardWithTheExactCount) {
-  for (const StationModule& m : {Cylinder(), Box()})
+  for (const StationModule& m : {TestCylinder(), ModuleBox()})
     for (const BeaconLayoutKind kind : {BeaconLayoutKind::kJitteredGrid, BeaconLayoutKind::kRandom})
       for (const bool end_caps : {true, false})
         for (const int count : {10, 37, 128, 256}) {
@@ -100,7 +92,7 @@ double NearestNeighbour(const std::vector<WallBeacon>& b, std::size_t i) {
 }
 
 TEST(ModuleBeacons, JitterIsBoundedAndTheGridSpread) {
-  for (const StationModule& m : {Cylinder(), Box()}) {
+  for (const StationModule& m : {TestCylinder(), ModuleBox()}) {
     const int n = 128;
     const auto grid = GenerateWallBeacons(m, Layout(BeaconLayoutKind::kJitteredGrid, n, 0.0, true), 3);
     const auto jittered = GenerateWallBeacons(m, Layout(BeaconLayoutKind::kJitteredGrid, n, 0.3, true), 3);
@@ -128,8 +120,8 @@ TEST(ModuleBeacons, JitterIsBoundedAndTheGridSpread) {
 TEST(ModuleBeacons, DeterministicPerSeedAndDifferentAcrossSeeds) {
   for (const BeaconLayoutKind kind : {BeaconLayoutKind::kJitteredGrid, BeaconLayoutKind::kRandom}) {
     const BeaconLayout layout = Layout(kind, 64, 0.25, true);
-    const auto a = GenerateWallBeacons(Cylinder(), layout, 11), b = GenerateWallBeacons(Cylinder(), layout, 11);
-    const auto c = GenerateWallBeacons(Cylinder(), layout, 12);
+    const auto a = GenerateWallBeacons(TestCylinder(), layout, 11), b = GenerateWallBeacons(TestCylinder(), layout, 11);
+    const auto c = GenerateWallBeacons(TestCylinder(), layout, 12);
     int differ = 0;
     for (std::size_t i = 0; i < a.size(); ++i) {
       EXPECT_EQ(a[i].p_w, b[i].p_w);
@@ -174,17 +166,17 @@ FacingScore InferredAgainstTruth(const StationModule& module, const BeaconLayout
 }
 
 TEST(InferFacingOnGeneratedModules, TrueNormalsLieWithinTheTolerance) {
-  StationModule narrow = Cylinder();
+  StationModule narrow = TestCylinder();
   narrow.diameter = 3.0;
   narrow.length = 9.0;
-  StationModule cube = Box();
+  StationModule cube = ModuleBox();
   cube.size = Eigen::Vector3d(3.0, 3.0, 3.0);
   const struct {
     const char* name;
     StationModule module;
     double max_beyond;  // share of the beacons given a normal
-  } modules[] = {{"cylinder 4.2 x 6 m", Cylinder(), 0.01}, {"cylinder 3 x 9 m", narrow, 0.03},
-                 {"box 5 x 2.2 x 2.2 m", Box(), 0.005}, {"box 3 m", cube, 0.005}};
+  } modules[] = {{"cylinder 4.2 x 6 m", TestCylinder(), 0.01}, {"cylinder 3 x 9 m", narrow, 0.03},
+                 {"box 5 x 2.2 x 2.2 m", ModuleBox(), 0.005}, {"box 3 m", cube, 0.005}};
   const struct {
     const char* name;
     BeaconLayoutKind kind;
@@ -222,7 +214,7 @@ TEST(InferFacingOnGeneratedModules, TrueNormalsLieWithinTheTolerance) {
 
 TEST(ModuleBeacons, UniformInsideKeepsTheMargin) {
   std::mt19937_64 rng(5);
-  for (const StationModule& m : {Cylinder(), Box()}) {
+  for (const StationModule& m : {TestCylinder(), ModuleBox()}) {
     Eigen::Vector3d lo = Eigen::Vector3d::Constant(1e9), hi = -lo;
     for (int i = 0; i < 4000; ++i) {
       const Eigen::Vector3d p = UniformInside(m, 0.3, &rng);

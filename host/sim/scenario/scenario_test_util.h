@@ -18,4 +18,13 @@ inline std::string ScenarioErrorOf(const std::string& yaml) {
   return "(no error)";
 }
 
+// The cylindrical module: 4.2 m across, 6 m long.
+inline StationModule TestCylinder() {
+  StationModule m;
+  m.shape = ModuleShape::kCylinder;
+  m.diameter = 4.2;
+  m.length = 6.0;
+  return m;
+}
+
 }  // namespace mfns::host

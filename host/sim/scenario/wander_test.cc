@@ -14,15 +14,7 @@ namespace {
 
 constexpr double kDt = 1.0 / 18.6;
 
-StationModule Cylinder() {
-  StationModule m;
-  m.shape = ModuleShape::kCylinder;
-  m.diameter = 4.2;
-  m.length = 6.0;
-  return m;
-}
-
-StationModule Box() {
+StationModule WanderBox() {
   StationModule m;
   m.shape = ModuleShape::kBox;
   m.size = Eigen::Vector3d(2.2, 2.2, 5.0);
@@ -33,7 +25,7 @@ StationModule Box() {
 // speed, rate and accelerations (finite differences of the poses) within their bounds.
 TEST(Wander, StaysInsideTheMarginWithinItsBounds) {
   const WanderLimits l;  // 0.3 m, 0.3 m/s, 0.1 m/s^2, 0.5 rad/s, 0.5 rad/s^2
-  for (const StationModule& m : {Cylinder(), Box()}) {
+  for (const StationModule& m : {TestCylinder(), WanderBox()}) {
     double closest = 1e9, fastest = 0, quickest = 0, hardest = 0, hardest_turn = 0, travelled = 0;
     for (std::uint64_t seed = 1; seed <= 12; ++seed) {
       const std::vector<BodyPose> p = WanderPoses(m, l, 600, kDt, seed);
@@ -73,7 +65,7 @@ TEST(Wander, StaysInsideTheMarginWithinItsBounds) {
 
 TEST(Wander, StartsAnywhereWithAnyAttitude) {
   const WanderLimits l;
-  const StationModule m = Cylinder();
+  const StationModule m = TestCylinder();
   constexpr int kSeeds = 400;
   Eigen::Vector3d mean_axis = Eigen::Vector3d::Zero();
   std::array<int, 8> octants{};
@@ -95,8 +87,8 @@ TEST(Wander, StartsAnywhereWithAnyAttitude) {
 }
 
 TEST(Wander, DeterministicPerSeed) {
-  const auto a = WanderPoses(Box(), WanderLimits{}, 200, kDt, 9), b = WanderPoses(Box(), WanderLimits{}, 200, kDt, 9);
-  const auto c = WanderPoses(Box(), WanderLimits{}, 200, kDt, 10);
+  const auto a = WanderPoses(WanderBox(), WanderLimits{}, 200, kDt, 9), b = WanderPoses(WanderBox(), WanderLimits{}, 200, kDt, 9);
+  const auto c = WanderPoses(WanderBox(), WanderLimits{}, 200, kDt, 10);
   for (std::size_t i = 0; i < a.size(); ++i) {
     EXPECT_EQ(a[i].r_w_wb, b[i].r_w_wb);
     EXPECT_EQ(a[i].C_w_b, b[i].C_w_b);
