@@ -1192,6 +1192,11 @@ BlobTrackOptions Tracker::BlobTrackOptionsOf(const TrackOptions& o) const {
 
 int Tracker::SteadyBlobs() const { return steady_ == nullptr ? 0 : blob_tracks_.num_steady(); }
 
+// Whether this frame set has more blobs, or more steady ones, than a spread search's own frame
+// set had (steady, blobs): perhaps a beacon come into view, which a search of this frame set's
+// blobs may confirm at once (restart_cold_search, restart_seeded_search).
+bool Tracker::MoreBlobsThan(int steady, int blobs) const { return SteadyBlobs() > steady || num_blobs_ > blobs; }
+
 // Goes on with lis_'s search in progress (ColdSearch, SeededSearch) within what is left of this
 // frame set's budget, and charges it.
 LisStatus Tracker::ContinueLis() {
@@ -1249,7 +1254,7 @@ LisStatus Tracker::ColdSearch(const BlobObs* blobs, int num_blobs, std::uint64_t
   // to confirm a pose with one to spare: perhaps a beacon come into view (restart_cold_search).
   const bool in_progress = lis_owner_ == LisOwner::kCold && lis_.searching();
   const bool more = in_progress && o.restart_cold_search && cold_steady_ <= o.lis.confirm_beacons &&
-                    (SteadyBlobs() > cold_steady_ || num_blobs > cold_blobs_);
+                    MoreBlobsThan(cold_steady_, cold_blobs_);
   counters_.cold_search_restarted += more ? 1U : 0U;
   if (!in_progress || steadier || more || Seconds(t_ns, cold_t_ns_) > o.cold_search_s || t_ns < cold_t_ns_) {
     lis_owner_ = LisOwner::kCold;
@@ -1306,9 +1311,7 @@ LisStatus Tracker::SeededSearch(const BlobObs* blobs, int num_blobs, const LisPr
 bool Tracker::ContinueSeededSearch(std::uint64_t t_ns, const TrackOptions& o, TrackResult* r, TrackStatus* status) {
   lis_owner_ = LisOwner::kNone;
   if (!lis_.searching() || t_ns < seeded_t_ns_ || Seconds(t_ns, seeded_t_ns_) > o.cold_search_s) return false;
-  // More blobs, or more steady ones, than it began with: perhaps a beacon come into view, which
-  // a search of this frame set's blobs may confirm at once (TrackOptions::restart_seeded_search).
-  if (o.restart_seeded_search && (SteadyBlobs() > seeded_steady_ || num_blobs_ > seeded_blobs_)) {
+  if (o.restart_seeded_search && MoreBlobsThan(seeded_steady_, seeded_blobs_)) {
     ++counters_.seeded_spread_restarted;
     return false;
   }

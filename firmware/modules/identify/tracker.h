@@ -592,6 +592,7 @@ class Tracker {
   std::uint64_t seeded_t_ns_ = 0;
   int seeded_steady_ = 0, seeded_blobs_ = 0;  // its frame set's steady blobs, and all its blobs
   int SteadyBlobs() const;  // this frame set's (BlobTracks::num_steady; 0 without them)
+  bool MoreBlobsThan(int steady, int blobs) const;
   MatchSet set_;
   // Tracking's trials of ambiguous beacons: the unambiguous matches, the ambiguous beacons,
   // the best consistent trial and every consistent trial.
