@@ -26,8 +26,9 @@
 #                            noise seed and a sweep starting half a step later (issue 16)
 #  10. map survey            mfns-calib survey on the FIRST recording (the flyer's own poses and
 #                            identities, then the map refined), --turntable with the turntable's
-#                            surveyed centre and levelled axis (OUT/sweep/turntable-survey.yaml,
-#                            drawn about the truth); its blob flashed (a newer generation)
+#                            surveyed centre, mount and levelled axis (--turntable-placement
+#                            OUT/sweep/turntable-survey.yaml, drawn about the truth); its blob
+#                            flashed (a newer generation)
 #  11. the maps compared     mfns-navd on the SECOND recording with the surveyed map and with the
 #                            refined one; Table 5 for both (OUT/report-survey.html): the map is
 #                            never judged on the frames it was fitted to
@@ -149,18 +150,8 @@ render_sweep render2 's/^  main_start_deg: 0$/  main_start_deg: 0.5/' '^  main_s
 say "10/11 map survey: mfns-calib survey on the first recording -> $out/survey, flashed"
 generation=$("$bin/mfns-calib" inspect "$out/flyer.bin" | sed -n 's/.*generation \([0-9]*\),.*/\1/p')
 [ -n "$generation" ] || { echo "demo: no generation in 'mfns-calib inspect $out/flyer.bin'" >&2; exit 1; }
-# survey_field KEY: a value of the sweep's surveyed turntable placement, "[x, y, z]" as "x,y,z".
-survey_field() {
-  local v
-  v=$(sed -n "s/^$1: \[*\([^]]*\)\]*$/\1/p" "$sweep/turntable-survey.yaml" | tr -d ' ')
-  [ -n "$v" ] || { echo "demo: no $1 in $sweep/turntable-survey.yaml" >&2; exit 1; }
-  echo "$v"
-}
-centre=$(survey_field centre_mm) centre_sigma=$(survey_field centre_sigma_mm)
-axis=$(survey_field axis) axis_sigma=$(survey_field axis_sigma_deg)
 run survey "$bin/mfns-calib" survey --rig "$out/flyer-rig.yaml" --out "$out/survey" "$sweep" \
-  --turntable --turntable-centre-mm "$centre" --turntable-centre-sigma-mm "$centre_sigma" \
-  --turntable-axis "$axis" --turntable-axis-sigma-deg "$axis_sigma" \
+  --turntable --turntable-placement "$sweep/turntable-survey.yaml" \
   --generation "$((generation + 1))" --jobs "$threads" "${start_pose[@]}"
 run flash-survey "$bin/mfns-flash" "$out/survey/calibration.bin" "$out/flyer/store" --no-signal
 

@@ -357,7 +357,7 @@ TurntablePlacement SurveyedPlacement(const Scenario& truth, double centre_sigma,
   t.centre_w = truth.turntable.r_w_wt + scale * (st.centre_w - truth.turntable.r_w_wt);
   t.centre_sigma_m = scale * st.centre_sigma;
   t.centre_b = st.centre_b;
-  t.centre_b_sigma_m = 0.05e-3;
+  t.centre_b_sigma_m = st.centre_b_sigma;
   t.has_axis = axis;
   t.axis_w = st.axis_w;
   t.axis_sigma_rad = st.axis_sigma;

@@ -83,9 +83,11 @@ CLI::App* AddSurveyCommand(CLI::App& app, SurveyCommandOptions* o, std::string* 
   cmd->add_option("recordings", o->recordings, "Frames directories (DIR/frames/<camera>/<frame:06d>.pgm)")->required();
   cmd->add_option("--initial-pose", o->initial_pose, "X,Y,Z,ROLL,PITCH,YAW (mm, deg): a known start pose")
       ->delimiter(',')
+      ->allow_extra_args(false)
       ->expected(6);
   cmd->add_option("--initial-sigma", o->initial_sigma, "MM,DEG: the start pose's 1-sigma (default 10,1)")
       ->delimiter(',')
+      ->allow_extra_args(false)
       ->expected(2);
   cmd->add_option("--sigma-px", o->sigma_px, "The navigator's centroid 1-sigma (px), as mfns-navd's")
       ->capture_default_str();
@@ -101,15 +103,31 @@ CLI::App* AddSurveyCommand(CLI::App& app, SurveyCommandOptions* o, std::string* 
   cmd->add_option("--turntable-centre-mm", o->turntable_centre_mm,
                   "X,Y,Z (mm, world): the first recording's turntable centre (where its axes meet), surveyed")
       ->delimiter(',')
+      ->allow_extra_args(false)
       ->expected(3);
   cmd->add_option("--turntable-centre-sigma-mm", o->turntable_centre_sigma_mm,
                   "Its 1-sigma per coordinate (mm; default the rig's beacon_sigma_mm: the beacons' instrument)");
   cmd->add_option("--turntable-axis", o->turntable_axis,
                   "X,Y,Z (world): the first recording's turntable axis, surveyed or levelled (a run about one axis)")
       ->delimiter(',')
+      ->allow_extra_args(false)
       ->expected(3);
   cmd->add_option("--turntable-axis-sigma-deg", o->turntable_axis_sigma_deg, "Its 1-sigma across it (deg)")
       ->capture_default_str();
+  cmd->add_option("--turntable-mount-mm", o->turntable_mount_mm,
+                  "X,Y,Z (mm, body): the first recording's turntable centre in the body frame (the mount), which "
+                  "with --turntable-centre-mm also places the map along the axis")
+      ->delimiter(',')
+      ->allow_extra_args(false)
+      ->expected(3);
+  cmd->add_option("--turntable-mount-sigma-mm", o->turntable_mount_sigma_mm, "Its 1-sigma per coordinate (mm)");
+  cmd->add_option("--turntable-placement", o->turntable_placements,
+                  "FILE (repeatable, one per recording in order; 'none': that recording has none): a recording's "
+                  "surveyed turntable placement, YAML (centre_mm, centre_sigma_mm, centre_b_mm, centre_b_sigma_mm, "
+                  "axis, axis_sigma_deg; mfns-sim render writes turntable-survey.yaml)")
+      ->expected(1)
+      ->allow_extra_args(false)  // (one file per option: the recordings after it stay recordings)
+      ->multi_option_policy(CLI::MultiOptionPolicy::TakeAll);
   return cmd;
 }
 
@@ -134,6 +152,20 @@ void ValidateTurntablePlacement(const SurveyCommandOptions& o) {
   if (!(o.turntable_axis_sigma_deg > 0) || !std::isfinite(o.turntable_axis_sigma_deg) ||
       (o.turntable_axis_sigma_set && !axis))
     throw UserError("--turntable-axis-sigma-deg: a positive number, with --turntable-axis");
+  const bool mount = !o.turntable_mount_mm.empty();
+  if (mount && !o.turntable) throw UserError("--turntable-mount-mm: only with --turntable (a turntable run's surveyed placement)");
+  if (mount && !finite3(o.turntable_mount_mm)) throw UserError("--turntable-mount-mm: expected 3 finite numbers X,Y,Z");
+  if (mount != o.turntable_mount_sigma_set || (mount && (!(o.turntable_mount_sigma_mm > 0) ||
+                                                         !std::isfinite(o.turntable_mount_sigma_mm))))
+    throw UserError("--turntable-mount-sigma-mm: a positive number, required with --turntable-mount-mm");
+  if (o.turntable_placements.empty()) return;
+  if (!o.turntable) throw UserError("--turntable-placement: only with --turntable (a turntable run's surveyed placement)");
+  if (centre || axis || mount)
+    throw UserError("--turntable-placement: not with --turntable-centre-mm, --turntable-axis or --turntable-mount-mm "
+                    "(put the first recording's placement in its file)");
+  if (o.turntable_placements.size() > o.recordings.size())
+    throw UserError("--turntable-placement: " + std::to_string(o.turntable_placements.size()) + " files for " +
+                    std::to_string(o.recordings.size()) + " recordings");
 }
 }  // namespace
 
@@ -222,6 +254,7 @@ void ParseCalibCommandLine(CLI::App& app, int argc, char** argv, CalibCommandLin
   if (cl->survey.generation_set) cl->survey.generation = ParseGenerationOption(survey_generation);
   cl->survey.turntable_centre_sigma_set = survey->count("--turntable-centre-sigma-mm") > 0;
   cl->survey.turntable_axis_sigma_set = survey->count("--turntable-axis-sigma-deg") > 0;
+  cl->survey.turntable_mount_sigma_set = survey->count("--turntable-mount-sigma-mm") > 0;
 }
 
 }  // namespace mfns::host

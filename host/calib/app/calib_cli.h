@@ -78,6 +78,13 @@ struct SurveyCommandOptions {
   std::vector<double> turntable_axis;
   double turntable_axis_sigma_deg = 5.0 / 3600.0;
   bool turntable_axis_sigma_set = false;
+  // The same point in the body frame (the mount, mm) and its 1-sigma (mm; required with it).
+  std::vector<double> turntable_mount_mm;
+  double turntable_mount_sigma_mm = 0.0;
+  bool turntable_mount_sigma_set = false;
+  // Or each recording's placement from a file (turntable_placement_yaml.h), in the recordings'
+  // order; "none" for a recording without one; fewer files than recordings: the rest have none.
+  std::vector<std::string> turntable_placements;
   std::string command_line;  // for report.html (the tool sets it)
 };
 
@@ -120,8 +127,10 @@ bool SbAccuracy(bool fast_detect, bool refine_corners);
 CalibrationTarget ValidateIntrinsicsCommand(const IntrinsicsCommandOptions& o);
 // `survey`: --out, --rig, the recordings, --initial-pose (6 finite numbers), --initial-sigma (2
 // positive), --sigma-px, --jobs; --turntable-centre-mm (3 finite numbers), --turntable-axis (3
-// finite, not all 0) and their sigmas (positive), each only with --turntable and a sigma only
-// with its value.
+// finite, not all 0), --turntable-mount-mm (3 finite numbers, its sigma required) and their
+// sigmas (positive), each only with --turntable and a sigma only with its value;
+// --turntable-placement only with --turntable, not with those, at most one per recording (the
+// files are read by the command).
 void ValidateSurveyCommand(const SurveyCommandOptions& o);
 
 }  // namespace mfns::host

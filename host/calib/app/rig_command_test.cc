@@ -133,6 +133,52 @@ TEST(CalibCommandLine, ParsesWithoutRunningAndErrorsStayOneLine) {
   }
 }
 
+// mfns-calib survey's per-recording placements: each --turntable-placement takes one file (the
+// recordings after it stay recordings), in the order given; the first recording's placement as
+// options includes the mount.
+TEST(CalibCommandLine, SurveyTakesOnePlacementFilePerOption) {
+  const CalibCommandLine cl = ParseWords(
+      ParseCalibCommandLine, {"mfns-calib", "survey", "--rig", "r.yaml", "--out", "o", "--turntable", "--turntable-placement",
+                              "a.yaml", "rec1", "--turntable-placement", "none", "rec2", "rec3"});
+  EXPECT_EQ(cl.survey.turntable_placements, (std::vector<std::string>{"a.yaml", "none"}));
+  EXPECT_EQ(cl.survey.recordings, (std::vector<std::string>{"rec1", "rec2", "rec3"}));
+  EXPECT_NO_THROW(ValidateSurveyCommand(cl.survey));
+  const CalibCommandLine m = ParseWords(
+      ParseCalibCommandLine, {"mfns-calib", "survey", "--rig", "r.yaml", "--out", "o", "--turntable", "--turntable-mount-mm",
+                              "1,2,3", "rec1", "--turntable-mount-sigma-mm", "0.05", "--initial-pose", "0,0,0,0,0,0", "rec2"});
+  EXPECT_EQ(m.survey.turntable_mount_mm, (std::vector<double>{1, 2, 3}));
+  EXPECT_EQ(m.survey.recordings, (std::vector<std::string>{"rec1", "rec2"}));
+  EXPECT_TRUE(m.survey.turntable_mount_sigma_set);
+  EXPECT_NO_THROW(ValidateSurveyCommand(m.survey));
+  struct Bad {
+    std::vector<std::string> words;
+    const char* expected;
+  };
+  const Bad bad[] = {
+      {{"--turntable-placement", "a.yaml", "rec1"}, "--turntable-placement: only with --turntable"},
+      {{"--turntable", "--turntable-placement", "a.yaml", "--turntable-placement", "b.yaml", "rec1"},
+       "--turntable-placement: 2 files for 1 recordings"},
+      {{"--turntable", "--turntable-placement", "a.yaml", "--turntable-axis", "0,0,1", "rec1"},
+       "--turntable-placement: not with --turntable-centre-mm"},
+      {{"--turntable", "--turntable-mount-mm", "1,2,3", "rec1"}, "--turntable-mount-sigma-mm: a positive number"},
+      {{"--turntable", "--turntable-mount-sigma-mm", "0.05", "rec1"}, "--turntable-mount-sigma-mm"},
+      {{"--turntable", "--turntable-mount-mm", "1,nan,3", "--turntable-mount-sigma-mm", "1", "rec1"},
+       "--turntable-mount-mm: expected 3 finite numbers"},
+      {{"--turntable-mount-mm", "1,2,3", "--turntable-mount-sigma-mm", "1", "rec1"},
+       "--turntable-mount-mm: only with --turntable"},
+  };
+  for (const Bad& b : bad) {
+    std::vector<std::string> words = {"mfns-calib", "survey", "--rig", "r.yaml", "--out", "o"};
+    words.insert(words.end(), b.words.begin(), b.words.end());
+    try {
+      ValidateSurveyCommand(ParseWords(ParseCalibCommandLine, words).survey);
+      ADD_FAILURE() << b.expected;
+    } catch (const UserError& e) {
+      EXPECT_NE(std::string(e.what()).find(b.expected), std::string::npos) << e.what();
+    }
+  }
+}
+
 // The corner refinement is on by default (issue 18 item 1); --fast-detect (a quick look) leaves it
 // out unless --refine-corners is given; --no-refine-corners turns it off; the same for intrinsics.
 TEST(CalibCommandLine, CornerRefinementIsTheDefaultAndFastDetectDropsIt) {

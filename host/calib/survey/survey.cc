@@ -16,7 +16,8 @@
 namespace mfns::host {
 
 bool TurntablePlacement::IsValid(const char** why) const {
-  const auto positive = [](double v) { return v > 0.0 && std::isfinite(v); };
+  // (A sigma is weighed by its inverse square: that must be finite.)
+  const auto positive = [](double v) { return v > 0.0 && std::isfinite(v) && std::isnormal(v * v); };
   const char* bad = nullptr;
   if (has_centre && (!centre_w.allFinite() || !positive(centre_sigma_m))) bad = "turntable centre";
   else if (has_centre_b && (!centre_b.allFinite() || !positive(centre_b_sigma_m))) bad = "turntable centre in the body";

@@ -1,6 +1,7 @@
 #include "host/calib/survey/survey_command.h"
 
 #include "host/calib/survey/survey_report.h"
+#include "host/calib/survey/turntable_placement_yaml.h"
 
 #include <algorithm>
 #include <chrono>
@@ -8,6 +9,7 @@
 #include <memory>
 #include <ostream>
 #include <string>
+#include <utility>
 
 #include "common/blob/param_blob.h"
 #include "common/rotation/rotation.h"
@@ -96,15 +98,27 @@ Rig RefinedRig(const Rig& in, const SurveyResult& r, const std::string& rig_id) 
   return out;
 }
 
-// The first recording's surveyed turntable placement (--turntable-centre-mm, --turntable-axis):
-// none, or one for pivot group 0; the centre's sigma defaults to the map's (the same instrument).
+// The recordings' surveyed turntable placements, one per pivot group: from the files
+// (--turntable-placement, "none" for a recording without one), or the first recording's from
+// --turntable-centre-mm, --turntable-mount-mm and --turntable-axis (the centre's sigma defaults
+// to the map's: the same instrument); none without either.
 std::vector<TurntablePlacement> TurntablePlacementsOf(const SurveyCommandOptions& o, const Rig& rig) {
-  if (o.turntable_centre_mm.empty() && o.turntable_axis.empty()) return {};
+  std::vector<TurntablePlacement> out;
+  for (const std::string& file : o.turntable_placements)
+    out.push_back(file == "none" ? TurntablePlacement{} : ReadTurntablePlacementYaml(file));
+  if (!o.turntable_placements.empty()) return out;
+  if (o.turntable_centre_mm.empty() && o.turntable_axis.empty() && o.turntable_mount_mm.empty()) return {};
+  const auto mm = [](const std::vector<double>& v) { return Eigen::Vector3d(v[0], v[1], v[2]) * 1e-3; };
   TurntablePlacement t;
   t.has_centre = o.turntable_centre_mm.size() == 3;
   if (t.has_centre) {
-    t.centre_w = Eigen::Vector3d(o.turntable_centre_mm[0], o.turntable_centre_mm[1], o.turntable_centre_mm[2]) * 1e-3;
+    t.centre_w = mm(o.turntable_centre_mm);
     t.centre_sigma_m = o.turntable_centre_sigma_set ? o.turntable_centre_sigma_mm * 1e-3 : rig.beacon_sigma;
+  }
+  t.has_centre_b = o.turntable_mount_mm.size() == 3;
+  if (t.has_centre_b) {
+    t.centre_b = mm(o.turntable_mount_mm);
+    t.centre_b_sigma_m = o.turntable_mount_sigma_mm * 1e-3;
   }
   t.has_axis = o.turntable_axis.size() == 3;
   if (t.has_axis) {
@@ -209,6 +223,8 @@ SurveyResult RunSurveyCommand(const SurveyCommandOptions& o, std::ostream& log) 
   const Rig rig = ReadRigYaml(o.rig_path);
   if (!(rig.beacon_sigma > 0.0))
     throw UserError(o.rig_path + ": beacon_sigma_mm: the surveyed map's 1-sigma is needed (the survey's prior)");
+  // (Read before the recordings are posed: a bad placement file fails at once.)
+  std::vector<TurntablePlacement> placements = TurntablePlacementsOf(o, rig);
   const RecordingOptions ro = RecordingOptionsOf(o);
   std::vector<SurveyFrameSet> sets;
   SurveyReportContext ctx;
@@ -228,7 +244,7 @@ SurveyResult RunSurveyCommand(const SurveyCommandOptions& o, std::ostream& log) 
   so.start_sigma_px = o.sigma_px;
   so.threads = o.jobs;
   so.refine_cameras = o.refine_cameras;
-  so.turntables = TurntablePlacementsOf(o, rig);
+  so.turntables = std::move(placements);
   const SurveyResult r = AdjustMap(rig, sets, so, &log);
   const Rig out = RefinedRig(rig, r, o.rig_id);
   // Everything is encoded before anything is written: a failure leaves DIR as it was.

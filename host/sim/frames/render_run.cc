@@ -124,7 +124,8 @@ std::string TurntableCsv(const std::vector<FrameTruth>& frames) {
 }
 
 // turntable-survey.yaml: the turntable's placement as surveyed (SurveyTurntable), what
-// `mfns-calib survey --turntable-centre-mm ... --turntable-axis ...` takes; never the truth.
+// `mfns-calib survey --turntable-placement FILE` reads (host/calib/survey/
+// turntable_placement_yaml.h: the same keys); never the truth.
 std::string TurntableSurveyYaml(const Scenario& s) {
   const SurveyedTurntable t = SurveyTurntable(s);
   const auto triple = [](const Eigen::Vector3d& v, double scale, int digits) {
@@ -132,7 +133,8 @@ std::string TurntableSurveyYaml(const Scenario& s) {
   };
   return "# The turntable's placement as surveyed (drawn about the truth; host/sim/scenario SurveyTurntable)\n"
          "centre_mm: " + triple(t.centre_w, 1e3, 4) + "\ncentre_sigma_mm: " + Fmt(4, 1e3 * t.centre_sigma) +
-         "\ncentre_b_mm: " + triple(t.centre_b, 1e3, 4) + "\naxis: " + triple(t.axis_w, 1.0, 9) +
+         "\ncentre_b_mm: " + triple(t.centre_b, 1e3, 4) + "\ncentre_b_sigma_mm: " + Fmt(4, 1e3 * t.centre_b_sigma) +
+         "\naxis: " + triple(t.axis_w, 1.0, 9) +
          "\naxis_sigma_deg: " + Fmt(7, RadToDeg(t.axis_sigma)) + "\n";
 }
 

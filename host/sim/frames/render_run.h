@@ -13,7 +13,8 @@
 //                     Cramér-Rao bound of the pose (1-sigma per axis) for centroid noise sigma_px
 // DIR/turntable.csv   frame,main_cmd_deg,aux_cmd_deg,main_true_deg,aux_true_deg (turntable runs)
 // DIR/turntable-survey.yaml  the turntable's placement as surveyed (SurveyTurntable; turntable runs):
-//                     centre_mm, centre_sigma_mm, centre_b_mm, axis, axis_sigma_deg
+//                     centre_mm, centre_sigma_mm, centre_b_mm, centre_b_sigma_mm, axis, axis_sigma_deg
+//                     (mfns-calib survey --turntable-placement reads it)
 // DIR/rig.yaml        the true rig and beacons;  DIR/believed-rig.yaml  the rig with the
 //                     scenario's calibration and survey errors (what a navigator would load);
 //                     both with the beacons' facing unless the scenario's map has none
