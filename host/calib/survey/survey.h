@@ -84,8 +84,9 @@ struct SurveyOptions {
   // stray from the world axis a_w (with TurntablePlacement::has_axis). A few arcsec.
   double turntable_wobble_rad = 2.0 / 3600.0 * 3.14159265358979323846 / 180.0;
   int threads = 1;
-  // Tests: Ceres compares every analytic Jacobian with numeric differences during the solves
-  // (a mismatch fails the solve: UserError).
+  // Tests: before each solve and at its solution, every residual's analytic Jacobians are compared with central
+  // differences (1e-6 m or rad; a mismatch above 1e-5 of the row's largest entry: UserError
+  // naming the block). Not Ceres's checker, whose Ridders differences start from 0.32 m steps.
   bool check_gradients = false;
   bool IsValid(const char** why = nullptr) const;
 };
