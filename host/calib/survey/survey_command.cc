@@ -237,9 +237,20 @@ SurveyResult RunSurveyCommand(const SurveyCommandOptions& o, std::ostream& log) 
     ctx.recordings.push_back(dir + ": " + std::to_string(sum.frame_sets) + " frame sets, " + std::to_string(sum.fixes) +
                              " fixes");
     log << "survey: " << ctx.recordings.back() << std::endl;
+    // A recording with no fix has no pivot group to place: its placement is left out (and a last
+    // one dropped, the adjustment refusing a placement beyond its groups), said on the log.
+    const std::size_t index = ctx.recordings.size() - 1;
+    if (s.empty() && index < placements.size() &&
+        (placements[index].has_centre || placements[index].has_centre_b || placements[index].has_axis)) {
+      placements[index] = TurntablePlacement{};
+      log << "survey: " << dir << ": no fix, its turntable placement is not used" << std::endl;
+    }
     sets.insert(sets.end(), std::make_move_iterator(s.begin()), std::make_move_iterator(s.end()));
   }
   if (sets.empty()) throw UserError("survey: no frame set of the recordings was posed as fix: nothing to refine from");
+  int groups = 0;
+  for (const SurveyFrameSet& f : sets) groups = std::max(groups, f.pivot_group + 1);
+  if (placements.size() > static_cast<std::size_t>(groups)) placements.resize(static_cast<std::size_t>(groups));
   SurveyOptions so;
   so.start_sigma_px = o.sigma_px;
   so.threads = o.jobs;
