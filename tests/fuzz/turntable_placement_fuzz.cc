@@ -2,10 +2,8 @@
 // turntable_placement_yaml.h, `mfns-calib survey --turntable-placement`): whatever the text, it
 // gives a placement or a UserError of one line naming the file (placement.yaml:LINE: field:
 // why); any other exception, crash, ASan or UBSan report is a finding. A placement that parses
-// is usable (finite, positive sigmas whose inverse squares are finite, a unit axis: what
-// TurntablePlacement::IsValid asks, checked here without the adjustment) and its written text
-// reads back as the same placement.
-#include <cmath>
+// is usable (TurntablePlacement::IsValid, header only: finite, sigmas whose inverse squares are
+// finite, a unit axis) and its written text reads back with the same parts.
 #include <cstddef>
 #include <cstdint>
 #include <string>
@@ -16,13 +14,8 @@
 
 namespace {
 
-bool Usable(double sigma) { return sigma > 0.0 && std::isfinite(sigma) && std::isnormal(sigma * sigma); }
-
 bool Valid(const mfns::host::TurntablePlacement& t) {
-  if (!t.has_centre && !t.has_centre_b && !t.has_axis) return false;
-  if (t.has_centre && (!t.centre_w.allFinite() || !Usable(t.centre_sigma_m))) return false;
-  if (t.has_centre_b && (!t.centre_b.allFinite() || !Usable(t.centre_b_sigma_m))) return false;
-  return !t.has_axis || (t.axis_w.allFinite() && std::abs(t.axis_w.norm() - 1.0) <= 1e-6 && Usable(t.axis_sigma_rad));
+  return (t.has_centre || t.has_centre_b || t.has_axis) && t.IsValid();
 }
 
 }  // namespace

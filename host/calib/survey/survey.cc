@@ -15,18 +15,6 @@
 
 namespace mfns::host {
 
-bool TurntablePlacement::IsValid(const char** why) const {
-  // (A sigma is weighed by its inverse square: that must be finite.)
-  const auto positive = [](double v) { return v > 0.0 && std::isfinite(v) && std::isnormal(v * v); };
-  const char* bad = nullptr;
-  if (has_centre && (!centre_w.allFinite() || !positive(centre_sigma_m))) bad = "turntable centre";
-  else if (has_centre_b && (!centre_b.allFinite() || !positive(centre_b_sigma_m))) bad = "turntable centre in the body";
-  else if (has_axis && (!axis_w.allFinite() || std::abs(axis_w.norm() - 1.0) > 1e-6 || !positive(axis_sigma_rad)))
-    bad = "turntable axis";
-  if (why != nullptr) *why = bad;
-  return bad == nullptr;
-}
-
 bool SurveyOptions::IsValid(const char** why) const {
   const char* bad = nullptr;
   if (!(start_sigma_px > 0.0) || !std::isfinite(start_sigma_px)) bad = "start_sigma_px";

@@ -8,6 +8,7 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <cmath>
 #include <cstdint>
 #include <iosfwd>
 #include <vector>
@@ -61,8 +62,23 @@ struct TurntablePlacement {
   bool has_axis = false;
   Eigen::Vector3d axis_w = Eigen::Vector3d::UnitZ();
   double axis_sigma_rad = 0.0;
+  // (Defined here, header only: the placement file's reader and its fuzzer check it without
+  // linking the adjustment.)
   bool IsValid(const char** why = nullptr) const;
 };
+
+// A usable 1-sigma (m or rad): positive, and its inverse square (the weight it gives) finite.
+inline bool UsableSigma(double v) { return v > 0.0 && std::isfinite(v) && std::isnormal(v * v); }
+
+inline bool TurntablePlacement::IsValid(const char** why) const {
+  const char* bad = nullptr;
+  if (has_centre && (!centre_w.allFinite() || !UsableSigma(centre_sigma_m))) bad = "turntable centre";
+  else if (has_centre_b && (!centre_b.allFinite() || !UsableSigma(centre_b_sigma_m))) bad = "turntable centre in the body";
+  else if (has_axis && (!axis_w.allFinite() || std::abs(axis_w.norm() - 1.0) > 1e-6 || !UsableSigma(axis_sigma_rad)))
+    bad = "turntable axis";
+  if (why != nullptr) *why = bad;
+  return bad == nullptr;
+}
 
 struct SurveyOptions {
   double start_sigma_px = 0.15;  // centroid 1-sigma before it is re-estimated from the residuals

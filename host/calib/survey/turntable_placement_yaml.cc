@@ -24,9 +24,8 @@ bool ReadPair(const YAML::Node& root, const char* value_key, const char* sigma_k
   const std::array<double, 3> a = Numbers<3>(root[value_key], ctx.Sub(value_key));
   *v = Eigen::Vector3d(a[0], a[1], a[2]);
   *sigma = Number(root[sigma_key], ctx.Sub(sigma_key));
-  // (In m or rad its square must stay a normal number: the adjustment weighs by its inverse.)
-  const double si = *sigma * 1e-3;
-  if (!(si > 0.0) || !std::isnormal(si * si)) ctx.Sub(sigma_key).Fail(root[sigma_key], "must be positive");
+  // (In m, or in rad from deg, at least 1e-3 of it: that must be a usable sigma.)
+  if (!UsableSigma(*sigma * 1e-3)) ctx.Sub(sigma_key).Fail(root[sigma_key], "must be positive");
   return true;
 }
 
@@ -56,7 +55,7 @@ TurntablePlacement ParsePlacement(const std::string& text, const std::string& so
   }
   if (!t.has_centre && !t.has_centre_b && !t.has_axis)
     ctx.Fail(root, "no placement: give centre_mm, centre_b_mm and/or axis, each with its sigma");
-  return t;  // (finite, positive sigmas, a unit axis: TurntablePlacement::IsValid holds)
+  return t;  // (TurntablePlacement::IsValid holds: finite values, usable sigmas, a unit axis)
 }
 
 std::string Triple(const Eigen::Vector3d& v, int digits) {

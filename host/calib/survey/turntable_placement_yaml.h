@@ -20,8 +20,8 @@ namespace mfns::host {
 
 // The placement in `text`; throws UserError with one line naming the source, the line and the
 // field ("placement.yaml:3: centre_sigma_mm: ..."). Never trusts a count: lists must hold
-// exactly three finite numbers. The result passes TurntablePlacement::IsValid (checked here
-// without it: this reader links without the adjustment, for its fuzzer).
+// exactly three finite numbers. The result passes TurntablePlacement::IsValid (survey.h, header
+// only: this reader links without the adjustment, for its fuzzer).
 TurntablePlacement ParseTurntablePlacementYaml(const std::string& text, const std::string& source);
 // The same from a file (at most 64 kB); a missing or unreadable file is a UserError naming it.
 TurntablePlacement ReadTurntablePlacementYaml(const std::filesystem::path& path);
