@@ -15,7 +15,7 @@
 namespace {
 
 bool Valid(const mfns::host::TurntablePlacement& t) {
-  return (t.has_centre || t.has_centre_b || t.has_axis) && t.IsValid();
+  return t.Any() && t.IsValid();
 }
 
 }  // namespace

@@ -62,6 +62,8 @@ struct TurntablePlacement {
   bool has_axis = false;
   Eigen::Vector3d axis_w = Eigen::Vector3d::UnitZ();
   double axis_sigma_rad = 0.0;
+  // Whether any part is given (a placement with none places nothing).
+  bool Any() const { return has_centre || has_centre_b || has_axis; }
   // (Defined here, header only: the placement file's reader and its fuzzer check it without
   // linking the adjustment.)
   bool IsValid(const char** why = nullptr) const;

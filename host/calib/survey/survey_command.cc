@@ -240,8 +240,7 @@ SurveyResult RunSurveyCommand(const SurveyCommandOptions& o, std::ostream& log) 
     // A recording with no fix has no pivot group to place: its placement is left out (and a last
     // one dropped, the adjustment refusing a placement beyond its groups), said on the log.
     const std::size_t index = ctx.recordings.size() - 1;
-    if (s.empty() && index < placements.size() &&
-        (placements[index].has_centre || placements[index].has_centre_b || placements[index].has_axis)) {
+    if (s.empty() && index < placements.size() && placements[index].Any()) {
       placements[index] = TurntablePlacement{};
       log << "survey: " << dir << ": no fix, its turntable placement is not used" << std::endl;
     }

@@ -53,7 +53,7 @@ TurntablePlacement ParsePlacement(const std::string& text, const std::string& so
     t.axis_w = v / n;
     t.axis_sigma_rad = DegToRad(sigma);
   }
-  if (!t.has_centre && !t.has_centre_b && !t.has_axis)
+  if (!t.Any())
     ctx.Fail(root, "no placement: give centre_mm, centre_b_mm and/or axis, each with its sigma");
   return t;  // (TurntablePlacement::IsValid holds: finite values, usable sigmas, a unit axis)
 }
