@@ -11,9 +11,9 @@ function(mfns_warnings target)
   endif()
 endfunction()
 
-# Unity builds (CMAKE_UNITY_BUILD, on in the host-asan preset only: its build is CI's longest
-# stage) merge a target's sources into one translation unit, which parses the shared headers
-# once. A target of one source gains nothing, and a file whose types with linkage hold types of
+# Unity builds (CMAKE_UNITY_BUILD, on in the host and host-asan presets: their builds are most
+# of CI's time; the aarch64 flight build stays file by file) merge a target's sources into one
+# translation unit, which parses the shared headers once. A target of one source gains nothing, and a file whose types with linkage hold types of
 # its anonymous namespace (detect.cc's workspace) would then warn as a header does
 # (-Wsubobject-linkage): such targets stay file by file.
 function(mfns_unity_sources target)
