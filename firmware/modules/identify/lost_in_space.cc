@@ -1019,8 +1019,9 @@ long LostInSpace::CountTriples(const Triple& tr) {
     if (ta.Empty()) continue;
     const BeaconSet& bs = fij[static_cast<std::size_t>(a)];
     for (int b = bs.First(); b >= 0; b = bs.Next(b + 1)) {
-      const BeaconSet& tb = fjk[static_cast<std::size_t>(b)];
-      n += (ta & tb).Count() - (tb.Has(a) ? 1 : 0) - (ta.Has(b) ? 1 : 0);
+      // The thirds SearchPoseSets tries: both pairs feasible, neither beacon of the pair itself.
+      const BeaconSet thirds = ta & fjk[static_cast<std::size_t>(b)];
+      n += thirds.Count() - (thirds.Has(a) ? 1 : 0) - (thirds.Has(b) ? 1 : 0);
     }
   }
   return n;

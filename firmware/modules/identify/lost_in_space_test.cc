@@ -1132,6 +1132,40 @@ TEST(LostInSpaceTest, ASearchThatCannotCompleteIsKnownEarly) {
   EXPECT_GE(cost_after_told, 0.8 * cost_incomplete);
 }
 
+// MayComplete's count of a search's beacon triples is exact: a search of exactly that many
+// hypotheses may complete, one fewer may not. (It subtracted a third beacon equal to the pair's
+// own whenever either pair held it, not both: in a view of rays seen at similar angles - one
+// camera's - every feasible pair did, and the count fell by up to two per pair, below zero for a
+// same-camera triple of a 64-beacon map: searches that could not complete were let run on.)
+// Reference: the hypotheses a search without early ends tries (one work unit each).
+TEST(LostInSpaceTest, MayCompleteCountsTheBeaconTriplesExactly) {
+  std::mt19937_64 rng(931);
+  const Rig* rig = ResetOnCylinder(16, &rng);
+  ASSERT_NE(rig, nullptr);
+  LisOptions all;
+  all.confirm_beacons = 0;  // no early end: every feasible triple is tried
+  all.cross_camera_work = 1;
+  all.max_hypotheses = limits::kMaxLisHypotheses;
+  int checked = 0;
+  for (int trial = 0; trial < testing::Trials(30, 10); ++trial) {
+    testing::Observe(*rig, testing::RandomCylinderPose(&rng), 0.1, &rng, &g_scene);
+    testing::AddSpurious(*rig, trial % 5, &rng, &g_scene);
+    if (g_lis.Identify(g_scene.blobs.data(), g_scene.num_blobs, all, &g_res) == LisStatus::kTooFewBlobs) continue;
+    if (!g_res.search_complete || g_res.hypotheses < 2) continue;
+    ++checked;
+    const int tried = g_res.hypotheses;
+    for (const int cap : {tried, tried - 1}) {
+      LisOptions o = all;
+      o.max_hypotheses = cap;
+      ASSERT_EQ(g_lis.Begin(g_scene.blobs.data(), g_scene.num_blobs, o, &g_res), LisStatus::kSearching);
+      EXPECT_EQ(g_lis.MayComplete(&g_res), cap == tried)
+          << "trial " << trial << ": " << tried << " hypotheses tried, cap " << cap;
+    }
+  }
+  // (The others: fewer than three blobs in view, or more triples than the limit allows.)
+  EXPECT_GE(checked, testing::Trials(30, 10) / 2);
+}
+
 // A search cut by its budget before a confirmed pose gives neither a fix nor a complete list,
 // so it ends where its budget does: it used to refine every raw pose it had kept (14 units
 // each, up to limits::kMaxLisCandidates of them) after the budget had run out - +45 % on a
