@@ -18,6 +18,7 @@ void Acquisition::Prepare(std::uint64_t t_ns, const AcquisitionLimits& lim, cons
     chain_[0].t_ns = seed->last_t_ns();
     frames_ = 1;
     seeded_now = seeded_ = true;
+    steady_ = false;
   }
   largest_ = PoseBounds{};
   for (int i = 0; i < n_; ++i) {
@@ -55,6 +56,7 @@ void Acquisition::Start(const LisResult& list, std::uint64_t t_ns) {
   }
   frames_ = 1;
   seeded_ = false;
+  steady_ = false;
 }
 
 void Acquisition::Follow(const LisResult& list, std::uint64_t t_ns) {

@@ -42,13 +42,21 @@ struct AcquisitionLimits {
 
 class Acquisition {
  public:
-  void Clear() { n_ = 0; }
+  void Clear() {
+    n_ = 0;
+    steady_ = false;
+  }
   int size() const { return n_; }
   bool empty() const { return n_ == 0; }
   // Frame sets the chain has lasted (a seeded chain counts its seed as the first).
   int frames() const { return frames_; }
   // Started from the motion model's prediction rather than from lost-in-space's list.
   bool seeded() const { return seeded_; }
+  // Followed from a steady list (LisResult::steady_complete) at least once: the truth is in the
+  // chain only while it explains four steady blobs, so every followed pose must (the tracker
+  // keeps those, Tracker::OnFourSteadyBlobs). Until Clear, a new Start or a new seed.
+  bool steady() const { return steady_; }
+  void MarkSteady() { steady_ = true; }
   const BodyPose& pose(int i) const { return chain_[static_cast<std::size_t>(i)].pose; }
 
   // Readies the followed poses for the frame set at t_ns: drops them all when one has gone
@@ -60,10 +68,11 @@ class Acquisition {
   // Lost-in-space's prior: the followed poses and the largest of their bounds (false: none).
   // prior points into this object until the next call that changes it.
   bool Prior(LisPrior* prior);
-  // Starts the chain from a frame set's (complete) list of consistent poses, unseeded.
+  // Starts the chain from a frame set's (complete, or steady: LisResult::steady_complete) list
+  // of consistent poses, unseeded.
   void Start(const LisResult& list, std::uint64_t t_ns);
-  // Follows the chain with a frame set's complete list; empty afterwards when no listed pose
-  // lies within the bounds of a followed one.
+  // Follows the chain with a frame set's complete (or steady) list; empty afterwards when no
+  // listed pose lies within the bounds of a followed one.
   void Follow(const LisResult& list, std::uint64_t t_ns);
   // Keeps the followed poses for which keep(pose) is true (order kept); returns how many
   // were dropped.
@@ -81,6 +90,7 @@ class Acquisition {
   int n_ = 0;
   int frames_ = 0;
   bool seeded_ = false;
+  bool steady_ = false;
   PoseBounds largest_;  // the largest bounds of the followed poses (Prepare)
   std::array<FollowedPose, limits::kMaxLisCandidates> chain_{};
   std::array<FollowedPose, limits::kMaxLisCandidates> next_{};

@@ -351,6 +351,13 @@ void LostInSpace::Score(const BodyPose& pose, const LisOptions& o, LisResult* re
   // through it): a triple then holds ~N beacon triples, and its three-beacon poses are few
   // enough to reproject and list (docs/acquisition.md, session 21).
   const double nb = rig_->num_beacons;
+  if (cur_.item < num_steady_items_) {
+    // A steady list's item: only a pose with a steady fourth may explain four steady blobs.
+    result->cost += kCostFourthPerBeaconBlob * nb * num_sel_;
+    if (ExplainsAFourth(pose, cur_i_, cur_j_, cur_k_, fourth_cos_sq_, /*steady_only=*/true) == Fourth::kFound)
+      ScoreMatched(pose, o, result);
+    return;
+  }
   const bool pairs_anchored = anchors_per_triple_ >= 2;
   const bool fourth_test = !PosePrior() && !pairs_anchored && rig_->num_beacons >= o.fourth_blob_min_beacons;
   if (fourth_test) {
@@ -700,13 +707,82 @@ void LostInSpace::OrderItems(int num_bands) {
   for (auto& done : band_done_) done.fill(false);
 }
 
+// LisOptions::steady_list: moves to the front the items of the steady triples that cover every
+// four steady selected blobs - of each four, the triple with the fewest beacon triples over the
+// full range (counted exactly, CountTriples; the count's cost charged) - keeping their order,
+// when their work fits max_hypotheses (else nothing changes).
+void LostInSpace::SteadyItemsFirst(LisResult* result) {
+  std::array<int, limits::kMaxLisBlobs> st{};
+  int ns = 0;
+  for (int i = 0; i < num_sel_; ++i)
+    if (sel_steady_[static_cast<std::size_t>(i)]) st[static_cast<std::size_t>(ns++)] = i;
+  const auto index = [](int i, int j, int k) { return k * (k - 1) * (k - 2) / 6 + j * (j - 1) / 2 + i; };  // OrderItems' t
+  const int full = num_bands_ - 1, keep = band_;
+  SetRange(full);
+  std::array<bool, kMaxTriples> cover{};
+  triple_count_.fill(-1);
+  const auto count = [&](int i, int j, int k) {
+    const int t = index(i, j, k);
+    auto& n = triple_count_[static_cast<std::size_t>(t)];
+    if (n < 0) {
+      result->cost += kCostCountPerBeaconPair * rig_->num_beacons * rig_->num_beacons;
+      n = CountTriples(triples_[static_cast<std::size_t>(t)], options_.max_hypotheses);
+    }
+    return n;
+  };
+  long work = 0;  // the cover's (a bound: its triples over cameras cost cross_camera_work each)
+  for (int d = 3; d < ns; ++d)
+    for (int c = 2; c < d; ++c)
+      for (int b = 1; b < c; ++b)
+        for (int a = 0; a < b; ++a) {
+          const std::array<int, 4> q{st[static_cast<std::size_t>(a)], st[static_cast<std::size_t>(b)],
+                                     st[static_cast<std::size_t>(c)], st[static_cast<std::size_t>(d)]};
+          int best = -1;
+          long fewest = std::numeric_limits<long>::max();
+          for (int skip = 3; skip >= 0; --skip) {  // the four triples of q (increasing indices)
+            std::array<int, 3> t{};
+            for (int m = 0, n = 0; m < 4; ++m)
+              if (m != skip) t[static_cast<std::size_t>(n++)] = q[static_cast<std::size_t>(m)];
+            const long n = count(t[0], t[1], t[2]);
+            if (n < fewest) {
+              fewest = n;
+              best = index(t[0], t[1], t[2]);
+            }
+          }
+          if (!cover[static_cast<std::size_t>(best)]) work += fewest;
+          cover[static_cast<std::size_t>(best)] = true;
+          if (work > options_.max_hypotheses) {  // (counted no further)
+            SetRange(keep);
+            return;
+          }
+        }
+  SetRange(keep);
+  // Their work, as the search counts it: a list that the search's work units cannot reach is
+  // no list (the search goes on as without the option).
+  work = 0;
+  for (int x = 0; x < num_items_; ++x) {
+    const Item& item = items_[static_cast<std::size_t>(x)];
+    if (item.band == full && cover[item.t])
+      work += triple_count_[item.t] * (item.same_camera ? 1 : options_.cross_camera_work);
+  }
+  if (work > options_.max_hypotheses) return;
+  // (std::stable_partition may allocate: the chosen items, then the others, through a copy.)
+  std::copy(items_.begin(), items_.begin() + num_items_, items_scratch_.begin());
+  int n = 0;
+  for (const bool chosen : {true, false})
+    for (int x = 0; x < num_items_; ++x)
+      if (cover[items_scratch_[static_cast<std::size_t>(x)].t] == chosen)
+        items_[static_cast<std::size_t>(n++)] = items_scratch_[static_cast<std::size_t>(x)];
+  for (int x = 0; x < num_items_; ++x) num_steady_items_ += cover[items_[static_cast<std::size_t>(x)].t] ? 1 : 0;
+}
+
 // Visits blob triples and their feasible beacon triples from the cursor on; at most `budget`
 // work units (LisResult::work) in this call, o.max_hypotheses in the whole search. The cursor names the
 // next hypothesis, so that a paused search resumes exactly where it stopped.
 LostInSpace::SearchEnd LostInSpace::Search(int budget, double cost_budget, LisResult* res) {
   const Spent since{res->work, res->cost, budget, cost_budget};
   const SearchEnd items_end = SearchItems(since, res);
-  if (items_end != SearchEnd::kDone || res->confirmed) return items_end;
+  if (items_end != SearchEnd::kDone || res->confirmed || steady_end_) return items_end;
   return ScoreDeferred(since, res);
 }
 
@@ -731,6 +807,11 @@ LostInSpace::SearchEnd LostInSpace::SearchItems(const Spent& since, LisResult* r
     SearchEnd end = SearchEnd::kDone;
     if (!SearchPoseSets(item, since, res, &end)) return end;
     band_done_[item.band][item.t] = true;
+    if (cur_.item + 1 == num_steady_items_) {
+      steady_end_ = true;
+      res->steady_complete = !overflow_;
+      return SearchEnd::kDone;
+    }
   }
   return SearchEnd::kDone;
 }
@@ -952,8 +1033,11 @@ LisStatus LostInSpace::Begin(const BlobObs* blobs, int num_blobs, const LisOptio
   res.false_alarms = 0.0;
   res.search_complete = res.confirmed = false;
   res.complete = false;
+  res.steady_complete = false;
   res.num_consistent = 0;
   res.repeats = 0;
+  num_steady_items_ = 0;
+  steady_end_ = false;
   num_cand_ = 0;
   overflow_ = false;
   num_deferred_ = next_deferred_ = 0;
@@ -995,6 +1079,7 @@ LisStatus LostInSpace::Begin(const BlobObs* blobs, int num_blobs, const LisOptio
   anchors_per_triple_ = std::min(anchored_sel, 3);
   for (auto& done : feasible_done_) done.fill(false);
   OrderItems(num_bands_);
+  if (o.steady_list && num_sel_steady_ >= 4 && anchors_per_triple_ == 0) SteadyItemsFirst(&res);
   cur_ = Cursor{};
   searching_ = true;
   return res.status = LisStatus::kSearching;
@@ -1008,13 +1093,15 @@ LisStatus LostInSpace::Continue(int budget, LisResult* result, double cost_budge
   return Decide(end == SearchEnd::kBudgetOut, options_, result);
 }
 
-// The feasible beacon triples of blob triple tr over the current range.
-long LostInSpace::CountTriples(const Triple& tr) {
+// The feasible beacon triples of blob triple tr over the current range; once above cap, some
+// count above it (the rest is not counted: in a 256-beacon map a triple over three cameras
+// holds up to 16 million, ~1 ms to count).
+long LostInSpace::CountTriples(const Triple& tr, long cap) {
   const auto& fij = Feasible(tr.i, tr.j);
   const auto& fik = Feasible(tr.i, tr.k);
   const auto& fjk = Feasible(tr.j, tr.k);
   long n = 0;
-  for (int a = 0; a < rig_->num_beacons; ++a) {
+  for (int a = 0; a < rig_->num_beacons && n <= cap; ++a) {
     const BeaconSet& ta = fik[static_cast<std::size_t>(a)];
     if (ta.Empty()) continue;
     const BeaconSet& bs = fij[static_cast<std::size_t>(a)];
@@ -1041,7 +1128,8 @@ bool LostInSpace::MayComplete(LisResult* result) {
       const Item& item = items_[static_cast<std::size_t>(t)];
       if (item.band != full) continue;
       result->cost += kCostCountPerBeaconPair * nb * nb;
-      work += CountTriples(triples_[item.t]) * (item.same_camera ? 1 : options_.cross_camera_work);
+      const int unit = item.same_camera ? 1 : options_.cross_camera_work;
+      work += CountTriples(triples_[item.t], (options_.max_hypotheses - work) / unit) * unit;
     }
     SetRange(keep);
     work_bound_ = static_cast<int>(std::min<long>(work, std::numeric_limits<int>::max()));
@@ -1060,14 +1148,14 @@ LisStatus LostInSpace::Decide(bool budget_out, const LisOptions& o, LisResult* r
   // A search that deferred more poses than it could keep (LisOptions::steady_fourth) has not
   // listed every pose: like one cut by its budget, it fixes only on a confirmed pose.
   const bool cut = budget_out || deferred_lost_;
-  res.search_complete = !cut && !res.confirmed;
+  res.search_complete = !cut && !res.confirmed && !steady_end_;
   // Refine every kept pose; those that predict a beacon well inside an image where no blob is
   // (missing) are refuted, the others are consistent with the blobs. Merge the ones that
   // turned out the same, rank by score. A search cut by its budget before a confirmed pose
   // can neither fix nor give a complete list (which alone the tracker follows), so its raw
   // poses are not refined: that was up to 256 refinements after the budget had run out (seen:
   // +45 % on a 10-beacon map's cold searches with clutter, 13 ms frame sets).
-  const bool refine_raw = !cut || res.confirmed;
+  const bool refine_raw = !cut || res.confirmed || res.steady_complete;
   int kept = 0;
   for (int i = 0; i < num_cand_; ++i) {
     Candidate& c = cand_[static_cast<std::size_t>(i)];
@@ -1110,6 +1198,7 @@ LisStatus LostInSpace::Decide(bool budget_out, const LisOptions& o, LisResult* r
   // incomplete, so the best of the others is no elimination (seen when the confirmed pose was
   // merged into a twin whose near miss was not excused: a three-beacon pose 3.5 m off won).
   if (res.confirmed && !SamePose(best, confirmed_, o)) return res.status = LisStatus::kBudgetExhausted;
+  if (steady_end_ && !res.confirmed) return res.status = LisStatus::kAmbiguous;  // (a list, never a fix)
   if (res.best_score - res.second_score < o.min_score_margin) return res.status = LisStatus::kAmbiguous;
   if (cut && !res.confirmed) return res.status = cut_status;
   // The fix: a last solve over the final identities gives covariance and residuals.

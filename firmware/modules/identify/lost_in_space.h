@@ -37,6 +37,11 @@
 //    guess. A refined pose with confirm_beacons beacons, none missing and an expected number of
 //    false alarms (FalseAlarms) below max_false_alarms ends the search early (confirmed).
 //
+// 7. A steady list (LisOptions::steady_list): with four or more steady blobs, the cheapest triple
+//    of every four of them is searched first and the search ends there, its list holding
+//    every pose that explains four steady blobs (LisResult::steady_complete) where a list of
+//    every pose is out of reach.
+//
 // With three or four beacons in view and narrow fields of view, several poses usually explain
 // the blobs equally well (nothing else is in view to refute them): the result is then
 // kAmbiguous with every consistent pose listed; when the list is complete the tracker
@@ -137,6 +142,19 @@ struct LisOptions {
   // (Scoring them also when the items stop at max_hypotheses was measured: it gives back the
   // rule's gains, docs/acquisition.md session 38.)
   bool steady_fourth = true;
+  // A steady list: with at least four steady blobs selected (and no anchors), the search visits
+  // first, for every four steady blobs, the cheapest of the four triples they make (by its
+  // beacon triples over the full range), scoring only poses that explain a steady fourth (also
+  // under a prior), and ends once those items are done: LisResult::steady_complete. A pose that
+  // explains four steady blobs with four distinct beacons is a root of each of their triples,
+  // so the list then holds every such pose (near the prior; barring a missed P3P root, or a
+  // raw root whose fourth blob lies beyond fourth_blob_max_rad), where listing every pose takes
+  // all the triples: in a
+  // 64-beacon map a triple over three cameras holds every ordered beacon triple, 241 920
+  // (docs/acquisition.md, session 43). Only when those items' work fits max_hypotheses
+  // (LostInSpace::steady_list() says whether it applied). Never a fix unless confirmed: the
+  // tracker follows the list. False: the search as before.
+  bool steady_list = false;
   // Each blob triple is also searched with beacons paired as if within this depth of the
   // cameras, a cheaper work item visited earlier (<= 0: no such items; see SetRange), and then
   // within twice, four times ... that depth: near_bands ranges in all (those below the full
@@ -202,6 +220,10 @@ struct LisResult {
   std::array<BodyPose, limits::kMaxLisCandidates> consistent_poses{};
   std::array<double, limits::kMaxLisCandidates> consistent_scores{};
   bool complete = false;
+  // LisOptions::steady_list: the search ended once every pose (near the prior) that explains four
+  // steady blobs was listed (the list not overflowed): the consistent poses hold them all, and
+  // perhaps others. complete is false (the other triples were not searched).
+  bool steady_complete = false;
 };
 
 // The missing beacons that refute a refined pose (LisResult, the tracker's solves): all of them,
@@ -299,6 +321,9 @@ class LostInSpace {
   LisStatus Continue(int budget, LisResult* result,
                      double cost_budget = std::numeric_limits<double>::infinity());
   bool searching() const { return searching_; }
+  // Whether the search in progress (or the last one) is a steady list (LisOptions::steady_list,
+  // when it applied: four steady blobs, no anchors, and its items within max_hypotheses).
+  bool steady_list() const { return num_steady_items_ > 0; }
   // Whether the search in progress (or the last one) dropped from its full list a pose that may
   // be consistent: its list can no longer be complete (LisResult::complete).
   bool overflowed() const { return overflow_; }
@@ -332,6 +357,7 @@ class LostInSpace {
   void CoVisibilityTable();
   void SampleCoVisibility(const Eigen::Vector3d& p, double min_depth_m);
   void OrderItems(int num_bands);
+  void SteadyItemsFirst(LisResult* result);
   const std::array<BeaconSet, limits::kMaxBeacons>& Feasible(int i, int j);  // i < j, lazily, current range
   bool PairTriedIn(const Triple& tr, int band, int a, int b) const;
   BeaconSet ThirdsTriedIn(const Triple& tr, int band, int a, int b) const;
@@ -352,7 +378,7 @@ class LostInSpace {
   };
   bool Hypothesis(int a, int b, int c, int unit, const Spent& since, LisResult* result, SearchEnd* end);
   bool FirstTry(int a, int b, int c);
-  long CountTriples(const Triple& tr);
+  long CountTriples(const Triple& tr, long cap);
   void TryTriple(int a, int b, int c, LisResult* result);
   void SetRange(int band);
   void Score(const BodyPose& pose, const LisOptions& o, LisResult* result);
@@ -456,6 +482,12 @@ class LostInSpace {
   };
   std::array<Item, kMaxBands * kMaxTriples> items_{};
   int num_items_ = 0;
+  // LisOptions::steady_list: items_[0, num_steady_items_) are those of the steady triples that
+  // cover every four steady blobs (SteadyItemsFirst); 0: no steady list in this search.
+  int num_steady_items_ = 0;
+  bool steady_end_ = false;  // the search ended after them
+  std::array<long, kMaxTriples> triple_count_{};  // SteadyItemsFirst's scratch
+  std::array<Item, kMaxBands * kMaxTriples> items_scratch_{};
   bool SearchPoseSets(const Item& item, const Spent& since, LisResult* result, SearchEnd* end);
   P3pRayTriple triple_;
   std::array<BodyPose, limits::kMaxP3pSolutions> solutions_{};

@@ -1166,6 +1166,81 @@ TEST(LostInSpaceTest, MayCompleteCountsTheBeaconTriplesExactly) {
   EXPECT_GE(checked, testing::Trials(30, 10) / 2);
 }
 
+// A steady list (LisOptions::steady_list) holds every pose that explains four steady blobs
+// with four distinct beacons:
+// reference, the complete list of a search of every triple (a 28-beacon map, where one
+// often completes), re-matched to find its poses on four steady blobs. Steady: the true beacons'
+// blobs, and in every third view one spurious blob too (a reflection that moves with the scene).
+// The steady list must hold each such pose and the truth (four true beacons in view), and cost
+// less than the complete search.
+TEST(LostInSpaceTest, ASteadyListHoldsEveryPoseOnFourSteadyBlobs) {
+  std::mt19937_64 rng(947);
+  static const Rig paper = PaperRig();
+  const Rig* rig = &paper;
+  ASSERT_TRUE(g_lis.Reset(paper));
+  BeaconMatcher matcher;
+  matcher.Reset(*rig);
+  LisOptions all;
+  all.confirm_beacons = 0;  // every triple, every pose on a fourth blob listed
+  all.max_hypotheses = limits::kMaxLisHypotheses;
+  all.fourth_blob_min_beacons = 3;  // (three-beacon poses would overflow the list)
+  LisOptions steady_list = all;
+  steady_list.steady_list = true;
+  int checked = 0, on_four = 0;
+  double cost_all = 0.0, cost_steady = 0.0;
+  for (int trial = 0; trial < testing::Trials(200, 60) && checked < testing::Trials(24, 8); ++trial) {
+    testing::Observe(*rig, testing::YawPose(std::uniform_real_distribution<double>(0.0, 2.0 * kPi)(rng)), 0.2, &rng,
+                     &g_scene);
+    if (g_scene.NumVisibleBeacons() < 4) continue;
+    testing::AddSpurious(*rig, 1 + trial % 4, &rng, &g_scene);
+    std::array<std::uint8_t, limits::kMaxObservations> steady{};
+    bool reflection = trial % 3 == 0;
+    for (int b = 0; b < g_scene.num_blobs; ++b) {
+      const bool spurious = g_scene.truth_beacon[static_cast<std::size_t>(b)] < 0;
+      steady[static_cast<std::size_t>(b)] = !spurious || reflection;
+      reflection = reflection && !spurious;  // (the first spurious blob only)
+    }
+    g_lis.Identify(g_scene.blobs.data(), g_scene.num_blobs, all, &g_res, nullptr, kAllCameras, steady.data());
+    if (!g_res.complete) continue;
+    ++checked;
+    cost_all += g_res.cost;
+    const LisResult reference = g_res;
+    g_lis.Identify(g_scene.blobs.data(), g_scene.num_blobs, steady_list, &g_res, nullptr, kAllCameras, steady.data());
+    cost_steady += g_res.cost;
+    ASSERT_TRUE(g_res.steady_complete) << "trial " << trial;
+    EXPECT_FALSE(g_res.complete);
+    EXPECT_NE(g_res.status, LisStatus::kFix) << "trial " << trial << ": a steady list is no fix";
+    const auto listed = [&](const BodyPose& q) {
+      for (int i = 0; i < g_res.num_consistent; ++i) {
+        const BodyPose& p = g_res.consistent_poses[static_cast<std::size_t>(i)];
+        if ((p.r_w_wb - q.r_w_wb).norm() <= 0.05 && AngleBetween(p.C_w_b, q.C_w_b) <= 0.05) return true;
+      }
+      return false;
+    };
+    EXPECT_TRUE(listed(g_scene.pose)) << "trial " << trial << ": the truth is not in the steady list";
+    matcher.SetBlobs(g_scene.blobs.data(), g_scene.num_blobs);
+    for (int i = 0; i < reference.num_consistent; ++i) {
+      const BodyPose& q = reference.consistent_poses[static_cast<std::size_t>(i)];
+      MatchSet m;
+      matcher.MatchPose(q, all.refine_match, &m);
+      BeaconSet on_steady;  // (four distinct beacons: a P3P triple has three)
+      for (int k = 0; k < m.num_matches; ++k) {
+        const Match& x = m.matches[static_cast<std::size_t>(k)];
+        if (steady[static_cast<std::size_t>(x.blob)] != 0) on_steady.Set(x.beacon);
+      }
+      const int steady_matched = on_steady.Count();
+      if (steady_matched < 4) continue;
+      ++on_four;
+      EXPECT_TRUE(listed(q)) << "trial " << trial << ": a pose on " << steady_matched << " steady blobs is missing";
+    }
+  }
+  std::printf("%d views, %d poses on four steady blobs; cost %.0f (every triple) vs %.0f (steady list)\n", checked,
+              on_four, cost_all, cost_steady);
+  EXPECT_GE(checked, testing::Trials(24, 8));
+  EXPECT_GE(on_four, checked);
+  EXPECT_LT(cost_steady, 0.5 * cost_all);
+}
+
 // A search cut by its budget before a confirmed pose gives neither a fix nor a complete list,
 // so it ends where its budget does: it used to refine every raw pose it had kept (14 units
 // each, up to limits::kMaxLisCandidates of them) after the budget had run out - +45 % on a

@@ -813,12 +813,13 @@ bool Tracker::ChainPrior(std::uint64_t t_ns, const TrackOptions& o, LisPrior* pr
 // is accepted, solved in *r.
 bool Tracker::Acquire(std::uint64_t t_ns, const TrackOptions& o, TrackResult* r) {
   const LisResult& l = lis_res_;
-  if (!l.complete) {
+  if (!l.complete && !l.steady_complete) {
     r->acquisition_poses = acquisition_.size();
     return false;  // no information this frame: the followed poses coast
   }
   if (acquisition_.empty()) {
     acquisition_.Start(l, t_ns);
+    KeepSteadyChain(l, o);
     r->acquisition_poses = acquisition_.size();
     return false;
   }
@@ -827,6 +828,7 @@ bool Tracker::Acquire(std::uint64_t t_ns, const TrackOptions& o, TrackResult* r)
   // next frame set: from the prediction again while the last accepted pose may seed it (a
   // refuted prediction is forgotten by Track, from its missing beacons), else without a prior.
   acquisition_.Follow(l, t_ns);
+  KeepSteadyChain(l, o);
   // A followed pose that names a blob continuing a beacon's image track another beacon (or
   // leaves it unexplained) is not the truth, when the track was that beacon's in an accepted
   // pose: after a gap with fewer than three beacons, the two that stayed in view keep their
@@ -861,9 +863,13 @@ bool Tracker::Acquire(std::uint64_t t_ns, const TrackOptions& o, TrackResult* r)
   // reflection among them (acquisition matrix: 64-beacon box 92.1 -> 92.7 % posed after the
   // first fix, no wrong pose, also with static reflections; docs/acquisition.md, session 28).
   const bool waits = reflections && set_.num_beacons < 4;
-  const int needed = seeded ? 1 + (waits ? o.min_acquire_frames : 1) : o.min_acquire_frames;
+  // A steady chain's survivor has explained four steady blobs within the noise in each of
+  // min_acquire_frames frame sets; every pose that did in the first was followed. (There is no
+  // complete list of this frame set to compare it with: SurvivorIsBest.)
+  const bool steady = acquisition_.steady();
+  const int needed = steady ? o.min_acquire_frames : seeded ? 1 + (waits ? o.min_acquire_frames : 1) : o.min_acquire_frames;
   if (acquisition_.frames() < needed) return false;
-  if (!seeded && !SurvivorIsBest(t_ns, o)) return false;
+  if (!seeded && !steady && !SurvivorIsBest(t_ns, o)) return false;
   // One pose left: its identities, solved.
   // Lost-in-space listed every consistent pose within the bounds, so a second P3P root there
   // would be a second survivor; unseeded, a root within twin_m / twin_rad is refused.
@@ -926,6 +932,41 @@ int Tracker::PruneToSteady(const TrackOptions& o) {
   const BodyPose keep = acquisition_.pose(kept);
   return acquisition_.Retain(
       [&](const BodyPose& p) { return p.r_w_wb == keep.r_w_wb && p.C_w_b == keep.C_w_b; });
+}
+
+// A chain followed from a steady list (LisResult::steady_complete, not complete) keeps the
+// poses on four steady blobs (OnFourSteadyBlobs), as does one followed from such a list before.
+void Tracker::KeepSteadyChain(const LisResult& list, const TrackOptions& o) {
+  if (list.steady_complete && !list.complete) acquisition_.MarkSteady();
+  if (!acquisition_.steady()) return;
+  counters_.steady_refuted += static_cast<std::uint32_t>(
+      acquisition_.Retain([&](const BodyPose& p) { return OnFourSteadyBlobs(p, o); }));
+}
+
+// Whether a pose explains steady blobs (BlobTracks) with four distinct beacons or more, misses
+// none, and its solve on all it explains fits the noise (ResidualsFitTheNoise: four beacons
+// leave two degrees of freedom, which a wrong pose fits only roughly).
+bool Tracker::OnFourSteadyBlobs(const BodyPose& pose, const TrackOptions& o) {
+  if (steady_ == nullptr) return false;
+  matcher_.MatchPose(pose, o.lis.refine_match, &set_);
+  if (UnexcusedMissing(set_, o.lis) > o.lis.max_missing) return false;
+  BeaconSet on_steady;
+  for (int m = 0; m < set_.num_matches; ++m) {
+    const Match& x = set_.matches[static_cast<std::size_t>(m)];
+    if (steady_[x.blob] != 0) on_steady.Set(x.beacon);
+  }
+  if (on_steady.Count() < 4) return false;
+  return SolvePose(*rig_, blobs_, num_blobs_, set_.matches.data(), set_.num_matches, pose, o.lis.solve,
+                   &identity_solve_) == SolveStatus::kOk &&
+         ResidualsFitTheNoise(identity_solve_, o);
+}
+
+// Whether the search just begun (lis_res_) should list the poses on four steady blobs instead
+// (TrackOptions::steady_lists): four steady blobs or more, and a list of every pose that cannot
+// be had within its work units.
+bool Tracker::WantsSteadyList(const TrackOptions& o) {
+  const int steady = SteadyBlobs();
+  return o.steady_lists && steady >= 4 && steady <= o.lis.confirm_beacons && !lis_.MayComplete(&lis_res_);
 }
 
 // Whether some matched blob began its image track in this frame set.
@@ -1264,8 +1305,15 @@ LisStatus Tracker::ColdSearch(const BlobObs* blobs, int num_blobs, std::uint64_t
     cold_blobs_ = num_blobs;
     cold_prior_ = LisPrior{};
     AnchorContinuingBlobs(o, &cold_prior_);
-    const LisStatus s = lis_.Begin(blobs, num_blobs, o.lis, &lis_res_, cold_prior_.num_anchors > 0 ? &cold_prior_ : nullptr,
-                                   cameras_, steady_);
+    const LisPrior* prior = cold_prior_.num_anchors > 0 ? &cold_prior_ : nullptr;
+    LisStatus s = lis_.Begin(blobs, num_blobs, o.lis, &lis_res_, prior, cameras_, steady_);
+    if (s == LisStatus::kSearching && prior == nullptr && WantsSteadyList(o)) {
+      Charge(lis_res_.cost);  // (MayComplete's count)
+      LisOptions lo = o.lis;
+      lo.steady_list = true;
+      s = lis_.Begin(blobs, num_blobs, lo, &lis_res_, prior, cameras_, steady_);
+      counters_.steady_lists += lis_.steady_list() ? 1U : 0U;
+    }
     if (s != LisStatus::kSearching) return s;
   }
   *old = cold_t_ns_ != t_ns;
@@ -1287,6 +1335,12 @@ LisStatus Tracker::SeededSearch(const BlobObs* blobs, int num_blobs, const LisPr
   LisOptions lo = o.lis;
   lo.max_hypotheses = o.seeded_max_hypotheses;  // (spread, its work is no longer one frame set's time)
   LisStatus s = lis_.Begin(blobs, num_blobs, lo, &lis_res_, &seeded_prior_, cameras_, steady_);
+  if (s == LisStatus::kSearching && prior.num_anchors == 0 && WantsSteadyList(o)) {
+    Charge(lis_res_.cost);  // (MayComplete's count)
+    lo.steady_list = true;
+    s = lis_.Begin(blobs, num_blobs, lo, &lis_res_, &seeded_prior_, cameras_, steady_);
+    counters_.steady_lists += lis_.steady_list() ? 1U : 0U;
+  }
   if (s == LisStatus::kSearching)
     s = lis_.Continue(limits::kMaxLisHypotheses, &lis_res_, std::max(1.0, lis_budget_left_ - lis_res_.cost));
   Charge(lis_res_.cost);
@@ -1331,9 +1385,11 @@ bool Tracker::ContinueSeededSearch(std::uint64_t t_ns, const TrackOptions& o, Tr
   }
   // (Acquire's pruning by the image tracks and its acceptance need the list's own frame set's
   // blobs: they come with this frame set's search.)
-  if (lis_res_.complete &&
-      (s == LisStatus::kFix || s == LisStatus::kAmbiguous || s == LisStatus::kNoHypothesis))
+  if ((lis_res_.complete || lis_res_.steady_complete) &&
+      (s == LisStatus::kFix || s == LisStatus::kAmbiguous || s == LisStatus::kNoHypothesis)) {
     acquisition_.Follow(lis_res_, seeded_t_ns_);
+    if (lis_res_.steady_complete && !lis_res_.complete) acquisition_.MarkSteady();  // (kept by this frame set's Acquire)
+  }
   return false;
 }
 
@@ -1408,10 +1464,16 @@ TrackStatus Tracker::Reidentify(const BlobObs* blobs, int num_blobs, std::uint64
     r->lis_status = ColdSearch(blobs, num_blobs, t_ns, o, &old);
     if (r->lis_status == LisStatus::kSearching) return Lost(TrackReason::kAcquiring, r);
     if (old) {
-      // The search ended on an earlier frame set. Only a confirmed fix tells anything now: it
-      // seeds this frame set (within the motion bounds since then); otherwise start afresh.
-      if (r->lis_status != LisStatus::kFix || !lis_res_.confirmed) return Lost(TrackReason::kAcquiring, r);
-      return SeedFromEarlierFix(cold_t_ns_, t_ns, o, r);
+      // The search ended on an earlier frame set. A confirmed fix seeds this frame set (within
+      // the motion bounds since then); a steady list starts the chain at that frame set (the
+      // next Acquire keeps its poses on four steady blobs); otherwise start afresh.
+      if (r->lis_status == LisStatus::kFix && lis_res_.confirmed) return SeedFromEarlierFix(cold_t_ns_, t_ns, o, r);
+      if (lis_res_.steady_complete && lis_res_.num_consistent > 0) {
+        acquisition_.Start(lis_res_, cold_t_ns_);
+        acquisition_.MarkSteady();
+        r->acquisition_poses = acquisition_.size();
+      }
+      return Lost(TrackReason::kAcquiring, r);
     }
   } else {
     r->lis_status = RunLis(blobs, num_blobs, use_prior ? &prior : nullptr, o);

@@ -228,6 +228,18 @@ struct TrackOptions {
   // continued a blob of the previous frame sets with a constant image velocity. The image
   // gates come from the motion bounds above and these (false: every blob alike, as before).
   bool steady_blobs_first = true;
+  // With steady_blobs_first, in maps of >= lis.fourth_blob_min_beacons beacons: a cold search, or
+  // one near a single followed (or predicted) pose, that cannot list every pose within its work
+  // units (LostInSpace::MayComplete) lists instead every pose that explains four steady blobs
+  // (LisOptions::steady_list), when at least four blobs are steady and that list fits: in a view
+  // of four or five beacons, where nothing confirms a pose in one frame set, the list of every
+  // pose was out of reach (a 64-beacon map: 241 920 beacon triples for a triple over three
+  // cameras) and nothing was followed. The acquisition follows such a list as a complete one,
+  // but each followed pose must go on explaining four steady blobs with residuals that fit the
+  // noise (Tracker::OnFourSteadyBlobs: a wrong pose fits four blobs only roughly, and the motion
+  // moves it off them), and the one left is accepted after min_acquire_frames frame sets
+  // (docs/acquisition.md, session 43).
+  bool steady_lists = true;
   double steady_gate_px = 3.0;        // BlobTrackOptions::tight_gate_px
   double steady_gate_fraction = 0.2;  // BlobTrackOptions::tight_gate_fraction
   // With steady_blobs_first: a beacon with two blobs in its tracking gate takes the one that
@@ -407,6 +419,8 @@ struct TrackCounters {
   std::uint32_t anchored_searches = 0;    // lost-in-space searches (near a pose, or cold) with continuing blobs anchored
   std::uint32_t unsteady_refused = 0;     // an acquired three-beacon pose on a blob that is not steady
   std::uint32_t steady_pruned = 0;        // followed poses on a new blob dropped for the one on steady blobs
+  std::uint32_t steady_lists = 0;         // searches that listed the poses on four steady blobs instead (steady_lists)
+  std::uint32_t steady_refuted = 0;       // poses of a steady chain dropped: not on four steady blobs that fit the noise
   std::uint32_t residual_refused = 0;     // a stand-alone LIS fix or acquired pose: residuals beyond the noise
   std::uint32_t identity_refused = 0;     // a stand-alone LIS fix with a rival blob for a beacon (IdentitiesDecisive)
   std::uint32_t identity_swapped = 0;     // a tracked pose's beacon given a rival blob that explains the blobs better
@@ -515,6 +529,9 @@ class Tracker {
   bool LeavesSteadyBlob(const MatchSet& matches) const;
   bool OnSteadyBlobs(const MatchSet& matches) const;
   bool OnNewBlob(const MatchSet& matches) const;
+  bool OnFourSteadyBlobs(const BodyPose& pose, const TrackOptions& o);
+  void KeepSteadyChain(const LisResult& list, const TrackOptions& o);
+  bool WantsSteadyList(const TrackOptions& o);
   int PruneToSteady(const TrackOptions& o);
   void PredictionGatePx(const BodyPose& predicted, double since_s, const TrackOptions& o, double* gate,
                         double* with_map) const;
