@@ -476,8 +476,12 @@ TEST(TrackerTest, SeededSearchCutByTheBudgetGoesOnOverFrameSets) {
 // per frame set; a lost-in-space fix confirms on five), then a fifth comes into view. The cold
 // search in progress starts over on a frame set with more blobs or more steady ones
 // (restart_cold_search), where it went on with the older blobs until its work ran out or
-// cold_search_s passed. Both modes on the same frame sets: never wrong, the first pose never
-// later by more than 2 frame sets with the restart, sooner in all.
+// cold_search_s passed. Both modes on the same frame sets, without steady lists (with them the
+// four-beacon view is often acquired before the fifth beacon comes, at the same frame set in
+// both modes: all 8 draws of the fast set alike, 4 of them at frame set 4-5): never wrong, the
+// first pose never later by more than 2 frame sets with the restart, sooner in all. With steady
+// lists too (the default): never wrong, and in all no later than with the restart alone
+// (measured over the 16 draws: 296, 279 and 228 frame sets to the first poses in all).
 TEST(TrackerTest, ColdSearchStartsOverForABeaconComeIntoView) {
   std::mt19937_64 rng(4021);
   static Rig rig;
@@ -485,7 +489,7 @@ TEST(TrackerTest, ColdSearchStartsOverForABeaconComeIntoView) {
   constexpr int kFrames = 60;
   const Eigen::Vector3d v_w(0.15, 0.0, 0.0), omega_b(0.0, 0.0, 0.2);  // m/s, rad/s
   int cases = 0;
-  std::array<int, 2> total{};  // frame sets to the first pose, without and with the restart
+  std::array<int, 3> total{};  // frame sets to the first pose: without the restart, with it, the defaults
   std::uint32_t restarts = 0;
   for (int trial = 0; cases < draws && trial < 4000; ++trial) {
     rig = testing::RandomCylinderRig(64, true, &rng);
@@ -498,11 +502,13 @@ TEST(TrackerTest, ColdSearchStartsOverForABeaconComeIntoView) {
     }
     if (!sparse_then_more) continue;
     ++cases;
-    std::array<int, 2> first{};
-    for (const bool restart : {false, true}) {
+    std::array<int, 3> first{};
+    for (const int mode : {0, 1, 2}) {
+      const bool restart = mode > 0;
       TrackOptions o;
       o.restart_cold_search = restart;
-      std::mt19937_64 noise(static_cast<std::uint64_t>(trial));  // the same frame sets in both
+      o.steady_lists = mode == 2;
+      std::mt19937_64 noise(static_cast<std::uint64_t>(trial));  // the same frame sets in all
       EXPECT_TRUE(g_tracker.Reset(rig));
       Sweep run;
       for (int f = 0; f < kFrames; ++f) {
@@ -510,17 +516,18 @@ TEST(TrackerTest, ColdSearchStartsOverForABeaconComeIntoView) {
         testing::AddSpurious(rig, 4, &noise, &g_scene);
         Step(rig, g_scene, static_cast<std::uint64_t>(f) * kFrameNs, o, &run);
       }
-      EXPECT_EQ(run.wrong, 0) << "trial " << trial << " restart " << restart;
-      first[restart] = run.first_fix >= 0 ? run.first_fix : kFrames;
-      if (restart) restarts += g_tracker.counters().cold_search_restarted;
+      EXPECT_EQ(run.wrong, 0) << "trial " << trial << " mode " << mode;
+      first[static_cast<std::size_t>(mode)] = run.first_fix >= 0 ? run.first_fix : kFrames;
+      if (mode == 1) restarts += g_tracker.counters().cold_search_restarted;
     }
-    std::printf("trial %d: first pose at frame set %d going on, %d starting over\n", trial, first[0], first[1]);
+    std::printf("trial %d: first pose at frame set %d going on, %d starting over, %d with steady lists too\n", trial,
+                first[0], first[1], first[2]);
     EXPECT_LE(first[1], first[0] + 2) << "trial " << trial;
-    total[0] += first[0];
-    total[1] += first[1];
+    for (int m = 0; m < 3; ++m) total[static_cast<std::size_t>(m)] += first[static_cast<std::size_t>(m)];
   }
   EXPECT_EQ(cases, draws);
   EXPECT_LT(total[1], total[0]);
+  EXPECT_LE(total[2], total[1]);
   EXPECT_GT(restarts, 0U);
 }
 
