@@ -1147,7 +1147,8 @@ TEST(LostInSpaceTest, MayCompleteCountsTheBeaconTriplesExactly) {
   all.cross_camera_work = 1;
   all.max_hypotheses = limits::kMaxLisHypotheses;
   int checked = 0;
-  for (int trial = 0; trial < testing::Trials(30, 10); ++trial) {
+  const int wanted = testing::Trials(16, 5);
+  for (int trial = 0; checked < wanted && trial < 400; ++trial) {
     testing::Observe(*rig, testing::RandomCylinderPose(&rng), 0.1, &rng, &g_scene);
     testing::AddSpurious(*rig, trial % 5, &rng, &g_scene);
     if (g_lis.Identify(g_scene.blobs.data(), g_scene.num_blobs, all, &g_res) == LisStatus::kTooFewBlobs) continue;
@@ -1162,8 +1163,9 @@ TEST(LostInSpaceTest, MayCompleteCountsTheBeaconTriplesExactly) {
           << "trial " << trial << ": " << tried << " hypotheses tried, cap " << cap;
     }
   }
-  // (The others: fewer than three blobs in view, or more triples than the limit allows.)
-  EXPECT_GE(checked, testing::Trials(30, 10) / 2);
+  // (Views skipped: fewer than three blobs, or more triples than the limit allows - a matter of
+  // rounding which: 3 of the first 10 views were checked on aarch64, 5 on x86-64.)
+  EXPECT_EQ(checked, wanted);
 }
 
 // A steady list (LisOptions::steady_list) holds every pose that explains four steady blobs
