@@ -721,16 +721,21 @@ void LostInSpace::SteadyItemsFirst(LisResult* result) {
   SetRange(full);
   std::array<bool, kMaxTriples> cover{};
   triple_count_.fill(-1);
-  const auto count = [&](int i, int j, int k) {
+  // A triple's work as the search counts it: its beacon triples, cross_camera_work each when its
+  // blobs are not all in one camera.
+  const auto work_of = [&](int i, int j, int k) {
     const int t = index(i, j, k);
     auto& n = triple_count_[static_cast<std::size_t>(t)];
     if (n < 0) {
       result->cost += kCostCountPerBeaconPair * rig_->num_beacons * rig_->num_beacons;
       n = CountTriples(triples_[static_cast<std::size_t>(t)], options_.max_hypotheses);
     }
-    return n;
+    const int camera = blobs_[sel_[static_cast<std::size_t>(i)]].camera;
+    const bool same = blobs_[sel_[static_cast<std::size_t>(j)]].camera == camera &&
+                      blobs_[sel_[static_cast<std::size_t>(k)]].camera == camera;
+    return n * (same ? 1 : options_.cross_camera_work);
   };
-  long work = 0;  // the cover's (a bound: its triples over cameras cost cross_camera_work each)
+  long work = 0;  // the cover's
   for (int d = 3; d < ns; ++d)
     for (int c = 2; c < d; ++c)
       for (int b = 1; b < c; ++b)
@@ -743,7 +748,7 @@ void LostInSpace::SteadyItemsFirst(LisResult* result) {
             std::array<int, 3> t{};
             for (int m = 0, n = 0; m < 4; ++m)
               if (m != skip) t[static_cast<std::size_t>(n++)] = q[static_cast<std::size_t>(m)];
-            const long n = count(t[0], t[1], t[2]);
+            const long n = work_of(t[0], t[1], t[2]);
             if (n < fewest) {
               fewest = n;
               best = index(t[0], t[1], t[2]);
@@ -751,29 +756,23 @@ void LostInSpace::SteadyItemsFirst(LisResult* result) {
           }
           if (!cover[static_cast<std::size_t>(best)]) work += fewest;
           cover[static_cast<std::size_t>(best)] = true;
-          if (work > options_.max_hypotheses) {  // (counted no further)
+          // A list that the search's work units cannot reach is no list (the search goes on as
+          // without the option; counted no further).
+          if (work > options_.max_hypotheses) {
             SetRange(keep);
             return;
           }
         }
   SetRange(keep);
-  // Their work, as the search counts it: a list that the search's work units cannot reach is
-  // no list (the search goes on as without the option).
-  work = 0;
-  for (int x = 0; x < num_items_; ++x) {
-    const Item& item = items_[static_cast<std::size_t>(x)];
-    if (item.band == full && cover[item.t])
-      work += triple_count_[item.t] * (item.same_camera ? 1 : options_.cross_camera_work);
-  }
-  if (work > options_.max_hypotheses) return;
   // (std::stable_partition may allocate: the chosen items, then the others, through a copy.)
   std::copy(items_.begin(), items_.begin() + num_items_, items_scratch_.begin());
   int n = 0;
-  for (const bool chosen : {true, false})
+  for (const bool chosen : {true, false}) {
     for (int x = 0; x < num_items_; ++x)
       if (cover[items_scratch_[static_cast<std::size_t>(x)].t] == chosen)
         items_[static_cast<std::size_t>(n++)] = items_scratch_[static_cast<std::size_t>(x)];
-  for (int x = 0; x < num_items_; ++x) num_steady_items_ += cover[items_[static_cast<std::size_t>(x)].t] ? 1 : 0;
+    if (chosen) num_steady_items_ = n;
+  }
 }
 
 // Visits blob triples and their feasible beacon triples from the cursor on; at most `budget`

@@ -934,10 +934,10 @@ int Tracker::PruneToSteady(const TrackOptions& o) {
       [&](const BodyPose& p) { return p.r_w_wb == keep.r_w_wb && p.C_w_b == keep.C_w_b; });
 }
 
-// A chain followed from a steady list (LisResult::steady_complete, not complete) keeps the
+// A chain followed from a steady list (LisResult::steady_complete; never complete) keeps the
 // poses on four steady blobs (OnFourSteadyBlobs), as does one followed from such a list before.
 void Tracker::KeepSteadyChain(const LisResult& list, const TrackOptions& o) {
-  if (list.steady_complete && !list.complete) acquisition_.MarkSteady();
+  if (list.steady_complete) acquisition_.MarkSteady();
   if (!acquisition_.steady()) return;
   counters_.steady_refuted += static_cast<std::uint32_t>(
       acquisition_.Retain([&](const BodyPose& p) { return OnFourSteadyBlobs(p, o); }));
@@ -967,6 +967,16 @@ bool Tracker::OnFourSteadyBlobs(const BodyPose& pose, const TrackOptions& o) {
 bool Tracker::WantsSteadyList(const TrackOptions& o) {
   const int steady = SteadyBlobs();
   return o.steady_lists && steady >= 4 && steady <= o.lis.confirm_beacons && !lis_.MayComplete(&lis_res_);
+}
+
+// Begins again, as a steady list (LisOptions::steady_list), the search just begun with options
+// lo: the first one's count (MayComplete) charged.
+LisStatus Tracker::BeginSteadyList(const BlobObs* blobs, int num_blobs, LisOptions lo, const LisPrior* prior) {
+  Charge(lis_res_.cost);
+  lo.steady_list = true;
+  const LisStatus s = lis_.Begin(blobs, num_blobs, lo, &lis_res_, prior, cameras_, steady_);
+  counters_.steady_lists += lis_.steady_list() ? 1U : 0U;
+  return s;
 }
 
 // Whether some matched blob began its image track in this frame set.
@@ -1307,13 +1317,8 @@ LisStatus Tracker::ColdSearch(const BlobObs* blobs, int num_blobs, std::uint64_t
     AnchorContinuingBlobs(o, &cold_prior_);
     const LisPrior* prior = cold_prior_.num_anchors > 0 ? &cold_prior_ : nullptr;
     LisStatus s = lis_.Begin(blobs, num_blobs, o.lis, &lis_res_, prior, cameras_, steady_);
-    if (s == LisStatus::kSearching && prior == nullptr && WantsSteadyList(o)) {
-      Charge(lis_res_.cost);  // (MayComplete's count)
-      LisOptions lo = o.lis;
-      lo.steady_list = true;
-      s = lis_.Begin(blobs, num_blobs, lo, &lis_res_, prior, cameras_, steady_);
-      counters_.steady_lists += lis_.steady_list() ? 1U : 0U;
-    }
+    if (s == LisStatus::kSearching && prior == nullptr && WantsSteadyList(o))
+      s = BeginSteadyList(blobs, num_blobs, o.lis, prior);
     if (s != LisStatus::kSearching) return s;
   }
   *old = cold_t_ns_ != t_ns;
@@ -1335,12 +1340,8 @@ LisStatus Tracker::SeededSearch(const BlobObs* blobs, int num_blobs, const LisPr
   LisOptions lo = o.lis;
   lo.max_hypotheses = o.seeded_max_hypotheses;  // (spread, its work is no longer one frame set's time)
   LisStatus s = lis_.Begin(blobs, num_blobs, lo, &lis_res_, &seeded_prior_, cameras_, steady_);
-  if (s == LisStatus::kSearching && prior.num_anchors == 0 && WantsSteadyList(o)) {
-    Charge(lis_res_.cost);  // (MayComplete's count)
-    lo.steady_list = true;
-    s = lis_.Begin(blobs, num_blobs, lo, &lis_res_, &seeded_prior_, cameras_, steady_);
-    counters_.steady_lists += lis_.steady_list() ? 1U : 0U;
-  }
+  if (s == LisStatus::kSearching && prior.num_anchors == 0 && WantsSteadyList(o))
+    s = BeginSteadyList(blobs, num_blobs, lo, &seeded_prior_);
   if (s == LisStatus::kSearching)
     s = lis_.Continue(limits::kMaxLisHypotheses, &lis_res_, std::max(1.0, lis_budget_left_ - lis_res_.cost));
   Charge(lis_res_.cost);
@@ -1388,7 +1389,7 @@ bool Tracker::ContinueSeededSearch(std::uint64_t t_ns, const TrackOptions& o, Tr
   if ((lis_res_.complete || lis_res_.steady_complete) &&
       (s == LisStatus::kFix || s == LisStatus::kAmbiguous || s == LisStatus::kNoHypothesis)) {
     acquisition_.Follow(lis_res_, seeded_t_ns_);
-    if (lis_res_.steady_complete && !lis_res_.complete) acquisition_.MarkSteady();  // (kept by this frame set's Acquire)
+    if (lis_res_.steady_complete) acquisition_.MarkSteady();  // (kept by this frame set's Acquire)
   }
   return false;
 }

@@ -532,6 +532,7 @@ class Tracker {
   bool OnFourSteadyBlobs(const BodyPose& pose, const TrackOptions& o);
   void KeepSteadyChain(const LisResult& list, const TrackOptions& o);
   bool WantsSteadyList(const TrackOptions& o);
+  LisStatus BeginSteadyList(const BlobObs* blobs, int num_blobs, LisOptions lo, const LisPrior* prior);
   int PruneToSteady(const TrackOptions& o);
   void PredictionGatePx(const BodyPose& predicted, double since_s, const TrackOptions& o, double* gate,
                         double* with_map) const;
