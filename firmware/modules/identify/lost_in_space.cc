@@ -271,6 +271,8 @@ void LostInSpace::Insert(const Candidate& c, const LisOptions& o) {
 bool LostInSpace::Refine(Candidate* c, const LisOptions& o) {
   c->refined = true;
   const MatchOptions tight = WithNearMisses(o.refine_match, o);
+  // (ScoreMatched's fourth: the solve below then pulls the raw pose onto it.)
+  if (c->fourth.blob >= 0) c->set.Add(c->fourth);
   // A P3P pose fits its three blobs exactly: when those are all it matches, it is already the
   // least-squares solution; only the tight re-match remains.
   if (c->set.num_matches == 3 && c->set.sum_sq_px < 1e-12) {
@@ -337,10 +339,32 @@ LostInSpace::Fourth LostInSpace::ExplainsAFourth(const BodyPose& pose, int t_i, 
       const float t = c.x[sm] * dx + c.y[sm] * dy + c.z[sm] * dz;
       hits += static_cast<int>((t > 0.0F) & (t * t >= c.cos_sq_len_sq[sm]));
     }
-    if (hits > 0 && counts) return Fourth::kFound;
+    if (hits > 0 && counts) {
+      fourth_sel_ = s;
+      return Fourth::kFound;
+    }
     unsteady_hit = unsteady_hit || hits > 0;
   }
   return unsteady_hit ? Fourth::kUnsteadyOnly : Fourth::kNone;
+}
+
+// The beacon nearest in angle to selected blob s's ray at `pose`, in front of its camera (-1:
+// none): ExplainsAFourth's offsets of that camera must hold this pose's (it found s).
+int LostInSpace::BeaconAlong(const BodyPose& pose, int s) const {
+  const auto ss = static_cast<std::size_t>(s);
+  const CameraOffsets& c = offsets_[static_cast<std::size_t>(blobs_[sel_[ss]].camera)];
+  const Eigen::Vector3f d_w = (pose.C_w_b * rays_[ss].d_b).cast<float>();
+  int best = -1;
+  float best_cos_sq = 0.0F;
+  for (int m = 0; m < rig_->num_beacons; ++m) {
+    const auto sm = static_cast<std::size_t>(m);
+    const float t = c.x[sm] * d_w.x() + c.y[sm] * d_w.y() + c.z[sm] * d_w.z();
+    const float len_sq = c.x[sm] * c.x[sm] + c.y[sm] * c.y[sm] + c.z[sm] * c.z[sm];
+    if (!(t > 0.0F) || len_sq <= 0.0F || t * t <= best_cos_sq * len_sq) continue;
+    best = m;
+    best_cos_sq = t * t / len_sq;
+  }
+  return best;
 }
 
 void LostInSpace::Score(const BodyPose& pose, const LisOptions& o, LisResult* result) {
@@ -355,7 +379,7 @@ void LostInSpace::Score(const BodyPose& pose, const LisOptions& o, LisResult* re
     // A steady list's item: only a pose with a steady fourth may explain four steady blobs.
     result->cost += kCostFourthPerBeaconBlob * nb * num_sel_;
     if (ExplainsAFourth(pose, cur_i_, cur_j_, cur_k_, fourth_cos_sq_, /*steady_only=*/true) == Fourth::kFound)
-      ScoreMatched(pose, o, result);
+      ScoreMatched(pose, o, result, fourth_sel_);
     return;
   }
   const bool pairs_anchored = anchors_per_triple_ >= 2;
@@ -376,17 +400,19 @@ void LostInSpace::Score(const BodyPose& pose, const LisOptions& o, LisResult* re
         deferred_lost_ = true;
     }
     if (fourth != Fourth::kFound) return;
+    ScoreMatched(pose, o, result, fourth_sel_);
+    return;
   }
   // Under a prior (or two anchors) no fourth-blob test filters the poses: their full
   // reprojection is work the budget counts (a frame set's time would otherwise grow with the
   // map; seen: 22 ms).
-  if (!fourth_test) ++result->work;
+  ++result->work;
   ScoreMatched(pose, o, result);
 }
 
 // A raw pose's full reprojection: listed (Insert) if it explains enough, refined and perhaps
 // confirmed if it explains many.
-void LostInSpace::ScoreMatched(const BodyPose& pose, const LisOptions& o, LisResult* result) {
+void LostInSpace::ScoreMatched(const BodyPose& pose, const LisOptions& o, LisResult* result, int fourth_sel) {
   result->cost += kCostReprojectionPerBeacon * rig_->num_beacons;
   matcher_.MatchPose(pose, o.hypothesis_match, &match_scratch_);
   // Too few beacons, or refuted even allowing for the raw pose's error at the margins.
@@ -401,6 +427,18 @@ void LostInSpace::ScoreMatched(const BodyPose& pose, const LisOptions& o, LisRes
   scratch_.pose = pose;
   scratch_.refined = false;
   scratch_.set.CopyFrom(match_scratch_);
+  // The fourth-blob test's angle is wider than the raw match's gate (0.015 rad is 24 px at
+  // f = 1600 px): a raw pose from a triple of weak geometry may predict its fourth beacon
+  // beside that blob but outside the gate, and it is then "missing" and refutes the truth
+  // (seen: 3 of 119 exhaustive steady lists of clean four-beacon views held nothing for this
+  // alone; docs/acquisition.md, session 44). The association is kept for Refine.
+  scratch_.fourth = Match{};
+  if (fourth_sel >= 0 && missing > 0) {
+    const int blob = sel_[static_cast<std::size_t>(fourth_sel)];
+    const int beacon = scratch_.set.BeaconOfBlob(blob) < 0 ? BeaconAlong(pose, fourth_sel) : -1;
+    if (beacon >= 0 && !scratch_.set.beacons.Has(beacon) && !matcher_.excluded().Has(beacon))
+      scratch_.fourth = Match{blob, beacon, blobs_[blob].camera};
+  }
   scratch_.score = scratch_.set.Score(o.miss_weight);
   if (worth_refining) {
     result->cost += kCostRefine;

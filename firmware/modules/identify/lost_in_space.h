@@ -347,6 +347,9 @@ class LostInSpace {
     double score = 0.0;
     double rms_px = 0.0;
     bool refined = false;
+    // The fourth blob's beacon that the fourth-blob test found along its ray (ExplainsAFourth)
+    // when the raw match left that blob free (blob -1: none): Refine solves with it.
+    Match fourth;
   };
   struct Triple {
     std::uint8_t i, j, k;  // selected-blob indices, i < j < k
@@ -367,6 +370,8 @@ class LostInSpace {
                             const LisOptions& o);
   enum class Fourth : unsigned char { kNone, kUnsteadyOnly, kFound };
   Fourth ExplainsAFourth(const BodyPose& pose, int t_i, int t_j, int t_k, float cos_sq, bool steady_only);
+  int BeaconAlong(const BodyPose& pose, int s) const;
+  int fourth_sel_ = -1;  // the selected blob whose ray ExplainsAFourth found a beacon along (kFound)
   enum class SearchEnd : unsigned char { kDone, kPaused, kBudgetOut };
   SearchEnd Search(int budget, double cost_budget, LisResult* result);
   // The budgets of one Search call: what was spent when it began.
@@ -382,7 +387,7 @@ class LostInSpace {
   void TryTriple(int a, int b, int c, LisResult* result);
   void SetRange(int band);
   void Score(const BodyPose& pose, const LisOptions& o, LisResult* result);
-  void ScoreMatched(const BodyPose& pose, const LisOptions& o, LisResult* result);
+  void ScoreMatched(const BodyPose& pose, const LisOptions& o, LisResult* result, int fourth_sel = -1);
   SearchEnd ScoreDeferred(const Spent& since, LisResult* result);
   bool WithinBudget(const Spent& since, const LisResult& result, SearchEnd* end, bool work_cap) const;
   SearchEnd SearchItems(const Spent& since, LisResult* result);
