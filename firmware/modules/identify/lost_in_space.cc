@@ -304,7 +304,7 @@ bool LostInSpace::Refine(Candidate* c, const LisOptions& o) {
 // steady_only only a steady blob makes it kFound, and kUnsteadyOnly says an unsteady one would
 // have (one scan: each camera's offsets computed once).
 LostInSpace::Fourth LostInSpace::ExplainsAFourth(const BodyPose& pose, int t_i, int t_j, int t_k, float cos_sq,
-                                                 bool steady_only) {
+                                                 bool steady_only, int* found) {
   const int nb = rig_->num_beacons;
   // The blobs of one camera share its centre: its offsets to the beacons (and their squared
   // lengths times cos_sq) are computed once per pose, at its first blob (in 256-beacon maps
@@ -340,7 +340,7 @@ LostInSpace::Fourth LostInSpace::ExplainsAFourth(const BodyPose& pose, int t_i, 
       hits += static_cast<int>((t > 0.0F) & (t * t >= c.cos_sq_len_sq[sm]));
     }
     if (hits > 0 && counts) {
-      fourth_sel_ = s;
+      *found = s;
       return Fourth::kFound;
     }
     unsteady_hit = unsteady_hit || hits > 0;
@@ -378,8 +378,9 @@ void LostInSpace::Score(const BodyPose& pose, const LisOptions& o, LisResult* re
   if (cur_.item < num_steady_items_) {
     // A steady list's item: only a pose with a steady fourth may explain four steady blobs.
     result->cost += kCostFourthPerBeaconBlob * nb * num_sel_;
-    if (ExplainsAFourth(pose, cur_i_, cur_j_, cur_k_, fourth_cos_sq_, /*steady_only=*/true) == Fourth::kFound)
-      ScoreMatched(pose, o, result, fourth_sel_);
+    int found = -1;
+    if (ExplainsAFourth(pose, cur_i_, cur_j_, cur_k_, fourth_cos_sq_, /*steady_only=*/true, &found) == Fourth::kFound)
+      ScoreMatched(pose, o, result, found);
     return;
   }
   const bool pairs_anchored = anchors_per_triple_ >= 2;
@@ -391,7 +392,8 @@ void LostInSpace::Score(const BodyPose& pose, const LisOptions& o, LisResult* re
     const bool steady_only = o.steady_fourth && num_sel_steady_ >= 4 && sel_steady_[static_cast<std::size_t>(cur_i_)] &&
                              sel_steady_[static_cast<std::size_t>(cur_j_)] && sel_steady_[static_cast<std::size_t>(cur_k_)];
     result->cost += kCostFourthPerBeaconBlob * nb * num_sel_;
-    const Fourth fourth = ExplainsAFourth(pose, cur_i_, cur_j_, cur_k_, fourth_cos_sq_, steady_only);
+    int found = -1;
+    const Fourth fourth = ExplainsAFourth(pose, cur_i_, cur_j_, cur_k_, fourth_cos_sq_, steady_only, &found);
     if (fourth == Fourth::kUnsteadyOnly) {
       ++result->deferred;
       if (num_deferred_ < limits::kMaxLisDeferred)
@@ -400,7 +402,7 @@ void LostInSpace::Score(const BodyPose& pose, const LisOptions& o, LisResult* re
         deferred_lost_ = true;
     }
     if (fourth != Fourth::kFound) return;
-    ScoreMatched(pose, o, result, fourth_sel_);
+    ScoreMatched(pose, o, result, found);
     return;
   }
   // Under a prior (or two anchors) no fourth-blob test filters the poses: their full

@@ -369,9 +369,10 @@ class LostInSpace {
   bool CopyExplainsTheBlobs(const Candidate& c, const Eigen::Matrix3d& R, const Eigen::Vector3d& t, int n,
                             const LisOptions& o);
   enum class Fourth : unsigned char { kNone, kUnsteadyOnly, kFound };
-  Fourth ExplainsAFourth(const BodyPose& pose, int t_i, int t_j, int t_k, float cos_sq, bool steady_only);
+  // found (kFound): the selected blob along whose ray a beacon lies.
+  Fourth ExplainsAFourth(const BodyPose& pose, int t_i, int t_j, int t_k, float cos_sq, bool steady_only,
+                         int* found);
   int BeaconAlong(const BodyPose& pose, int s) const;
-  int fourth_sel_ = -1;  // the selected blob whose ray ExplainsAFourth found a beacon along (kFound)
   enum class SearchEnd : unsigned char { kDone, kPaused, kBudgetOut };
   SearchEnd Search(int budget, double cost_budget, LisResult* result);
   // The budgets of one Search call: what was spent when it began.
