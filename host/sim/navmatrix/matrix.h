@@ -91,6 +91,8 @@ struct MatrixRow {
   int runs = 0;
   std::vector<int> lags;         // first fix - first frame set with >= 4 in view, runs that have both
   int lag_exceeded = 0;          // runs whose first fix came more than max_lag frame sets late (or never)
+  std::vector<int> held_lags;     // first fix - first held view (NavMatrixOptions::held_view_frames)
+  int held_lag_exceeded = 0;      // ... more than max_lag frame sets late (or never); <= lag_exceeded; reported, not required
   int never_fixed = 0;           // runs with >= 4 in view at some point and no fix at all
   int no_view4 = 0;              // runs that never had >= 4 beacons in view
   int fixed_runs = 0;            // runs with a first fix
@@ -116,7 +118,7 @@ std::vector<MatrixRow> Summarise(const std::vector<RunSpec>& runs, const std::ve
 
 // The markdown table (with a legend under it).
 std::string FormatMatrixTable(const std::vector<MatrixRow>& rows, const MatrixLimits& limits, double frame_period_s,
-                              double slow_frame_s);
+                              const NavMatrixOptions& o);
 
 // One line per requirement the rows fail; empty when all hold.
 std::vector<std::string> RequirementFailures(const std::vector<MatrixRow>& rows, const MatrixLimits& limits);

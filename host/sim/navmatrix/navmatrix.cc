@@ -23,11 +23,21 @@ bool WrongPose(double position_error_m, double attitude_error_rad, double positi
   return !(position_error_m <= allowed_m) || !(attitude_error_rad <= o.wrong_attitude_rad);
 }
 
-bool RunResult::LagExceeds(int max_lag) const {
-  if (first_in_view < 0) return false;
-  if (first_fix >= 0) return Lag() > max_lag;
-  return frames - 1 - first_in_view > max_lag;  // the run went on long enough to fix
+namespace {
+
+// Whether a first fix at first_fix (-1: none in a run of `frames`) came more than max_lag frame
+// sets after `from` (-1: nothing to time it from, never late).
+bool LateFrom(int from, int first_fix, int frames, int max_lag) {
+  if (from < 0) return false;
+  if (first_fix >= 0) return first_fix - from > max_lag;
+  return frames - 1 - from > max_lag;  // the run went on long enough to fix
 }
+
+}  // namespace
+
+bool RunResult::LagExceeds(int max_lag) const { return LateFrom(first_in_view, first_fix, frames, max_lag); }
+
+bool RunResult::HeldLagExceeds(int max_lag) const { return LateFrom(first_held_view, first_fix, frames, max_lag); }
 
 double RunResult::PosedShare() const {
   return eligible_after_fix == 0 ? 1.0 : static_cast<double>(posed_after_fix) / eligible_after_fix;
@@ -61,10 +71,13 @@ RunResult ScoreRun(const std::vector<FrameRecord>& frames, double frame_period_s
   RunResult r;
   r.frames = static_cast<int>(frames.size());
   long in_view_sum = 0;
+  int held = 0;  // frame sets in a row with >= first_fix_in_view in view, up to this one
   for (int i = 0; i < r.frames; ++i) {
     const FrameRecord& f = frames[static_cast<std::size_t>(i)];
     in_view_sum += f.in_view;
     if (r.first_in_view < 0 && f.in_view >= o.first_fix_in_view) r.first_in_view = i;
+    held = f.in_view >= o.first_fix_in_view ? held + 1 : 0;
+    if (r.first_held_view < 0 && held > 0 && held >= o.held_view_frames) r.first_held_view = i + 1 - held;
     if (r.first_fix < 0 && f.status == fw::NavStatus::kFix) r.first_fix = i;
     const bool posed = f.status != fw::NavStatus::kLost;
     if (r.first_fix >= 0 && f.in_view >= o.posed_in_view) {

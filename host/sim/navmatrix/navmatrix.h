@@ -6,7 +6,9 @@
 //
 // Per run (ScoreRun, from one FrameRecord per frame set):
 //   - first fix: the frame set of the first status `fix` against the first frame set with >= 4
-//     beacons in view (truth: BlobFrameSet::NumVisible, beacons seen, once per camera);
+//     beacons in view (truth: BlobFrameSet::NumVisible, beacons seen, once per camera); and,
+//     for telling the views a search could not decide from those it did not, against the first
+//     frame set of a held view (>= 4 in view for held_view_frames frame sets in a row);
 //   - from the first fix on: the share of frame sets with >= 3 beacons in view that carry a
 //     pose (fix or degraded);
 //   - wrong poses (WrongPose): position off by more than max(20 mm, 10 x the published largest
@@ -38,6 +40,12 @@ struct NavMatrixOptions {
   double wrong_attitude_rad = 1.0 * 3.14159265358979323846 / 180.0;
   int first_fix_in_view = 4;    // the first fix is timed from the first frame set seeing this many
   int posed_in_view = 3;        // frame sets seeing this many should carry a pose
+  // A held view: >= first_fix_in_view beacons in view for this many frame sets in a row. The
+  // tracker cannot acquire a view much shorter: a blob is steady after BlobTracks::steady_age
+  // (3) frame sets, and an acquisition lasts TrackOptions::min_acquire_frames (3). Reported
+  // beside the lag (which it does not replace): a run late from its first four-beacon
+  // frame set but not from its first held view was late for want of a view, not of a search.
+  int held_view_frames = 6;
   double slow_frame_s = 0.015;  // CPU budget per frame set on the host (reported)
 };
 
@@ -72,6 +80,7 @@ struct RunResult {
   int frames = 0;
   int first_in_view = -1;  // first frame set with >= first_fix_in_view beacons in view; -1: none
   int first_fix = -1;      // first frame set with status fix; -1: none
+  int first_held_view = -1;  // first frame set of the first held view (held_view_frames); -1: none
   // From the first fix on (inclusive): frame sets with >= posed_in_view beacons in view, and
   // those of them with a pose (fix or degraded).
   int eligible_after_fix = 0;
@@ -92,6 +101,10 @@ struct RunResult {
   // The first fix came later than max_lag frame sets after first_in_view, or not at all
   // within the run (when the run lasted that long after first_in_view).
   bool LagExceeds(int max_lag) const;
+  // The same from the first held view: first_fix - first_held_view (negative: fixed before it).
+  bool HasHeldLag() const { return first_held_view >= 0 && first_fix >= 0; }
+  int HeldLag() const { return first_fix - first_held_view; }
+  bool HeldLagExceeds(int max_lag) const;
   bool NeverFixed() const { return first_in_view >= 0 && first_fix < 0; }
   // posed_after_fix / eligible_after_fix; 1 when nothing was eligible.
   double PosedShare() const;

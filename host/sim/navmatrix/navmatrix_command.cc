@@ -57,7 +57,7 @@ void RunNavMatrixCommand(const NavMatrixArgs& a) {
   const std::vector<MatrixRow> rows = Summarise(runs, results, limits);
   // The deadline of the first run's scenario (every preset runs at 18.6 Hz).
   const double period_s = 1.0 / MatrixScenario(runs.front()).frame_rate_hz;
-  const std::string table = FormatMatrixTable(rows, limits, period_s, options.slow_frame_s);
+  const std::string table = FormatMatrixTable(rows, limits, period_s, options);
   std::fputs(table.c_str(), stdout);
   std::printf("\n%zu runs x %d frame sets in %.0f s on %d threads\n", runs.size(), spec.frames, elapsed, jobs);
   if (!a.out.empty()) WriteFileAtomic(a.out, table);

@@ -155,6 +155,40 @@ TEST(NavMatrixScore, LateAndMissingFirstFixes) {
   EXPECT_EQ(r3.posed_after_fix, 1);
 }
 
+// A held view: four beacons or more for held_view_frames (6) frame sets in a row. Frame sets 3-4
+// see 4, 5 sees 3 (not held), 6-11 see 4 or 5 (held from 6), then 3.
+TEST(NavMatrixScore, LagFromTheFirstHeldView) {
+  std::vector<FrameRecord> f(30, Frame(3, NavStatus::kLost));
+  f[3].in_view = f[4].in_view = 4;
+  for (int i = 6; i < 12; ++i) f[static_cast<std::size_t>(i)].in_view = i == 8 ? 5 : 4;
+  NavMatrixOptions o;
+  ASSERT_EQ(o.held_view_frames, 6);
+  RunResult r = ScoreRun(f, 0.05, o);
+  EXPECT_EQ(r.first_in_view, 3);
+  EXPECT_EQ(r.first_held_view, 6);
+  EXPECT_FALSE(r.HasHeldLag());
+  EXPECT_TRUE(r.HeldLagExceeds(10));  // 23 frame sets after frame set 6 without a fix
+  f[16] = Frame(3, NavStatus::kFix);
+  r = ScoreRun(f, 0.05, o);
+  EXPECT_EQ(r.Lag(), 13);
+  EXPECT_TRUE(r.LagExceeds(10));  // late from the first four-beacon frame set...
+  EXPECT_EQ(r.HeldLag(), 10);
+  EXPECT_FALSE(r.HeldLagExceeds(10));  // ...not from the held view
+  // One frame set shorter is no held view: nothing to time from, never late by it.
+  f[11].in_view = 3;
+  r = ScoreRun(f, 0.05, o);
+  EXPECT_EQ(r.first_held_view, -1);
+  EXPECT_FALSE(r.HeldLagExceeds(0));
+  // A fix before the held view: a negative lag, not late.
+  o.held_view_frames = 2;
+  r = ScoreRun(f, 0.05, o);
+  EXPECT_EQ(r.first_held_view, 3);
+  f[2] = Frame(3, NavStatus::kFix);
+  r = ScoreRun(f, 0.05, o);
+  EXPECT_EQ(r.HeldLag(), -1);
+  EXPECT_FALSE(r.HeldLagExceeds(0));
+}
+
 // ---- The matrix: expansion, scenarios, aggregation, requirements -----------------------------
 
 TEST(NavMatrixSpec, ExpandsPresetsCountsSeedsAndFacing) {
@@ -354,6 +388,7 @@ TEST(NavMatrixSpec, RowsAggregateSeedsAndRequirementsNameTheFailingRow) {
   RunResult good;
   good.frames = 100;
   good.first_in_view = 2;
+  good.first_held_view = 4;
   good.first_fix = 5;
   good.eligible_after_fix = 90;
   good.posed_after_fix = 90;
@@ -369,6 +404,8 @@ TEST(NavMatrixSpec, RowsAggregateSeedsAndRequirementsNameTheFailingRow) {
   EXPECT_EQ(rows[0].runs, 2);
   EXPECT_EQ(rows[0].lags, (std::vector<int>{3, 18}));
   EXPECT_EQ(rows[0].lag_exceeded, 1);
+  EXPECT_EQ(rows[0].held_lags, (std::vector<int>{1, 16}));
+  EXPECT_EQ(rows[0].held_lag_exceeded, 1);
   EXPECT_DOUBLE_EQ(rows[0].min_posed_share, 78.0 / 80.0);
   EXPECT_EQ(rows[0].eligible, 170);
   EXPECT_EQ(rows[0].posed, 168);
@@ -378,9 +415,10 @@ TEST(NavMatrixSpec, RowsAggregateSeedsAndRequirementsNameTheFailingRow) {
   EXPECT_NE(failures[1].find("97.50 %"), std::string::npos) << failures[1];
   EXPECT_EQ(failures[2], "1 wrong fixes over the matrix (requirement 0)");
   EXPECT_TRUE(RequirementFailures(Summarise({a}, {good}, limits), limits).empty());
-  const std::string table = FormatMatrixTable(rows, limits, 1.0 / 18.6, 0.015);
+  const std::string table = FormatMatrixTable(rows, limits, 1.0 / 18.6, NavMatrixOptions{});
   EXPECT_NE(table.find("| station-box | 64 | yes | 2 |"), std::string::npos) << table;
-  EXPECT_NE(table.find("| 10.5 / 18 | 1 / 0 |"), std::string::npos) << table;
+  EXPECT_NE(table.find("| 10.5 / 18 | 1 / 0 | 8.5 / 16, 1 |"), std::string::npos) << table;
+  EXPECT_NE(table.find("6 frame sets in a row"), std::string::npos) << table;
 }
 
 // ---- (b) The real navigator on the blob-level simulation ------------------------------------
@@ -484,7 +522,7 @@ TEST(NavMatrix, ReducedMatrixNeverPublishesAWrongFix) {
   const std::vector<RunResult> results = RunMatrix(runs, o, 2, nullptr);
   const MatrixLimits limits;
   const std::vector<MatrixRow> rows = Summarise(runs, results, limits);
-  std::printf("%s", FormatMatrixTable(rows, limits, 1.0 / 18.6, o.slow_frame_s).c_str());
+  std::printf("%s", FormatMatrixTable(rows, limits, 1.0 / 18.6, o).c_str());
   int never = 0;
   for (std::size_t i = 0; i < runs.size(); ++i) {
     const RunResult& r = results[i];
@@ -558,7 +596,7 @@ TEST(NavMatrix, OtherRigsNeverPublishAWrongFix) {
     const std::vector<RunResult> results = RunMatrix(runs, o, 2, nullptr);
     const MatrixLimits limits;
     const std::vector<MatrixRow> rows = Summarise(runs, results, limits);
-    std::printf("rig %s:\n%s", rig.c_str(), FormatMatrixTable(rows, limits, 1.0 / 18.6, o.slow_frame_s).c_str());
+    std::printf("rig %s:\n%s", rig.c_str(), FormatMatrixTable(rows, limits, 1.0 / 18.6, o).c_str());
     for (std::size_t i = 0; i < runs.size(); ++i) {
       const std::string what = runs[i].preset + " " + std::to_string(runs[i].map_beacons) + " seed " +
                                std::to_string(runs[i].seed) + " on " + rig;
