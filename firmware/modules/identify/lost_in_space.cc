@@ -97,6 +97,8 @@ bool LisOptions::IsValid(const char** why) const {
   else if (!(pair_angle_tolerance_rad >= 0.0) || !std::isfinite(pair_angle_tolerance_rad)) bad = "pair_angle_tolerance_rad";
   else if (!(max_false_alarms >= 0.0) || !std::isfinite(max_false_alarms)) bad = "max_false_alarms";
   else if (!(fourth_blob_max_rad > 0.0) || !std::isfinite(fourth_blob_max_rad)) bad = "fourth_blob_max_rad";
+  else if (!(weak_fourth_blob_max_rad >= fourth_blob_max_rad) || !(weak_fourth_blob_max_rad < 1.5))
+    bad = "weak_fourth_blob_max_rad";
   else if (!(workspace_margin_m >= 0.0) || !std::isfinite(workspace_margin_m)) bad = "workspace_margin_m";
   else if (!workspace_auto && !(workspace_min_w.array() <= workspace_max_w.array()).all()) bad = "workspace";
   else if (!(same_pose_m > 0.0) || !(same_pose_rad > 0.0)) bad = "same_pose";
@@ -367,7 +369,7 @@ int LostInSpace::BeaconAlong(const BodyPose& pose, int s) const {
   return best;
 }
 
-void LostInSpace::Score(const BodyPose& pose, const LisOptions& o, LisResult* result) {
+void LostInSpace::Score(const BodyPose& pose, const LisOptions& o, LisResult* result, bool weak) {
   ++result->poses_scored;
   // In a large map a three-beacon pose is never a fix and its exact twins are too many to
   // follow: a pose that explains no fourth blob is not worth the full reprojection. Unless two
@@ -379,8 +381,12 @@ void LostInSpace::Score(const BodyPose& pose, const LisOptions& o, LisResult* re
     // A steady list's item: only a pose with a steady fourth may explain four steady blobs.
     result->cost += kCostFourthPerBeaconBlob * nb * num_sel_;
     int found = -1;
-    if (ExplainsAFourth(pose, cur_i_, cur_j_, cur_k_, fourth_cos_sq_, /*steady_only=*/true, &found) == Fourth::kFound)
-      ScoreMatched(pose, o, result, found);
+    Fourth f = ExplainsAFourth(pose, cur_i_, cur_j_, cur_k_, fourth_cos_sq_, /*steady_only=*/true, &found);
+    if (f != Fourth::kFound && weak) {  // (LisOptions::weak_fourth_blob_max_rad)
+      result->cost += kCostFourthPerBeaconBlob * nb * num_sel_;
+      f = ExplainsAFourth(pose, cur_i_, cur_j_, cur_k_, weak_fourth_cos_sq_, /*steady_only=*/true, &found);
+    }
+    if (f == Fourth::kFound) ScoreMatched(pose, o, result, found, weak);
     return;
   }
   const bool pairs_anchored = anchors_per_triple_ >= 2;
@@ -414,7 +420,7 @@ void LostInSpace::Score(const BodyPose& pose, const LisOptions& o, LisResult* re
 
 // A raw pose's full reprojection: listed (Insert) if it explains enough, refined and perhaps
 // confirmed if it explains many.
-void LostInSpace::ScoreMatched(const BodyPose& pose, const LisOptions& o, LisResult* result, int fourth_sel) {
+void LostInSpace::ScoreMatched(const BodyPose& pose, const LisOptions& o, LisResult* result, int fourth_sel, bool weak) {
   result->cost += kCostReprojectionPerBeacon * rig_->num_beacons;
   matcher_.MatchPose(pose, o.hypothesis_match, &match_scratch_);
   // Too few beacons, or refuted even allowing for the raw pose's error at the margins.
@@ -435,7 +441,8 @@ void LostInSpace::ScoreMatched(const BodyPose& pose, const LisOptions& o, LisRes
   // (seen: 3 of 119 exhaustive steady lists of clean four-beacon views held nothing for this
   // alone; docs/acquisition.md, session 44). The association is kept for Refine.
   scratch_.fourth = Match{};
-  if (fourth_sel >= 0 && missing > 0) {
+  scratch_.weak = weak;
+  if (fourth_sel >= 0 && (missing > 0 || weak)) {
     const int blob = sel_[static_cast<std::size_t>(fourth_sel)];
     const int beacon = scratch_.set.BeaconOfBlob(blob) < 0 ? BeaconAlong(pose, fourth_sel) : -1;
     if (beacon >= 0 && !scratch_.set.beacons.Has(beacon) && !matcher_.excluded().Has(beacon))
@@ -995,17 +1002,44 @@ void LostInSpace::SetRange(int band) {
 // One hypothesis: the P3P poses of beacons (a, b, c) along the current rays, scored when they
 // lie in the workspace with the three beacons facing the body (0.15 rad for the lever arm).
 void LostInSpace::TryTriple(int a, int b, int c, LisResult* res) {
-  const LisOptions& o = options_;
-  const int n = triple_.Solve({rig_->beacons_w[static_cast<std::size_t>(a)], rig_->beacons_w[static_cast<std::size_t>(b)],
-                               rig_->beacons_w[static_cast<std::size_t>(c)]},
-                              &solutions_);
+  const std::array<Eigen::Vector3d, 3> P_w = {rig_->beacons_w[static_cast<std::size_t>(a)],
+                                              rig_->beacons_w[static_cast<std::size_t>(b)],
+                                              rig_->beacons_w[static_cast<std::size_t>(c)]};
+  const int n = triple_.Solve(P_w, &solutions_, &depths_);
   for (int s = 0; s < n; ++s) {
     const BodyPose& pose = solutions_[static_cast<std::size_t>(s)];
-    if (InWorkspace(pose.r_w_wb, o) && BeaconFaces(*rig_, a, pose.r_w_wb, 0.15) &&
-        BeaconFaces(*rig_, b, pose.r_w_wb, 0.15) && BeaconFaces(*rig_, c, pose.r_w_wb, 0.15) &&
-        (prior_ == nullptr || NearPrior(pose, prior_->raw_slack_m, prior_->raw_slack_rad)))
-      Score(pose, o, res);
+    if (Plausible(pose, a, b, c)) Score(pose, options_, res, cur_.item < num_steady_items_ && WeakRoot(s, n));
   }
+}
+
+// Whether root s of the current triple's n (solutions_, depths_) has weak geometry, its pose
+// ill-determined by the three rays (LisOptions::weak_fourth_blob_max_rad): a near twin (near
+// the danger cylinder noise splits a double root into two, each centimetres off) or a nearly
+// collinear triangle (the turn about its line is loose; with P3pOptions::near_double_residual
+// also the real part of a complex pair). The thresholds are loose on purpose: a weak root only
+// costs a wider fourth-blob test, and its listing still needs a refinement that explains four
+// blobs. (A nearly singular depth Jacobian as a third sign found one more true pose, in a list
+// of 79 000 units, beyond the tests' reach; not kept.)
+bool LostInSpace::WeakRoot(int s, int n) const {
+  constexpr double kTwinSpread = 0.25;    // relative depth difference (seen: 0.06-0.13)
+  constexpr double kCollinear = 0.1;      // triangle height / longest side (seen: 0.02-0.07)
+  const Eigen::Vector3d& l = depths_[static_cast<std::size_t>(s)];
+  for (int t = 0; t < n; ++t) {
+    const Eigen::Vector3d& m = depths_[static_cast<std::size_t>(t)];
+    if (t != s && ((m - l).cwiseAbs().array() / l.array().min(m.array())).maxCoeff() <= kTwinSpread) return true;
+  }
+  const std::array<const BodyRay*, 3> r = {&rays_[static_cast<std::size_t>(cur_i_)], &rays_[static_cast<std::size_t>(cur_j_)],
+                                           &rays_[static_cast<std::size_t>(cur_k_)]};
+  std::array<Eigen::Vector3d, 3> q;
+  for (std::size_t i = 0; i < 3; ++i) q[i] = r[i]->o_b + l(static_cast<Eigen::Index>(i)) * r[i]->d_b;
+  const double L = std::max({(q[1] - q[0]).norm(), (q[2] - q[0]).norm(), (q[2] - q[1]).norm()});
+  return (q[1] - q[0]).cross(q[2] - q[0]).norm() < kCollinear * L * L;
+}
+
+bool LostInSpace::Plausible(const BodyPose& pose, int a, int b, int c) const {
+  return InWorkspace(pose.r_w_wb, options_) && BeaconFaces(*rig_, a, pose.r_w_wb, 0.15) &&
+         BeaconFaces(*rig_, b, pose.r_w_wb, 0.15) && BeaconFaces(*rig_, c, pose.r_w_wb, 0.15) &&
+         (prior_ == nullptr || NearPrior(pose, prior_->raw_slack_m, prior_->raw_slack_rad));
 }
 
 bool LostInSpace::NearPrior(const BodyPose& pose, double slack_m, double slack_rad) const {
@@ -1111,6 +1145,7 @@ LisStatus LostInSpace::Begin(const BlobObs* blobs, int num_blobs, const LisOptio
   pair_tol_m_ = o.pair_tolerance_m;
   pair_tol_rad_ = o.pair_angle_tolerance_rad;
   fourth_cos_sq_ = static_cast<float>(std::cos(o.fourth_blob_max_rad) * std::cos(o.fourth_blob_max_rad));
+  weak_fourth_cos_sq_ = static_cast<float>(std::cos(o.weak_fourth_blob_max_rad) * std::cos(o.weak_fourth_blob_max_rad));
   PriorBeacons(&res);
   int anchored_sel = 0;
   for (int i = 0; i < num_sel_; ++i)
@@ -1202,6 +1237,7 @@ LisStatus LostInSpace::Decide(bool budget_out, const LisOptions& o, LisResult* r
     if (!c.refined) res.cost += kCostRefine;
     if (!c.refined && !Refine(&c, o)) continue;
     if (UnexcusedMissing(c.set, o) > o.max_missing || !NearPrior(c.pose, 0.0, 0.0) || !KeepsAnchors(c, o)) continue;
+    if (c.weak && c.set.num_beacons < 4) continue;  // (its wide fourth did not hold: a three-beacon pose)
     bool merged = false;
     for (int j = 0; j < kept && !merged; ++j) {
       Candidate& k = cand_[static_cast<std::size_t>(j)];

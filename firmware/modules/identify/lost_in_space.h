@@ -87,10 +87,13 @@ const char* ToString(LisStatus s);
 inline constexpr int kMaxNearBands = 3;
 
 struct LisOptions {
-  P3pOptions p3p{0.1, 0.0, 64};   // depth range of the ray search; max_depth_m <= 0: automatic
-                                  // (the beacon map's diameter + workspace_margin_m). 64 scan
-                                  // steps: half the cost of 128 for a cross-camera triple, and
-                                  // the same root misses (2-5 in 20000 random triples to 8 m)
+  // Depth range of the ray search; max_depth_m <= 0: automatic (the beacon map's diameter +
+  // workspace_margin_m). Near-double roots kept to 1e-3 (P3pOptions::near_double_residual):
+  // three nearly collinear beacons in one camera have a double root that noise turns complex,
+  // and nothing near the truth came out (docs/acquisition.md, session 45). 64 scan steps: half
+  // the cost of 128 for a cross-camera triple, and the same root misses (2-5 in 20000 random
+  // triples to 8 m).
+  P3pOptions p3p{0.1, 0.0, 64, 1e-3};
   int max_hypotheses = 20000;  // work units per search (LisResult::work), 1..limits::kMaxLisHypotheses
   // CPU cost per search (LisResult::cost), > 0; infinity: none. The tracker's time budget.
   double max_cost = std::numeric_limits<double>::infinity();
@@ -165,6 +168,14 @@ struct LisOptions {
   double near_depth_m = 1.0;
   int near_bands = 2;  // 1..kMaxNearBands
   double fourth_blob_max_rad = 0.015;
+  // In a steady list's items: a raw root of weak geometry (LostInSpace::WeakRoot: another root
+  // of its triple within 25 % in every depth - the camera near the triple's danger cylinder -
+  // or a nearly collinear triangle) asks for a steady fourth
+  // blob within this angle instead, and is listed only if its refinement onto that blob's
+  // beacon explains four blobs. Such roots are centimetres off the truth, and their fourth
+  // beacon up to 0.25 rad from its blob (seen: 4 of 119 exhaustive steady lists of clean
+  // four-beacon views lacked the truth for this, 0 with it; docs/acquisition.md, session 45).
+  double weak_fourth_blob_max_rad = 0.3;
   double max_rms_px = 2.0;        // refined residual RMS of a consistent pose
   double pair_tolerance_m = 0.01;  // slack of the pair distance test
   // A pose confirms only when no other copy of its beacons in the map, congruent within this
@@ -350,6 +361,7 @@ class LostInSpace {
     // The fourth blob's beacon that the fourth-blob test found along its ray (ExplainsAFourth)
     // when the raw match left that blob free (blob -1: none): Refine solves with it.
     Match fourth;
+    bool weak = false;  // found by the wide fourth-blob test of a weak root: listed only if refined onto its fourth blob
   };
   struct Triple {
     std::uint8_t i, j, k;  // selected-blob indices, i < j < k
@@ -386,9 +398,13 @@ class LostInSpace {
   bool FirstTry(int a, int b, int c);
   long CountTriples(const Triple& tr, long cap);
   void TryTriple(int a, int b, int c, LisResult* result);
+  // Whether a raw pose of beacons (a, b, c) is worth scoring: in the workspace, facing all
+  // three, near the prior if there is one.
+  bool Plausible(const BodyPose& pose, int a, int b, int c) const;
   void SetRange(int band);
-  void Score(const BodyPose& pose, const LisOptions& o, LisResult* result);
-  void ScoreMatched(const BodyPose& pose, const LisOptions& o, LisResult* result, int fourth_sel = -1);
+  void Score(const BodyPose& pose, const LisOptions& o, LisResult* result, bool weak = false);
+  void ScoreMatched(const BodyPose& pose, const LisOptions& o, LisResult* result, int fourth_sel = -1, bool weak = false);
+  bool WeakRoot(int s, int n) const;
   SearchEnd ScoreDeferred(const Spent& since, LisResult* result);
   bool WithinBudget(const Spent& since, const LisResult& result, SearchEnd* end, bool work_cap) const;
   SearchEnd SearchItems(const Spent& since, LisResult* result);
@@ -421,6 +437,7 @@ class LostInSpace {
   std::array<float, limits::kMaxBeacons> beacon_x_{}, beacon_y_{}, beacon_z_{};  // SoA, world
   int cur_i_ = 0, cur_j_ = 0, cur_k_ = 0;  // the blob triple being searched
   float fourth_cos_sq_ = 1.0F;
+  float weak_fourth_cos_sq_ = 1.0F;  // of options_.weak_fourth_blob_max_rad
   const BlobObs* blobs_ = nullptr;
   std::array<BlobObs, limits::kMaxObservations> own_blobs_{};
   LisOptions options_;
@@ -497,6 +514,7 @@ class LostInSpace {
   bool SearchPoseSets(const Item& item, const Spent& since, LisResult* result, SearchEnd* end);
   P3pRayTriple triple_;
   std::array<BodyPose, limits::kMaxP3pSolutions> solutions_{};
+  std::array<Eigen::Vector3d, limits::kMaxP3pSolutions> depths_{};  // solutions_' depths along the rays
   int num_cand_ = 0;
   bool overflow_ = false;
   // Poses whose only fourth blob was unsteady (steady_fourth), scored after the last item

@@ -22,6 +22,7 @@ bool P3pOptions::IsValid(const char** why) const {
   if (!(min_depth_m > 0.0) || !std::isfinite(min_depth_m)) bad = "min_depth_m";
   else if (!(max_depth_m > min_depth_m) || !std::isfinite(max_depth_m)) bad = "max_depth_m";
   else if (scan_steps < 8 || scan_steps > limits::kMaxP3pScanSteps) bad = "scan_steps";
+  else if (!(near_double_residual >= 0.0) || !(near_double_residual < 1.0)) bad = "near_double_residual";
   if (why != nullptr) *why = bad != nullptr ? bad : "ok";
   return bad == nullptr;
 }
@@ -504,6 +505,10 @@ struct DepthEquations {
 // Solutions of a P3P are accepted when the polished depths satisfy every distance to this
 // (relative to the squared distance; the same as the closed form of session 6).
 constexpr double kAcceptResidual = 1e-9;
+// A complex pair of roots is looked at (P3pOptions::near_double_residual) only when its
+// discriminant is this small against its terms: far from merging, the pair's real part
+// satisfies no distance equation and would cost a Polish for nothing.
+constexpr double kNearTangent = 1e-2;
 
 // The collected solutions of one Solve: depth filter, duplicates, pose.
 class SolutionSink {
@@ -701,9 +706,12 @@ int P3pRayTriple::SolveCentral(const std::array<Eigen::Vector3d, 3>& P_w,
     const Eigen::Matrix2d Q = T.transpose() * lead * T;  // alpha mu0^2 + 2 beta mu0 mu1 + gamma mu1^2
     const double alpha = Q(0, 0), beta = Q(0, 1), gamma = Q(1, 1);
     double disc = beta * beta - alpha * gamma;
+    bool complex_pair = false;  // kept as its real part (near_double_residual)
     if (disc < 0.0) {
       // Tangent within rounding: a double root (two solutions merging), reported once.
-      if (disc < -1e-10 * (beta * beta + std::abs(alpha * gamma))) continue;
+      const double scale = beta * beta + std::abs(alpha * gamma);
+      complex_pair = disc < -1e-10 * scale;
+      if (complex_pair && !(options_.near_double_residual > 0.0 && disc >= -kNearTangent * scale)) continue;
       disc = 0.0;
     }
     // Homogeneous roots (rr, alpha) and (gamma, rr) without cancellation.
@@ -721,8 +729,10 @@ int P3pRayTriple::SolveCentral(const std::array<Eigen::Vector3d, 3>& P_w,
       l *= std::sqrt(sum_a / form);
       if (l.sum() < 0.0) l = -l;
       if (!(l.minCoeff() > 0.0)) continue;
-      if (eq.Polish(&l) > kAcceptResidual) continue;
+      const double residual = eq.Polish(&l);
+      if (residual > (complex_pair ? options_.near_double_residual : kAcceptResidual)) continue;
       sink.Add(l);
+      if (complex_pair) continue;
       Eigen::Vector3d twin;  // a tangent line gives one of two merging solutions
       if (eq.Twin(l, &twin) && eq.Polish(&twin) <= kAcceptResidual) sink.Add(twin);
     }

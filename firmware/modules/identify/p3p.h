@@ -59,6 +59,12 @@ struct P3pOptions {
   // Grid samples of l_1 of the former 1-D scan, 8..limits::kMaxP3pScanSteps: still validated
   // (callers set it), unused since the algebraic solve.
   int scan_steps = 128;
+  // Central triples (one camera) only: besides the exact roots, the point where a pair of
+  // roots turned complex would merge (the real part of the pair), kept when the distance
+  // equations hold there to this relative residual (0: exact roots only). Near the danger
+  // cylinder centroid noise turns the true double root complex and the exact solve returns
+  // nothing near the truth; lost-in-space scores these points like roots.
+  double near_double_residual = 0.0;
 
   bool IsValid(const char** why = nullptr) const;
 };

@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cstdio>
 #include <random>
 
 #include "firmware/modules/identify/p3p_scan_reference.h"
@@ -431,6 +432,75 @@ TEST(P3pTest, SegmentDistanceRangeMatchesDenseSampling) {
   }
 }
 
+// Near-double roots under noise (P3pOptions::near_double_residual): one camera exactly on the
+// danger cylinder of three beacons 0.7-3 m away, the true pose a double root; each ray turned
+// by centroid-sized noise (1e-4 rad, 0.16 px at f = 1600 px). The noise splits the double root
+// into two real ones or turns it into a complex pair; in the second case the exact solve has
+// nothing near the truth. With near-double roots kept, the pair's real part is there: many
+// more trials have a solution within 3 % of the true depths, and every exact root is kept.
+TEST(P3pTest, NearDoubleRootsKeepTheRealPartOfAComplexPair) {
+  std::mt19937_64 rng(41);
+  std::uniform_real_distribution<double> u(-1.0, 1.0), ang(0.0, 2.0 * M_PI);
+  std::normal_distribution<double> noise(0.0, 1e-4);
+  P3pOptions exact, near;
+  exact.min_depth_m = near.min_depth_m = 0.1;
+  exact.max_depth_m = near.max_depth_m = 6.0;
+  near.near_double_residual = 1e-3;
+  ASSERT_TRUE(near.IsValid());
+  P3pRayTriple a, b;
+  std::array<BodyPose, limits::kMaxP3pSolutions> sa, sb;
+  std::array<Eigen::Vector3d, limits::kMaxP3pSolutions> da, db;
+  const auto near_truth = [](const std::array<Eigen::Vector3d, limits::kMaxP3pSolutions>& d, int n,
+                             const Eigen::Vector3d& l) {
+    for (int s = 0; s < n; ++s)
+      if (((d[static_cast<std::size_t>(s)] - l).cwiseAbs().array() / l.array()).maxCoeff() < 0.03) return true;
+    return false;
+  };
+  int trials = 0, found_exact = 0, found_near = 0, more = 0;
+  for (int trial = 0; trial < 400; ++trial) {
+    std::array<Eigen::Vector3d, 3> P;
+    for (auto& p : P) p = Eigen::Vector3d(u(rng), u(rng), 0.2 * u(rng));
+    const Eigen::Vector3d e1 = P[1] - P[0], e2 = P[2] - P[0], nrm = e1.cross(e2);
+    if (nrm.norm() < 0.3) continue;
+    const Eigen::Vector3d cc =
+        P[0] + (e1.squaredNorm() * e2.cross(nrm) + e2.squaredNorm() * nrm.cross(e1)) / (2.0 * nrm.squaredNorm());
+    const double R = (P[0] - cc).norm(), th = ang(rng);
+    const Eigen::Vector3d z = nrm.normalized(), x = (P[0] - cc).normalized(), y = z.cross(x);
+    BodyPose truth;
+    truth.C_w_b = testing::RandomRotation(&rng);
+    truth.r_w_wb = cc + R * (std::cos(th) * x + std::sin(th) * y) + (0.5 + 1.5 * std::abs(u(rng))) * z;
+    std::array<BodyRay, 3> rays;
+    Eigen::Vector3d l;
+    bool ok = true;
+    for (std::size_t i = 0; i < 3; ++i) {
+      const Eigen::Vector3d q = truth.C_w_b.transpose() * (P[i] - truth.r_w_wb);
+      l(static_cast<Eigen::Index>(i)) = q.norm();
+      ok = ok && q.norm() > 0.7 && q.norm() < 3.0;
+      const Eigen::Vector3d axis = q.unitOrthogonal();
+      rays[i].d_b = Eigen::AngleAxisd(noise(rng), axis) * Eigen::AngleAxisd(noise(rng), q.normalized().cross(axis)) *
+                    q.normalized();
+    }
+    if (!ok) continue;
+    ASSERT_TRUE(a.Set(rays, exact));
+    ASSERT_TRUE(b.Set(rays, near));
+    const int na = a.Solve(P, &sa, &da), nb = b.Solve(P, &sb, &db);
+    ++trials;
+    found_exact += near_truth(da, na, l);
+    found_near += near_truth(db, nb, l);
+    more += nb > na;
+    for (int s = 0; s < na; ++s)  // the exact roots are kept as they were
+      EXPECT_TRUE(near_truth(db, nb, da[static_cast<std::size_t>(s)])) << "trial " << trial;
+  }
+  std::printf("near-double roots: %d trials, truth within 3 %%: %d exact, %d with near-double roots (%d gained roots)\n",
+              trials, found_exact, found_near, more);
+  ASSERT_GE(trials, 100);
+  // (Measured: 83 and 171 of 252. The rest are split pairs, each root centimetres off, which
+  // lost-in-space's weak roots handle, or pairs whose real part noise moved as far.)
+  EXPECT_LT(found_exact, trials / 2);              // the failure is real
+  EXPECT_GE(found_near, found_exact + trials / 5);  // and the real parts recover many
+  EXPECT_GT(more, 0);
+}
+
 TEST(P3pTest, OptionsValidation) {
   P3pOptions o;
   const char* why = nullptr;
@@ -438,6 +508,10 @@ TEST(P3pTest, OptionsValidation) {
   o.scan_steps = limits::kMaxP3pScanSteps + 1;
   EXPECT_FALSE(o.IsValid(&why));
   EXPECT_STREQ(why, "scan_steps");
+  o = {};
+  o.near_double_residual = -1e-3;
+  EXPECT_FALSE(o.IsValid(&why));
+  EXPECT_STREQ(why, "near_double_residual");
   o = {};
   o.max_depth_m = o.min_depth_m;
   EXPECT_FALSE(o.IsValid(&why));
