@@ -223,6 +223,25 @@ TEST(P3pTest, FindsEveryScanReferenceSolutionAnySplit) { CheckAgainstScanReferen
 TEST(P3pTest, FindsEveryScanReferenceSolutionOneCamera) { CheckAgainstScanReference(0, 22, 0.1, 4.0); }
 TEST(P3pTest, FindsEveryScanReferenceSolutionWideDepths) { CheckAgainstScanReference(-1, 23, 0.05, 10.0); }
 
+// The circle through a triangle's corners (its danger cylinder's cross-section): centre, radius
+// and an orthonormal frame (x towards P[0], z the normal). False when the triangle's doubled
+// area |e1 x e2| is below min_cross.
+struct Circumcircle {
+  Eigen::Vector3d centre, x, y, z;
+  double radius = 0.0;
+};
+bool CircumcircleOf(const std::array<Eigen::Vector3d, 3>& P, double min_cross, Circumcircle* c) {
+  const Eigen::Vector3d e1 = P[1] - P[0], e2 = P[2] - P[0], nrm = e1.cross(e2);
+  if (nrm.norm() < min_cross) return false;
+  // Circumcentre: P0 + (|e1|^2 (e2 x n) + |e2|^2 (n x e1)) / (2 |n|^2) with n = e1 x e2.
+  c->centre = P[0] + (e1.squaredNorm() * e2.cross(nrm) + e2.squaredNorm() * nrm.cross(e1)) / (2.0 * nrm.squaredNorm());
+  c->radius = (P[0] - c->centre).norm();
+  c->z = nrm.normalized();
+  c->x = (P[0] - c->centre).normalized();
+  c->y = c->z.cross(c->x);
+  return true;
+}
+
 // Near the danger cylinder (the camera centre on the cylinder through the three beacons,
 // perpendicular to their plane) two solutions merge: configurations at relative distances
 // 1e-2..1e-7 from it, one camera and three cameras (ray origins up to 5 cm apart, the rig's
@@ -255,13 +274,10 @@ void CheckNearDangerCylinder(bool multi_camera, std::uint64_t seed) {
     // Beacons on a random triangle, camera centre near its circumscribed cylinder.
     std::array<Eigen::Vector3d, 3> P;
     for (auto& p : P) p = Eigen::Vector3d(u(rng), u(rng), 0.3 * u(rng));
-    const Eigen::Vector3d e1 = P[1] - P[0], e2 = P[2] - P[0], nrm = e1.cross(e2);
-    if (nrm.norm() < 0.2) continue;
-    // Circumcentre: P0 + (|e1|^2 (e2 x n) ... ) / (2 |n|^2) with n = e1 x e2.
-    const Eigen::Vector3d cc =
-        P[0] + (e1.squaredNorm() * e2.cross(nrm) + e2.squaredNorm() * nrm.cross(e1)) / (2.0 * nrm.squaredNorm());
-    const double R = (P[0] - cc).norm();
-    const Eigen::Vector3d z = nrm.normalized(), x = (P[0] - cc).normalized(), y = z.cross(x);
+    Circumcircle cyl;
+    if (!CircumcircleOf(P, 0.2, &cyl)) continue;
+    const Eigen::Vector3d &cc = cyl.centre, &x = cyl.x, &y = cyl.y, &z = cyl.z;
+    const double R = cyl.radius;
     const double th = ang(rng), eps = std::pow(10.0, lexp(rng)) * (u(rng) < 0.0 ? -1.0 : 1.0);
     const Eigen::Vector3d centre = cc + R * (1.0 + eps) * (std::cos(th) * x + std::sin(th) * y) + 0.8 * u(rng) * z;
     BodyPose truth;
@@ -460,15 +476,13 @@ TEST(P3pTest, NearDoubleRootsKeepTheRealPartOfAComplexPair) {
   for (int trial = 0; trial < 400; ++trial) {
     std::array<Eigen::Vector3d, 3> P;
     for (auto& p : P) p = Eigen::Vector3d(u(rng), u(rng), 0.2 * u(rng));
-    const Eigen::Vector3d e1 = P[1] - P[0], e2 = P[2] - P[0], nrm = e1.cross(e2);
-    if (nrm.norm() < 0.3) continue;
-    const Eigen::Vector3d cc =
-        P[0] + (e1.squaredNorm() * e2.cross(nrm) + e2.squaredNorm() * nrm.cross(e1)) / (2.0 * nrm.squaredNorm());
-    const double R = (P[0] - cc).norm(), th = ang(rng);
-    const Eigen::Vector3d z = nrm.normalized(), x = (P[0] - cc).normalized(), y = z.cross(x);
+    Circumcircle cyl;
+    if (!CircumcircleOf(P, 0.3, &cyl)) continue;
+    const double th = ang(rng);
     BodyPose truth;
     truth.C_w_b = testing::RandomRotation(&rng);
-    truth.r_w_wb = cc + R * (std::cos(th) * x + std::sin(th) * y) + (0.5 + 1.5 * std::abs(u(rng))) * z;
+    truth.r_w_wb = cyl.centre + cyl.radius * (std::cos(th) * cyl.x + std::sin(th) * cyl.y) +
+                   (0.5 + 1.5 * std::abs(u(rng))) * cyl.z;
     std::array<BodyRay, 3> rays;
     Eigen::Vector3d l;
     bool ok = true;
