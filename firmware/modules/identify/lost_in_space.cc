@@ -439,7 +439,9 @@ void LostInSpace::ScoreMatched(const BodyPose& pose, const LisOptions& o, LisRes
   // f = 1600 px): a raw pose from a triple of weak geometry may predict its fourth beacon
   // beside that blob but outside the gate, and it is then "missing" and refutes the truth
   // (seen: 3 of 119 exhaustive steady lists of clean four-beacon views held nothing for this
-  // alone; docs/acquisition.md, session 44). The association is kept for Refine.
+  // alone; docs/acquisition.md, session 44). The association is kept for Refine. A weak root
+  // (WeakRoot) found its fourth by the wide test: its fourth beacon may lie off the image, not
+  // "missing", so it is kept whatever the match says.
   scratch_.fourth = Match{};
   scratch_.weak = weak;
   if (fourth_sel >= 0 && (missing > 0 || weak)) {
