@@ -170,11 +170,11 @@ struct LisOptions {
   double fourth_blob_max_rad = 0.015;
   // In a steady list's items: a raw root of weak geometry (LostInSpace::WeakRoot: another root
   // of its triple within 25 % in every depth - the camera near the triple's danger cylinder -
-  // or a nearly collinear triangle) asks for a steady fourth
-  // blob within this angle instead, and is listed only if its refinement onto that blob's
-  // beacon explains four blobs. Such roots are centimetres off the truth, and their fourth
-  // beacon up to 0.25 rad from its blob (seen: 4 of 119 exhaustive steady lists of clean
-  // four-beacon views lacked the truth for this, 0 with it; docs/acquisition.md, session 45).
+  // or a nearly collinear triangle) asks for a steady fourth blob within this angle instead,
+  // and is listed only if its refinement onto that blob's beacon explains four beacons. Such
+  // roots are centimetres off the truth, and their fourth beacon up to 0.25 rad from its blob
+  // (seen: 5 of 119 exhaustive steady lists of clean four-beacon views lacked the truth, each
+  // for a weak triple; 1 with this and near_double_residual; docs/acquisition.md, session 45).
   double weak_fourth_blob_max_rad = 0.3;
   double max_rms_px = 2.0;        // refined residual RMS of a consistent pose
   double pair_tolerance_m = 0.01;  // slack of the pair distance test
@@ -361,7 +361,7 @@ class LostInSpace {
     // The fourth blob's beacon that the fourth-blob test found along its ray (ExplainsAFourth)
     // when the raw match left that blob free (blob -1: none): Refine solves with it.
     Match fourth;
-    bool weak = false;  // found by the wide fourth-blob test of a weak root: listed only if refined onto its fourth blob
+    bool weak = false;  // found by the wide fourth-blob test of a weak root: listed only if refined to four beacons
   };
   struct Triple {
     std::uint8_t i, j, k;  // selected-blob indices, i < j < k
